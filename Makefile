@@ -1,0 +1,29 @@
+# `make run` and `make test` work on a fresh clone where only python3 exists.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+OUT ?= out
+
+.PHONY: run test check bench clean
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+# Demo: check every preset robot (Drake vs NumPy vs finite differences) and write the reports.
+run: $(STAMP)
+	$(PY) -m pipeline check all --samples 200 --out $(OUT)/check
+	@echo "Reports written to $(OUT)/check/"
+
+test: $(STAMP)
+	$(PY) -m pytest -m "not slow"
+
+bench: $(STAMP)
+	$(PY) -m pip install --quiet -e ".[test,bench]"
+	$(PY) -m pipeline bench kinematics
+
+clean:
+	rm -rf $(VENV) $(OUT)

@@ -1,0 +1,48 @@
+"""`load_robot`: a robot file becomes an exact NumPy kinematic model (never imports Drake)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .kinematics import DhKinematics
+from .robot_spec import Limits, RobotSpec, load_robot_spec
+
+
+class Robot(DhKinematics):
+    """A serial robot from a DH table: ``fk``, ``fk_all``, ``fk_batch``, ``jacobian`` in SI units.
+
+    ``fk(q)``: pose X_BE (4x4) of the end frame E in the robot base frame B [m].
+    ``jacobian(q)``: (6, dof) geometric Jacobian, rows [v; w], base frame, at E's origin.
+    """
+
+    def __init__(self, spec: RobotSpec):
+        super().__init__(spec)
+        self.name = spec.name
+
+    @property
+    def limits(self) -> Limits:
+        """Joint limits in SI units (rad or m, per second)."""
+        return self.spec.limits
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [j.name for j in self.spec.joints]
+
+    def random_configurations(self, rng: np.random.Generator, count: int, margin: float = 0.0) -> np.ndarray:
+        """Uniform random configurations (count, dof) inside the limits shrunk by ``margin`` of each range."""
+        lo, hi = self.limits.q_min, self.limits.q_max
+        span = hi - lo
+        return rng.uniform(lo + margin * span, hi - margin * span, size=(count, self.dof))
+
+    def __str__(self) -> str:
+        return self.spec.dh_table()
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, {self.spec.convention} DH, dof={self.dof}, source={self.spec.source!r})"
+
+
+def load_robot(name_or_path: str | Path) -> Robot:
+    """A preset name (``gp7``, ``lrmate200id``, ``irb1600``, ``arm5``, ``arm6``) or a robot file path."""
+    return Robot(load_robot_spec(name_or_path))
