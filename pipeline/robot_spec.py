@@ -236,8 +236,11 @@ class _Reader:
                       joint, moments)
         ixx, iyy, izz, ixy, ixz, iyz = (self.number({"I": v}, "I", joint, "inertia.") for v in moments)
         I_Lcm = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        if np.linalg.eigvalsh(I_Lcm).min() < 0.0:
-            self.fail(InvalidValueError, "inertia.I", "is not positive semi-definite", joint, moments)
+        principal = np.linalg.eigvalsh(I_Lcm)
+        if principal[0] < 0.0 or principal[0] + principal[1] < principal[2] * (1.0 - 1e-12):
+            self.fail(InvalidValueError, "inertia.I",
+                      "is not a physical inertia (principal moments must be >= 0 and obey the triangle inequality)",
+                      joint, moments)
         return LinkInertia(mass=mass, p_LoLcm=com, I_Lcm=I_Lcm)
 
     def joint(self, raw, index, length_scale, angle_scale) -> DhJoint:

@@ -1,0 +1,100 @@
+"""Command line: ``python -m pipeline {show,check,bench} ...``. The only place that configures logging."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+
+import numpy as np
+
+from .errors import PipelineError
+from .io import write_text_atomic
+from .robot import load_robot
+from .robot_spec import preset_names
+from .singularity import compute_singularity
+
+
+def _robots(name: str):
+    names = preset_names() if name == "all" else [name]
+    return [load_robot(n) for n in names]
+
+
+def cmd_show(args) -> int:
+    """Print the DH table, the end-frame pose and the singularity measures at q = 0."""
+    robot = load_robot(args.robot)
+    q = np.zeros(robot.dof)
+    with np.printoptions(precision=6, suppress=True):
+        print(robot)
+        print(f"\nX_BE at q = 0 (end frame in base frame, metres):\n{robot.fk(q)}")
+        print(f"\nJacobian at q = 0 (rows vx vy vz wx wy wz):\n{robot.jacobian(q)}")
+    print(f"\nSingularity at q = 0: {compute_singularity(robot.jacobian(q))}")
+    return 0
+
+
+def cmd_check(args) -> int:
+    """Jacobian check (analytic vs Drake vs finite differences); non-zero exit above tolerance."""
+    from .jacobian_check import check_robot
+
+    passed = True
+    for robot in _robots(args.robot):
+        report = check_robot(robot, samples=args.samples, seed=args.seed)
+        print(report.format(), end="\n\n")
+        passed &= report.passed
+        if args.out:
+            write_text_atomic(f"{args.out}/{robot.name}_jacobian_check.json", json.dumps(report.to_dict(), indent=2))
+    print("all checks passed" if passed else "CHECK FAILED: errors above tolerance")
+    return 0 if passed else 1
+
+
+def cmd_bench(args) -> int:
+    """Benchmarks beside the peers measured in the same run."""
+    from .bench.kinematics import run_kinematics_benchmark
+
+    report = run_kinematics_benchmark(args.robot, batch=args.batch, single_calls=args.calls, seed=args.seed)
+    print(report.format_table())
+    if args.out:
+        write_text_atomic(args.out, json.dumps(report.to_dict(), indent=2))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m pipeline", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    show = sub.add_parser("show", help="print a robot's DH table, FK and Jacobian at q = 0")
+    show.add_argument("robot", help="preset name or robot file path")
+    show.set_defaults(func=cmd_show)
+
+    check = sub.add_parser("check", help="check Drake's FK/Jacobian against the analytic one and finite differences")
+    check.add_argument("robot", help="preset name, robot file path, or 'all'")
+    check.add_argument("--samples", type=int, default=200, help="random in-limit configurations (default 200)")
+    check.add_argument("--seed", type=int, default=0)
+    check.add_argument("--out", help="directory for JSON reports")
+    check.set_defaults(func=cmd_check)
+
+    bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
+    bench.add_argument("suite", choices=["kinematics"])
+    bench.add_argument("--robot", default="gp7")
+    bench.add_argument("--batch", type=int, default=100_000, help="configurations in the batch timing")
+    bench.add_argument("--calls", type=int, default=2000, help="single calls timed per implementation")
+    bench.add_argument("--seed", type=int, default=0)
+    bench.add_argument("--out", help="JSON file for the results")
+    bench.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.func(args)
+    except PipelineError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,54 @@
+"""Poses as unit quaternion + position and back (seed 003), through SciPy's rotation type.
+
+Quaternions are scalar-first ``[w, x, y, z]``, as in seed 003 and Drake, with ``w >= 0``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .errors import ConfigurationError
+
+#: How far a 3x3 matrix may be from orthonormal with det +1 and still count as a rotation.
+ROTATION_TOLERANCE = 1e-6
+
+
+def check_pose(X, what: str = "pose") -> np.ndarray:
+    """Validate a homogeneous transform (4, 4): finite, a proper rotation, last row [0 0 0 1]."""
+    X = np.asarray(X, dtype=float)
+    if X.shape != (4, 4):
+        raise ConfigurationError(f"{what} must have shape (4, 4), got {X.shape}")
+    if not np.all(np.isfinite(X)):
+        raise ConfigurationError(f"{what} has non-finite values")
+    R = X[:3, :3]
+    if np.abs(R.T @ R - np.eye(3)).max() > ROTATION_TOLERANCE or np.linalg.det(R) < 0.0:
+        raise ConfigurationError(f"{what}: the 3x3 block is not a rotation matrix (R^T R != I or det < 0)")
+    if np.abs(X[3] - [0.0, 0.0, 0.0, 1.0]).max() > 0.0:
+        raise ConfigurationError(f"{what}: last row must be [0, 0, 0, 1], got {X[3]}")
+    return X
+
+
+def pose_to_quaternion_position(X) -> tuple[np.ndarray, np.ndarray]:
+    """Pose (4, 4) -> (quaternion [w, x, y, z] with w >= 0, position [m])."""
+    X = check_pose(X)
+    quat = Rotation.from_matrix(X[:3, :3]).as_quat(scalar_first=True)
+    if quat[0] < 0.0:
+        quat = -quat
+    return quat, X[:3, 3].copy()
+
+
+def quaternion_position_to_pose(quat_wxyz, p) -> np.ndarray:
+    """(quaternion [w, x, y, z], position [m]) -> pose (4, 4). The quaternion must be unit length."""
+    quat = np.asarray(quat_wxyz, dtype=float)
+    p = np.asarray(p, dtype=float)
+    if quat.shape != (4,) or p.shape != (3,):
+        raise ConfigurationError(f"quaternion must have shape (4,) and position (3,), got {quat.shape}, {p.shape}")
+    if not (np.all(np.isfinite(quat)) and np.all(np.isfinite(p))):
+        raise ConfigurationError("quaternion or position has non-finite values")
+    if abs(np.linalg.norm(quat) - 1.0) > ROTATION_TOLERANCE:
+        raise ConfigurationError(f"quaternion must be unit length, |q| = {np.linalg.norm(quat):.9f}")
+    X = np.eye(4)
+    X[:3, :3] = Rotation.from_quat(quat, scalar_first=True).as_matrix()
+    X[:3, 3] = p
+    return X
