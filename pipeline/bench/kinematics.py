@@ -1,0 +1,368 @@
+"""Kinematics benchmark: our NumPy DH model against Drake, Robotics Toolbox and Pinocchio.
+
+Every peer is built generically from the robot's ``RobotSpec`` (never hand-coded per robot) and is
+checked against our FK and Jacobian before it is timed: a benchmark of a wrong model is worthless.
+Robotics Toolbox and Pinocchio come from the optional ``bench`` extra; they are imported lazily and
+reported as unavailable when missing.
+
+Times are wall-clock microseconds from ``time.perf_counter_ns``. A single-call time is the median
+over distinct random in-limit configurations, each call timed on its own (so it includes about
+0.05 µs of clock overhead and the Python call into the library). A batch time is the best of
+``BATCH_REPEATS`` runs over the whole batch, divided by the batch size.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import platform
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..drake_model import (
+    END_FRAME,
+    PLACEHOLDER_MASS_KG,
+    PLACEHOLDER_RADIUS_M,
+    build_drake_robot,
+    joint_split,
+)
+from ..robot import Robot, load_robot
+
+OURS = "ours (NumPy)"
+DRAKE = "Drake"
+RTB = "Robotics Toolbox (C++ ETS)"
+PINOCCHIO = "Pinocchio"
+
+VERIFY_CONFIGURATIONS = 20
+VERIFY_TOLERANCE = 1e-9
+WARMUP_CALLS = 50
+BATCH_REPEATS = 3
+
+#: Rx(pi): conjugating a +z joint motion by it gives the same motion about/along -z.
+_FLIP_Z = np.diag([1.0, -1.0, -1.0, 1.0])
+
+
+@dataclass(frozen=True)
+class Implementation:
+    """One kinematics implementation of a robot, as callables.
+
+    ``fk(q)``: X_BE (4, 4) [m]; ``jacobian(q)``: (6, dof), rows [v; w] in the base frame at the
+    end-frame origin; ``q`` (dof,) [rad or m]. ``fk_batch(Q)`` / ``jacobian_batch(Q)`` take Q
+    (N, dof) and return (N, 4, 4) / (N, 6, dof), or are None when the library has no batch API.
+    """
+
+    name: str
+    fk: Callable[[np.ndarray], np.ndarray]
+    jacobian: Callable[[np.ndarray], np.ndarray]
+    fk_batch: Callable[[np.ndarray], np.ndarray] | None = None
+    jacobian_batch: Callable[[np.ndarray], np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class TimingRow:
+    """Times of one implementation [µs]: single calls per call, batches per configuration (None: no batch API)."""
+
+    name: str
+    fk_single_us: float
+    jacobian_single_us: float
+    fk_batch_us: float | None
+    jacobian_batch_us: float | None
+
+
+@dataclass(frozen=True)
+class KinematicsBenchReport:
+    """Result of one benchmark run.
+
+    ``rows``: ours first, then each available peer. ``ratio[peer]``: time ratios ours / peer
+    (above 1 means ours takes longer) with keys ``fk_single``, ``jacobian_single`` (single calls)
+    and ``fk_per_config``, ``jacobian_per_config`` (ours batched vs the peer's fastest time per
+    configuration: its batch API where it has one, else its single call). ``max_error[peer]``: the
+    largest FK [m] and Jacobian element differences to ours found by the check before timing.
+    ``unavailable``: peers that could not be imported, with the reason.
+    """
+
+    robot_name: str
+    convention: str
+    dof: int
+    batch: int
+    single_calls: int
+    seed: int
+    rows: tuple[TimingRow, ...]
+    ratio: dict[str, dict[str, float]]
+    max_error: dict[str, dict[str, float]]
+    versions: dict[str, str]
+    unavailable: dict[str, str]
+
+    def format_table(self) -> str:
+        """A plain-text table of the times, then one line of ratios per peer."""
+        head = ("implementation", "FK single [µs/call]", "Jacobian single [µs/call]",
+                "FK batch [µs/config]", "Jacobian batch [µs/config]")
+        body = [(r.name, *(_format_us(t) for t in (r.fk_single_us, r.jacobian_single_us,
+                                                   r.fk_batch_us, r.jacobian_batch_us))) for r in self.rows]
+        widths = [max(len(row[c]) for row in (head, *body)) for c in range(len(head))]
+        table = ["  ".join(v.ljust(w) if c == 0 else v.rjust(w) for c, (v, w) in enumerate(zip(row, widths)))
+                 for row in (head, *body)]
+        lines = [
+            f"Kinematics benchmark: {self.robot_name} ({self.convention} DH, {self.dof} dof); single calls: "
+            f"median of {self.single_calls} configurations; batch: {self.batch} configurations, "
+            f"best of {BATCH_REPEATS}",
+            *table,
+            "n/a: no batch API. Every peer matched our FK and Jacobian to "
+            f"{VERIFY_TOLERANCE:g} on {VERIFY_CONFIGURATIONS} configurations before timing.",
+            "Time ratios (above 1x: ours takes longer):",
+            *(self._ratio_line(peer, r) for peer, r in self.ratio.items()),
+        ]
+        lines += [f"unavailable: {peer}: {why}" for peer, why in self.unavailable.items()]
+        lines.append("versions: " + ", ".join(f"{k} {v}" for k, v in self.versions.items()))
+        return "\n".join(lines)
+
+    @staticmethod
+    def _ratio_line(peer: str, r: dict[str, float]) -> str:
+        return (f"  ours / {peer}: FK {r['fk_single']:.3g}x, Jacobian {r['jacobian_single']:.3g}x per single "
+                f"call; ours batched vs its fastest per configuration: FK {r['fk_per_config']:.3g}x, "
+                f"Jacobian {r['jacobian_per_config']:.3g}x")
+
+    def to_dict(self) -> dict:
+        """The report as JSON-serialisable builtins (None where a peer has no batch API)."""
+        return dataclasses.asdict(self)
+
+
+def _format_us(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.2f}"
+
+
+# -- implementations ------------------------------------------------------------------------------
+def ours_implementation(robot: Robot) -> Implementation:
+    """Our NumPy DH model, with its batch API."""
+    return Implementation(OURS, robot.fk, robot.jacobian, robot.fk_batch, robot.jacobian_batch)
+
+
+def drake_implementation(robot: Robot) -> Implementation:
+    """Drake's MultibodyPlant built from the spec (SetPositions + CalcRelativeTransform / Jacobian)."""
+    drake = build_drake_robot(robot.spec)
+    return Implementation(DRAKE, drake.fk, drake.jacobian)
+
+
+def _rtb_link(rtb, joint, modified: bool):
+    """One Robotics Toolbox DH link; ``flip`` negates the joint variable (our sign = -1)."""
+    flip = joint.sign < 0
+    if joint.is_revolute:
+        cls = rtb.RevoluteMDH if modified else rtb.RevoluteDH
+        return cls(d=joint.d, a=joint.a, alpha=joint.alpha, offset=joint.theta_offset, flip=flip)
+    cls = rtb.PrismaticMDH if modified else rtb.PrismaticDH
+    return cls(theta=joint.theta_offset, a=joint.a, alpha=joint.alpha, offset=joint.d, flip=flip)
+
+
+def rtb_implementation(robot: Robot) -> Implementation:
+    """Robotics Toolbox ``DHRobot`` -> ETS, timed through its compiled C++ kinematics.
+
+    The public ``ETS.eval`` / ``ETS.jacob0`` spend most of a call normalising arguments in Python
+    (about 5x the C++ time for a 6-dof arm); we call the compiled functions they dispatch to, so
+    the row measures the C++ kinematics. ``ETS_fkine`` also takes a (N, dof) batch. Its ``jacob0``
+    rows are [v; w] in the base frame, like ours. Raises ImportError when it is not installed.
+    """
+    import roboticstoolbox as rtb
+    from roboticstoolbox._fknm_c import ETS_fkine, ETS_jacob0
+    from spatialmath import SE3
+
+    spec = robot.spec
+    links = [_rtb_link(rtb, joint, spec.convention == "modified") for joint in spec.joints]
+    arm = rtb.DHRobot(links, base=SE3(spec.X_BaseD0, check=False), tool=SE3(spec.X_DnE, check=False),
+                      name=spec.name)
+    ets = arm.ets()
+    handle = ets._fknm  # C++ handle into memory owned by ``ets``: the closures keep ``ets`` alive.
+    if handle is None:
+        raise ImportError("roboticstoolbox has no compiled ETS handle for this robot")
+
+    def fk(q: np.ndarray, _owner=ets) -> np.ndarray:
+        return ETS_fkine(handle, q, None, None, True)
+
+    def jacobian(q: np.ndarray, _owner=ets) -> np.ndarray:
+        return ETS_jacob0(handle, q, None)
+
+    return Implementation(RTB, fk, jacobian, fk_batch=fk)
+
+
+def _pin_se3(pin, X: np.ndarray):
+    return pin.SE3(X[:3, :3].copy(), X[:3, 3].copy())
+
+
+def build_pinocchio_model(robot: Robot):
+    """A ``pin.Model`` of the spec whose world frame is our base frame, and its end frame's id.
+
+    Joint i is a z joint placed at ``post_{i-1} * pre_i`` (``joint_split``), with the base transform
+    in the first placement and the tool in the end frame. A joint with sign -1 keeps the fast z
+    joint type: its frame is turned by Rx(pi), which turns +z motion into -z motion.
+    Raises ImportError when Pinocchio is not installed.
+    """
+    import pinocchio as pin
+
+    spec = robot.spec
+    model = pin.Model()
+    model.name = spec.name
+    parent, placement = 0, spec.X_BaseD0
+    for joint in spec.joints:
+        pre, post = joint_split(joint, spec.convention)
+        flip = _FLIP_Z if joint.sign < 0 else np.eye(4)
+        joint_model = pin.JointModelRZ() if joint.is_revolute else pin.JointModelPZ()
+        parent = model.addJoint(parent, joint_model, _pin_se3(pin, placement @ pre.GetAsMatrix4() @ flip),
+                                joint.name)
+        # Kinematics never depends on the inertia: the Drake model's placeholder sphere.
+        model.appendBodyToJoint(parent, pin.Inertia.FromSphere(PLACEHOLDER_MASS_KG, PLACEHOLDER_RADIUS_M),
+                                pin.SE3.Identity())
+        placement = flip.T @ post.GetAsMatrix4()
+    end = pin.Frame(END_FRAME, parent, _pin_se3(pin, placement @ spec.X_DnE), pin.FrameType.OP_FRAME)
+    return model, model.addFrame(end)
+
+
+def pinocchio_implementation(robot: Robot) -> Implementation:
+    """Pinocchio: forwardKinematics + updateFramePlacement, computeFrameJacobian (LOCAL_WORLD_ALIGNED, [v; w])."""
+    import pinocchio as pin
+
+    model, frame_id = build_pinocchio_model(robot)
+    data = model.createData()
+    forward, placement, frame_jacobian = pin.forwardKinematics, pin.updateFramePlacement, pin.computeFrameJacobian
+    aligned = pin.LOCAL_WORLD_ALIGNED
+
+    def fk(q: np.ndarray) -> np.ndarray:
+        forward(model, data, q)
+        return placement(model, data, frame_id).homogeneous
+
+    def jacobian(q: np.ndarray) -> np.ndarray:
+        return frame_jacobian(model, data, q, frame_id, aligned)
+
+    return Implementation(PINOCCHIO, fk, jacobian)
+
+
+_OPTIONAL_PEERS = ((RTB, rtb_implementation, "roboticstoolbox-python"), (PINOCCHIO, pinocchio_implementation, "pin"))
+
+
+# -- correctness ----------------------------------------------------------------------------------
+def _max_error(got, want: np.ndarray) -> float:
+    got = np.asarray(got)
+    return float(np.abs(got - want).max()) if got.shape == want.shape else float("inf")
+
+
+def verify_implementation(robot: Robot, impl: Implementation, Q: np.ndarray) -> dict[str, float]:
+    """Largest FK [m] and Jacobian differences of ``impl`` to ours on Q (N, dof), batch APIs included.
+
+    Raises RuntimeError when either exceeds ``VERIFY_TOLERANCE``: that peer models another robot.
+    """
+    fk_error = max(_max_error(impl.fk(q), robot.fk(q)) for q in Q)
+    jacobian_error = max(_max_error(impl.jacobian(q), robot.jacobian(q)) for q in Q)
+    if impl.fk_batch is not None:
+        fk_error = max(fk_error, _max_error(impl.fk_batch(Q), robot.fk_batch(Q)))
+    if impl.jacobian_batch is not None:
+        jacobian_error = max(jacobian_error, _max_error(impl.jacobian_batch(Q), robot.jacobian_batch(Q)))
+    if max(fk_error, jacobian_error) > VERIFY_TOLERANCE:
+        raise RuntimeError(
+            f"{impl.name} disagrees with ours on {robot.name}: max FK error {fk_error:.3g} m, max Jacobian "
+            f"error {jacobian_error:.3g} (tolerance {VERIFY_TOLERANCE:g}); a benchmark of a wrong model is "
+            "worthless, so it is not timed"
+        )
+    return {"fk": fk_error, "jacobian": jacobian_error}
+
+
+# -- timing ---------------------------------------------------------------------------------------
+def median_call_us(fn: Callable[[np.ndarray], object], Q: np.ndarray, warmup: int = WARMUP_CALLS) -> float:
+    """Median time of ``fn(q)`` over the rows of Q, each call timed alone, after ``warmup`` calls [µs]."""
+    for q in Q[:warmup]:
+        fn(q)
+    clock = time.perf_counter_ns
+    elapsed = np.empty(len(Q))
+    for k, q in enumerate(Q):
+        start = clock()
+        fn(q)
+        elapsed[k] = clock() - start
+    return float(np.median(elapsed)) / 1e3
+
+
+def batch_per_config_us(fn: Callable[[np.ndarray], object] | None, Q: np.ndarray) -> float | None:
+    """Best of ``BATCH_REPEATS`` runs of ``fn(Q)`` divided by len(Q) [µs], or None without a batch API."""
+    if fn is None:
+        return None
+    fn(Q[:WARMUP_CALLS])
+    best = min(_elapsed_ns(fn, Q) for _ in range(BATCH_REPEATS))
+    return best / len(Q) / 1e3
+
+
+def _elapsed_ns(fn: Callable[[np.ndarray], object], Q: np.ndarray) -> int:
+    start = time.perf_counter_ns()
+    fn(Q)
+    return time.perf_counter_ns() - start
+
+
+def time_implementation(impl: Implementation, Q_single: np.ndarray, Q_batch: np.ndarray) -> TimingRow:
+    """Single-call medians over Q_single and batch times per configuration over Q_batch [µs]."""
+    return TimingRow(
+        name=impl.name,
+        fk_single_us=median_call_us(impl.fk, Q_single),
+        jacobian_single_us=median_call_us(impl.jacobian, Q_single),
+        fk_batch_us=batch_per_config_us(impl.fk_batch, Q_batch),
+        jacobian_batch_us=batch_per_config_us(impl.jacobian_batch, Q_batch),
+    )
+
+
+def _fastest(single: float, batch: float | None) -> float:
+    return single if batch is None else min(single, batch)
+
+
+def time_ratios(ours: TimingRow, peer: TimingRow) -> dict[str, float]:
+    """Time ratios ours / peer (see ``KinematicsBenchReport``); above 1 means ours takes longer."""
+    return {
+        "fk_single": ours.fk_single_us / peer.fk_single_us,
+        "jacobian_single": ours.jacobian_single_us / peer.jacobian_single_us,
+        "fk_per_config": ours.fk_batch_us / _fastest(peer.fk_single_us, peer.fk_batch_us),
+        "jacobian_per_config": ours.jacobian_batch_us / _fastest(peer.jacobian_single_us, peer.jacobian_batch_us),
+    }
+
+
+def _version(distribution: str) -> str:
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+# -- the benchmark --------------------------------------------------------------------------------
+def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, single_calls: int = 2000,
+                             seed: int = 0) -> KinematicsBenchReport:
+    """Verify, then time, FK and Jacobian of ours, Drake, Robotics Toolbox and Pinocchio on one robot.
+
+    ``robot_name``: a preset name or robot file; ``batch``: configurations per batch run;
+    ``single_calls``: configurations timed one call at a time; ``seed``: of the random configurations.
+    """
+    if batch < 1 or single_calls < 1:
+        raise ValueError(f"batch and single_calls must be >= 1, got {batch} and {single_calls}")
+    robot = load_robot(robot_name)
+    rng = np.random.default_rng(seed)
+    Q_verify = robot.random_configurations(rng, VERIFY_CONFIGURATIONS)
+    Q_single = robot.random_configurations(rng, single_calls)
+    Q_batch = robot.random_configurations(rng, batch)
+    versions = {"python": platform.python_version(), "numpy": np.__version__, "drake": _version("drake")}
+    implementations, unavailable = [ours_implementation(robot), drake_implementation(robot)], {}
+    for name, build, distribution in _OPTIONAL_PEERS:
+        try:
+            implementations.append(build(robot))
+        except ImportError as exc:
+            unavailable[name] = f"{exc} (install the 'bench' extra)"
+        else:
+            versions[distribution] = _version(distribution)
+    max_error = {impl.name: verify_implementation(robot, impl, Q_verify) for impl in implementations[1:]}
+    rows = [time_implementation(impl, Q_single, Q_batch) for impl in implementations]
+    return KinematicsBenchReport(
+        robot_name=robot.name,
+        convention=robot.spec.convention,
+        dof=robot.dof,
+        batch=batch,
+        single_calls=single_calls,
+        seed=seed,
+        rows=tuple(rows),
+        ratio={peer.name: time_ratios(rows[0], peer) for peer in rows[1:]},
+        max_error=max_error,
+        versions=versions,
+        unavailable=unavailable,
+    )
