@@ -8,7 +8,9 @@ reported as unavailable when missing.
 Times are wall-clock microseconds from ``time.perf_counter_ns``. A single-call time is the median
 over distinct random in-limit configurations, each call timed on its own (so it includes about
 0.05 µs of clock overhead and the Python call into the library). A batch time is the best of
-``BATCH_REPEATS`` runs over the whole batch, divided by the batch size.
+``BATCH_REPEATS`` runs over the whole batch, divided by the batch size. Implementations take turns
+(in chunks of configurations, and run by run for batches) so that drift of a shared or throttled
+machine's speed biases no ratio.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ PINOCCHIO = "Pinocchio"
 VERIFY_CONFIGURATIONS = 20
 VERIFY_TOLERANCE = 1e-9
 WARMUP_CALLS = 50
+TIMING_ROUNDS = 5
 BATCH_REPEATS = 3
 
 #: Rx(pi): conjugating a +z joint motion by it gives the same motion about/along -z.
@@ -267,43 +270,54 @@ def verify_implementation(robot: Robot, impl: Implementation, Q: np.ndarray) -> 
 
 
 # -- timing ---------------------------------------------------------------------------------------
-def median_call_us(fn: Callable[[np.ndarray], object], Q: np.ndarray, warmup: int = WARMUP_CALLS) -> float:
-    """Median time of ``fn(q)`` over the rows of Q, each call timed alone, after ``warmup`` calls [µs]."""
-    for q in Q[:warmup]:
-        fn(q)
+def single_call_medians_us(fns: list[Callable[[np.ndarray], object]], Q: np.ndarray) -> list[float]:
+    """Median time of each ``fn(q)`` over the rows of Q, each call timed alone [µs].
+
+    After ``WARMUP_CALLS`` warm-up calls each, Q is split into ``TIMING_ROUNDS`` chunks and every fn
+    runs through a chunk in turn, so a slow drift of the machine's speed hits all of them alike.
+    """
+    for fn in fns:
+        for q in Q[:WARMUP_CALLS]:
+            fn(q)
     clock = time.perf_counter_ns
-    elapsed = np.empty(len(Q))
-    for k, q in enumerate(Q):
-        start = clock()
-        fn(q)
-        elapsed[k] = clock() - start
-    return float(np.median(elapsed)) / 1e3
+    elapsed: list[list[int]] = [[] for _ in fns]
+    for chunk in np.array_split(Q, min(TIMING_ROUNDS, len(Q))):
+        for fn, times in zip(fns, elapsed):
+            for q in chunk:
+                start = clock()
+                fn(q)
+                times.append(clock() - start)
+    return [float(np.median(times)) / 1e3 for times in elapsed]
 
 
-def batch_per_config_us(fn: Callable[[np.ndarray], object] | None, Q: np.ndarray) -> float | None:
-    """Best of ``BATCH_REPEATS`` runs of ``fn(Q)`` divided by len(Q) [µs], or None without a batch API."""
-    if fn is None:
-        return None
-    fn(Q[:WARMUP_CALLS])
-    best = min(_elapsed_ns(fn, Q) for _ in range(BATCH_REPEATS))
-    return best / len(Q) / 1e3
+def batch_per_config_us(fns: list[Callable[[np.ndarray], object]], Q: np.ndarray) -> list[float]:
+    """Best of ``BATCH_REPEATS`` runs of each ``fn(Q)`` divided by len(Q) [µs], the fns taking turns."""
+    for fn in fns:
+        fn(Q[:WARMUP_CALLS])
+    best = [float("inf")] * len(fns)
+    for _ in range(BATCH_REPEATS):
+        for k, fn in enumerate(fns):
+            start = time.perf_counter_ns()
+            fn(Q)
+            best[k] = min(best[k], time.perf_counter_ns() - start)
+    return [ns / len(Q) / 1e3 for ns in best]
 
 
-def _elapsed_ns(fn: Callable[[np.ndarray], object], Q: np.ndarray) -> int:
-    start = time.perf_counter_ns()
-    fn(Q)
-    return time.perf_counter_ns() - start
+def _batch_or_none(fns: list[Callable | None], Q: np.ndarray) -> list[float | None]:
+    """``batch_per_config_us`` of the batch APIs that exist [µs], None in place of the missing ones."""
+    present = [fn for fn in fns if fn is not None]
+    times = iter(batch_per_config_us(present, Q))
+    return [None if fn is None else next(times) for fn in fns]
 
 
-def time_implementation(impl: Implementation, Q_single: np.ndarray, Q_batch: np.ndarray) -> TimingRow:
-    """Single-call medians over Q_single and batch times per configuration over Q_batch [µs]."""
-    return TimingRow(
-        name=impl.name,
-        fk_single_us=median_call_us(impl.fk, Q_single),
-        jacobian_single_us=median_call_us(impl.jacobian, Q_single),
-        fk_batch_us=batch_per_config_us(impl.fk_batch, Q_batch),
-        jacobian_batch_us=batch_per_config_us(impl.jacobian_batch, Q_batch),
-    )
+def time_implementations(impls: list[Implementation], Q_single: np.ndarray, Q_batch: np.ndarray) -> list[TimingRow]:
+    """Single-call medians over Q_single and batch times per configuration over Q_batch [µs], one row each."""
+    fk_single = single_call_medians_us([impl.fk for impl in impls], Q_single)
+    jacobian_single = single_call_medians_us([impl.jacobian for impl in impls], Q_single)
+    fk_batch = _batch_or_none([impl.fk_batch for impl in impls], Q_batch)
+    jacobian_batch = _batch_or_none([impl.jacobian_batch for impl in impls], Q_batch)
+    return [TimingRow(*row) for row in zip([impl.name for impl in impls], fk_single, jacobian_single,
+                                           fk_batch, jacobian_batch)]
 
 
 def _fastest(single: float, batch: float | None) -> float:
@@ -352,7 +366,7 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
         else:
             versions[distribution] = _version(distribution)
     max_error = {impl.name: verify_implementation(robot, impl, Q_verify) for impl in implementations[1:]}
-    rows = [time_implementation(impl, Q_single, Q_batch) for impl in implementations]
+    rows = time_implementations(implementations, Q_single, Q_batch)
     return KinematicsBenchReport(
         robot_name=robot.name,
         convention=robot.spec.convention,

@@ -1,0 +1,93 @@
+"""The kinematics benchmark: its report, and peers built from the spec that agree with our model."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from pipeline.bench.kinematics import (
+    DRAKE,
+    OURS,
+    PINOCCHIO,
+    RTB,
+    VERIFY_CONFIGURATIONS,
+    Implementation,
+    drake_implementation,
+    pinocchio_implementation,
+    rtb_implementation,
+    run_kinematics_benchmark,
+    verify_implementation,
+)
+from pipeline.robot import Robot, load_robot
+from pipeline.robot_spec import parse_robot_spec, preset_names
+
+
+def _mixed_robots() -> list[Robot]:
+    """Both conventions with every row type: prismatic, sign -1, offsets, base and tool transforms."""
+    joints = [
+        {"a": 50, "alpha": -90, "d": 300, "theta_offset": 30, "sign": -1, "q_min": -170, "q_max": 170, "qd_max": 90},
+        {"type": "prismatic", "a": 20, "alpha": 90, "d": 100, "theta_offset": -45, "sign": -1,
+         "q_min": -200, "q_max": 200, "qd_max": 500},
+        {"type": "prismatic", "a": 0, "alpha": -30, "d": 10, "q_min": 0, "q_max": 300, "qd_max": 500},
+        {"a": 200, "alpha": 0, "d": 40, "theta_offset": 90, "q_min": -170, "q_max": 170, "qd_max": 90},
+    ]
+    return [
+        Robot(parse_robot_spec({
+            "name": f"mixed_{convention}", "convention": convention, "length_unit": "mm", "angle_unit": "deg",
+            "joints": joints,
+            "base": {"xyz": [10, -20, 30], "rpy": [5, -10, 15]},
+            "tool": {"xyz": [0, 15, 120], "rpy": [90, 0, -30]},
+        }))
+        for convention in ("standard", "modified")
+    ]
+
+
+@pytest.mark.parametrize("name", ["gp7", "arm5"])
+def test_benchmark_report(name):
+    report = run_kinematics_benchmark(name, batch=200, single_calls=50)
+    rows = {row.name: row for row in report.rows}
+    assert report.rows[0].name == OURS
+    drake = rows[DRAKE]
+    assert drake.fk_single_us > 0 and drake.jacobian_single_us > 0
+    assert drake.fk_batch_us is None and drake.jacobian_batch_us is None
+    assert rows[OURS].fk_batch_us > 0 and rows[OURS].jacobian_batch_us > 0
+    assert set(report.ratio) == set(rows) - {OURS}
+    assert all(ratio > 0 for ratios in report.ratio.values() for ratio in ratios.values())
+    assert set(rows) | set(report.unavailable) == {OURS, DRAKE, RTB, PINOCCHIO}
+    table = report.format_table()
+    assert name in table and DRAKE in table and "ours / Drake" in table
+    assert json.loads(json.dumps(report.to_dict()))["robot_name"] == name
+
+
+def test_missing_optional_peers_are_reported_not_fatal(monkeypatch):
+    monkeypatch.setitem(sys.modules, "roboticstoolbox", None)
+    monkeypatch.setitem(sys.modules, "pinocchio", None)
+    report = run_kinematics_benchmark("arm5", batch=50, single_calls=10)
+    assert set(report.unavailable) == {RTB, PINOCCHIO}
+    assert [row.name for row in report.rows] == [OURS, DRAKE]
+    assert f"unavailable: {RTB}" in report.format_table()
+
+
+def test_a_wrong_peer_is_refused(rng):
+    robot = load_robot("gp7")
+    drake = drake_implementation(robot)
+    shifted = Implementation("shifted", lambda q: drake.fk(q) + 1e-6, drake.jacobian)
+    with pytest.raises(RuntimeError, match="shifted disagrees with ours on gp7"):
+        verify_implementation(robot, shifted, robot.random_configurations(rng, 3))
+
+
+@pytest.mark.parametrize("peer", ["roboticstoolbox", "pinocchio"])
+def test_peers_agree_with_ours_on_every_robot(peer, rng):
+    pytest.importorskip(peer)
+    build = rtb_implementation if peer == "roboticstoolbox" else pinocchio_implementation
+    robots = [load_robot(name) for name in preset_names()] + _mixed_robots()
+    for robot in robots:
+        impl = build(robot)
+        errors = verify_implementation(robot, impl, robot.random_configurations(rng, VERIFY_CONFIGURATIONS))
+        assert max(errors.values()) < 1e-12, (robot.name, errors)
+        if impl.fk_batch is not None:
+            assert impl.fk_batch(robot.random_configurations(rng, 5)).shape == (5, 4, 4)
+        assert np.shape(impl.jacobian(np.zeros(robot.dof))) == (6, robot.dof)
