@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ConfigurationError
-from .robot_spec import RobotSpec
+from .robot_spec import DhJoint, RobotSpec
 
 
 def dh_standard(theta, d, a, alpha) -> np.ndarray:
@@ -39,22 +39,49 @@ def dh_modified(alpha_prev, a_prev, theta, d) -> np.ndarray:
     return A
 
 
+def joint_factors(joint: DhJoint, convention: str) -> tuple[np.ndarray, np.ndarray]:
+    """Constant 4x4 factors (L, R) of one DH row, with ``A(q) = L @ M(sign * q) @ R``.
+
+    ``M`` is a rotation about z (revolute) or a translation along z (prismatic), so the joint axis is
+    the z axis of the frame ``X_{i-1} @ L``. Built from the textbook matrices above.
+    """
+    if convention == "standard":
+        if joint.is_revolute:
+            return dh_standard(joint.theta_offset, 0, 0, 0), dh_standard(0, joint.d, joint.a, joint.alpha)
+        return dh_standard(joint.theta_offset, joint.d, 0, 0), dh_standard(0, 0, joint.a, joint.alpha)
+    if joint.is_revolute:
+        return dh_modified(joint.alpha, joint.a, joint.theta_offset, 0), dh_modified(0, 0, 0, joint.d)
+    return dh_modified(joint.alpha, joint.a, joint.theta_offset, joint.d), np.eye(4)
+
+
 class DhKinematics:
-    """Forward kinematics and geometric Jacobian of one RobotSpec, in SI units."""
+    """Forward kinematics and geometric Jacobian of one RobotSpec, in SI units.
+
+    The chain ``base A_1 ... A_n tool`` is evaluated as ``K_0 (M_1 K_1) ... (M_n K_n)`` with constant
+    ``K_0 = base L_1``, ``K_i = R_i L_{i+1}``, ``K_n = R_n tool``. Since ``M_i`` only mixes rows 0 and 1
+    (rotation about z) or adds row 3 into row 2 (translation along z), each ``M_i K_i`` is
+    ``P_i + cos(v_i) C_i + sin(v_i) S_i + v_i V_i`` with constant matrices and ``v_i = sign_i q_i``.
+    Everything is vectorised over joints and over a leading batch axis.
+    """
 
     def __init__(self, spec: RobotSpec):
         self.spec = spec
         self.dof = spec.dof
-        joints = spec.joints
-        self._a = np.array([j.a for j in joints])
-        self._alpha = np.array([j.alpha for j in joints])
-        self._d = np.array([j.d for j in joints])
-        self._offset = np.array([j.theta_offset for j in joints])
-        self._sign = np.array([j.sign for j in joints])
-        self._revolute = np.array([j.is_revolute for j in joints])
-        self._X_BaseD0 = spec.X_BaseD0
-        self._X_DnE = spec.X_DnE
-        self._modified = spec.convention == "modified"
+        factors = [joint_factors(j, spec.convention) for j in spec.joints]
+        left = [L for L, _ in factors] + [spec.X_DnE]
+        right = [spec.X_BaseD0] + [R for _, R in factors]
+        K = np.array([R @ L for R, L in zip(right, left)])     # (dof + 1, 4, 4)
+        self._K0 = K[0]
+        self._R = np.array([R for _, R in factors])             # DH frame i = joint frame i @ M_i @ R_i
+        self._sign = np.array([j.sign for j in spec.joints])
+        self._revolute = np.array([j.is_revolute for j in spec.joints])
+        self._all_revolute = bool(self._revolute.all())
+        Kj = K[1:]
+        rev = self._revolute[:, None, None]
+        self._P = np.where(rev, Kj * [[0.0], [0.0], [1.0], [1.0]], Kj)
+        self._C = np.where(rev, Kj * [[1.0], [1.0], [0.0], [0.0]], 0.0)
+        self._S = np.where(rev, np.stack([-Kj[:, 1], Kj[:, 0], 0 * Kj[:, 0], 0 * Kj[:, 0]], axis=1), 0.0)
+        self._V = np.where(rev, 0.0, np.stack([0 * Kj[:, 3], 0 * Kj[:, 3], Kj[:, 3], 0 * Kj[:, 3]], axis=1))
 
     # -- input checks ---------------------------------------------------------------------------
     def as_configuration(self, q) -> np.ndarray:
@@ -62,7 +89,7 @@ class DhKinematics:
         q = np.asarray(q, dtype=float)
         if q.shape != (self.dof,):
             raise ConfigurationError(f"{self.spec.name}: q must have shape ({self.dof},), got {q.shape}")
-        if not np.all(np.isfinite(q)):
+        if not np.isfinite(q).all():
             raise ConfigurationError(f"{self.spec.name}: q has non-finite values: {q}")
         return q
 
@@ -71,70 +98,89 @@ class DhKinematics:
         Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.dof:
             raise ConfigurationError(f"{self.spec.name}: Q must have shape (N, {self.dof}), got {Q.shape}")
-        if not np.all(np.isfinite(Q)):
+        if not np.isfinite(Q).all():
             raise ConfigurationError(f"{self.spec.name}: Q has non-finite values")
         return Q
 
-    # -- kinematics -----------------------------------------------------------------------------
-    def link_transforms(self, Q: np.ndarray) -> np.ndarray:
-        """DH link transforms A_i(q_i) for a batch Q (N, dof) -> (N, dof, 4, 4)."""
-        joint_value = self._sign * Q
-        theta = np.where(self._revolute, joint_value + self._offset, self._offset)
-        d = np.where(self._revolute, self._d, joint_value + self._d)
-        if self._modified:
-            return dh_modified(self._alpha, self._a, theta, d)
-        return dh_standard(theta, d, self._a, self._alpha)
+    # -- the chain ------------------------------------------------------------------------------
+    def _moved_links(self, Q: np.ndarray) -> np.ndarray:
+        """``M_i(q_i) K_i`` for a batch Q (..., dof) -> (..., dof, 4, 4)."""
+        value = (Q * self._sign)[..., None, None]
+        return self._P + np.cos(value) * self._C + np.sin(value) * self._S + value * self._V
 
-    def frames_batch(self, Q: np.ndarray) -> np.ndarray:
-        """Poses in the base frame of DH frames 0..dof and the end frame -> (N, dof + 2, 4, 4) [m]."""
-        A = self.link_transforms(Q)
-        X = np.empty((Q.shape[0], self.dof + 2, 4, 4))
-        X[:, 0] = self._X_BaseD0
-        for i in range(self.dof):
-            X[:, i + 1] = X[:, i] @ A[:, i]
-        X[:, -1] = X[:, -2] @ self._X_DnE
-        return X
+    def _joint_frames(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Joint frames (..., dof, 4, 4) (z = joint i's axis, before its motion) and the end pose (..., 4, 4)."""
+        T = self._moved_links(Q)
+        frames = np.empty_like(T)
+        frames[..., 0, :, :] = self._K0
+        X = self._K0 @ T[..., 0, :, :]
+        for i in range(1, self.dof):
+            frames[..., i, :, :] = X
+            X = X @ T[..., i, :, :]
+        return frames, X
 
     def fk_batch(self, Q) -> np.ndarray:
         """End-frame poses X_BE for a batch (N, dof) -> (N, 4, 4) [m]."""
-        Q = self.as_batch(Q)
-        A = self.link_transforms(Q)
-        X = np.broadcast_to(self._X_BaseD0, (Q.shape[0], 4, 4))
-        for i in range(self.dof):
-            X = X @ A[:, i]
-        return X @ self._X_DnE
+        T = self._moved_links(self.as_batch(Q))
+        X = self._K0 @ T[:, 0]
+        for i in range(1, self.dof):
+            X = X @ T[:, i]
+        return X
 
     def fk(self, q) -> np.ndarray:
         """End-frame pose X_BE (4, 4) [m] at one configuration."""
-        return self.fk_batch(self.as_configuration(q)[None])[0]
+        T = self._moved_links(self.as_configuration(q))
+        X = self._K0
+        for link in T:
+            X = X @ link
+        return X
+
+    def frames_batch(self, Q) -> np.ndarray:
+        """Poses in the base frame of DH frames 0..dof and the end frame -> (N, dof + 2, 4, 4) [m]."""
+        Q = self.as_batch(Q)
+        T = self._moved_links(Q)
+        value = Q * self._sign
+        frames, end = self._joint_frames(Q)
+        X = np.empty((Q.shape[0], self.dof + 2, 4, 4))
+        X[:, 0] = self.spec.X_BaseD0
+        # DH frame i = joint frame i @ M_i @ R_i, and M_i = (M_i K_i) K_i^-1 is cheaper as a rotation:
+        motion = np.zeros(T.shape)
+        c, s = np.cos(value), np.sin(value)
+        motion[..., 0, 0], motion[..., 0, 1], motion[..., 1, 0], motion[..., 1, 1] = c, -s, s, c
+        motion[..., 2, 2] = motion[..., 3, 3] = 1.0
+        rev = self._revolute
+        motion[:, ~rev] = np.eye(4)
+        motion[:, ~rev, 2, 3] = value[:, ~rev]
+        X[:, 1:-1] = frames @ motion @ self._R
+        X[:, -1] = end
+        return X
 
     def fk_all(self, q) -> np.ndarray:
         """Poses of DH frames 0..dof and the end frame at one configuration -> (dof + 2, 4, 4) [m]."""
         return self.frames_batch(self.as_configuration(q)[None])[0]
 
-    def joint_axes_batch(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """From frames_batch output: unit axes (N, dof, 3) with the sign applied, and points on them."""
-        # Standard DH: joint i moves about/along z of frame i-1; modified DH: z of frame i.
-        frames = X[:, 1:-1] if self._modified else X[:, :-2]
-        axes = frames[..., :3, 2] * self._sign[:, None]
-        return axes, frames[..., :3, 3]
+    def _jacobian_from_frames(self, frames: np.ndarray, end: np.ndarray) -> np.ndarray:
+        """Columns [axis x (p_E - p_axis); axis] (revolute) or [axis; 0] (prismatic) -> (..., 6, dof)."""
+        axes = frames[..., :3, 2] * self._sign[:, None]                  # (..., dof, 3), sign applied
+        lever = end[..., None, :3, 3] - frames[..., :3, 3]
+        J = np.empty(axes.shape[:-2] + (6, self.dof))
+        ax, ay, az = axes[..., 0], axes[..., 1], axes[..., 2]
+        lx, ly, lz = lever[..., 0], lever[..., 1], lever[..., 2]
+        J[..., 0, :], J[..., 1, :], J[..., 2, :] = ay * lz - az * ly, az * lx - ax * lz, ax * ly - ay * lx
+        J[..., 3:, :] = axes.swapaxes(-1, -2)
+        if not self._all_revolute:
+            prismatic = ~self._revolute
+            J[..., :3, prismatic] = J[..., 3:, prismatic]
+            J[..., 3:, prismatic] = 0.0
+        return J
 
     def jacobian_batch(self, Q) -> np.ndarray:
         """Geometric Jacobians, rows [v; w], base frame, at the end-frame origin -> (N, 6, dof)."""
-        Q = self.as_batch(Q)
-        X = self.frames_batch(Q)
-        axes, points = self.joint_axes_batch(X)
-        p_BE = X[:, -1, :3, 3]
-        J = np.zeros((Q.shape[0], 6, self.dof))
-        rev = self._revolute
-        J[:, :3, rev] = np.cross(axes[:, rev], p_BE[:, None, :] - points[:, rev]).transpose(0, 2, 1)
-        J[:, 3:, rev] = axes[:, rev].transpose(0, 2, 1)
-        J[:, :3, ~rev] = axes[:, ~rev].transpose(0, 2, 1)
-        return J
+        return self._jacobian_from_frames(*self._joint_frames(self.as_batch(Q)))
 
     def jacobian(self, q) -> np.ndarray:
         """Geometric Jacobian (6, dof), rows [v; w] in the base frame at the end-frame origin."""
-        return self.jacobian_batch(self.as_configuration(q)[None])[0]
+        return self._jacobian_from_frames(*self._joint_frames(self.as_configuration(q)))
 
 
 def rotation_log(R: np.ndarray) -> np.ndarray:
