@@ -1,0 +1,359 @@
+"""Closed-form IK for 6R arms whose last three axes meet (a spherical wrist), from the DH table itself.
+
+Nothing is hand-coded per robot. The joint screws are read off our FK at q = 0 (product of
+exponentials, ``X_BE(q) = e^{xi_1 q_1} ... e^{xi_6 q_6} X_BE(0)``) and the solution uses Paden-Kahan
+subproblems, so standard and modified DH tables, signs and offsets are all handled alike:
+
+1. the wrist centre c (where axes 4, 5, 6 meet) fixes q1 (axis 2 parallel to axis 3 keeps c's
+   component along axis 2 constant: one trigonometric equation, two roots: shoulder front/back);
+2. its distance to axis 2 fixes q3 (subproblem 3, two roots: elbow up/down), then q2 (subproblem 1);
+3. the wrist rotation gives q4, q5 (subproblem 2, two roots: wrist flip/no flip) and q6 (subproblem 1).
+At a wrist singularity (axes 4 and 6 aligned, q5 = 0) only q4 + q6 (or q4 - q6) is fixed: the split
+nearest the seed is returned. At a shoulder singularity (wrist centre on axis 1) q1 is the seed's.
+
+Every branch is vectorised over targets and branches, shifted by 2 pi into the joint limits in every
+possible way, verified by our FK, and labelled.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+
+from .result import (
+    FULL_POSE,
+    POSITION_TOLERANCE,
+    ROTATION_TOLERANCE,
+    TWO_PI,
+    IkResult,
+    IkTarget,
+    Solution,
+    distinct_solutions,
+    pose_errors,
+)
+
+#: Axes closer than this [m] meet; directions closer than this [1] are parallel.
+GEOMETRY_TOLERANCE = 1e-9
+#: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
+SINGULAR_TOLERANCE = 1e-9
+#: How far past +-1 a cosine may go through rounding before the target counts as out of reach.
+REACH_SLACK = 1e-9
+BRANCHES = 8
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products over the last axis (broadcasting)."""
+    return (a * b).sum(axis=-1)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products over the last axis (broadcasting); cheaper than np.cross on small arrays."""
+    a, b = np.broadcast_arrays(a, b)
+    out = np.empty(a.shape)
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rodrigues: rotate vectors v (..., 3) about the unit axis (3,) by angle (...) [rad]."""
+    c, s = np.cos(angle)[..., None], np.sin(angle)[..., None]
+    return v * c + _cross(axis, v) * s + axis * (_dot(axis, v)[..., None] * (1.0 - c))
+
+
+def _rotation_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) about the unit axis (3,) by angle (...)."""
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
+    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+
+
+def _angle_about(axis: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Subproblem 1: the rotation angle about ``axis`` taking u's projection to v's [rad]."""
+    u_perp = u - axis * _dot(axis, u)[..., None]
+    v_perp = v - axis * _dot(axis, v)[..., None]
+    return np.arctan2(_dot(axis, _cross(u_perp, v_perp)), _dot(u_perp, v_perp))
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    """Angles into (-pi, pi]."""
+    return angle - TWO_PI * np.ceil((angle - math.pi) / TWO_PI)
+
+
+def _closest_points(p1, w1, p2, w2) -> tuple[np.ndarray, float]:
+    """Midpoint of the common perpendicular of two non-parallel lines, and their distance [m]."""
+    n = _cross(w1, w2)
+    diff = p2 - p1
+    t1 = _dot(_cross(diff, w2), n) / _dot(n, n)
+    t2 = _dot(_cross(diff, w1), n) / _dot(n, n)
+    a, b = p1 + t1 * w1, p2 + t2 * w2
+    return (a + b) / 2.0, float(np.linalg.norm(a - b))
+
+
+@dataclass(frozen=True, eq=False)
+class AnalyticSolver:
+    """The closed-form solver of one robot, or why the robot does not fit it (``applicable`` False).
+
+    ``axes`` (6, 3) unit joint axes and ``points`` (6, 3) points on them at q = 0, base frame [m];
+    ``wrist_centre`` c at q = 0; ``X_BE0`` the end pose at q = 0.
+    """
+
+    applicable: bool
+    reason: str = ""
+    axes: np.ndarray | None = None
+    points: np.ndarray | None = None
+    wrist_centre: np.ndarray | None = None
+    X_BE0: np.ndarray | None = None
+
+
+_SOLVERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def analytic_solver_for(robot) -> AnalyticSolver:
+    """The (cached) closed-form solver of a robot, derived from its DH table."""
+    if robot not in _SOLVERS:
+        _SOLVERS[robot] = _derive_solver(robot)
+    return _SOLVERS[robot]
+
+
+def _derive_solver(robot) -> AnalyticSolver:
+    spec = robot.spec
+    if spec.dof != 6 or not all(j.is_revolute for j in spec.joints):
+        return AnalyticSolver(False, f"{spec.name}: the closed form needs 6 revolute joints (has {spec.dof})")
+    frames, X_BE0 = robot._joint_frames(np.zeros(6))
+    axes = frames[:, :3, 2] * np.array([j.sign for j in spec.joints])[:, None]
+    points = frames[:, :3, 3].copy()
+    if np.linalg.norm(_cross(axes[3], axes[4])) < GEOMETRY_TOLERANCE:
+        return AnalyticSolver(False, f"{spec.name}: axes 4 and 5 are parallel: no spherical wrist")
+    centre, gap = _closest_points(points[3], axes[3], points[4], axes[4])
+    offset6 = centre - points[5]
+    distance6 = float(np.linalg.norm(offset6 - axes[5] * _dot(axes[5], offset6)))
+    if gap > GEOMETRY_TOLERANCE or distance6 > GEOMETRY_TOLERANCE:
+        return AnalyticSolver(False, f"{spec.name}: axes 4, 5, 6 do not meet in one point "
+                                     f"(gaps {gap:.3g} m, {distance6:.3g} m): no spherical wrist")
+    if np.linalg.norm(_cross(axes[1], axes[2])) > GEOMETRY_TOLERANCE:
+        return AnalyticSolver(False, f"{spec.name}: axes 2 and 3 are not parallel")
+    if np.linalg.norm(_cross(axes[0], axes[1])) < GEOMETRY_TOLERANCE:
+        return AnalyticSolver(False, f"{spec.name}: axes 1 and 2 are parallel")
+    return AnalyticSolver(True, "", axes, points, centre, X_BE0)
+
+
+@dataclass(frozen=True, eq=False)
+class BranchSolutions:
+    """Raw closed-form branches for N targets: Q (N, 8, 6) in (-pi, pi], reachable (N, 8), labels (N, 8)."""
+
+    Q: np.ndarray
+    reachable: np.ndarray
+    labels: np.ndarray
+
+
+def solve_branches(solver: AnalyticSolver, X_targets: np.ndarray, seeds: np.ndarray) -> BranchSolutions:
+    """All 8 closed-form branches for targets X (N, 4, 4) [m]; seeds (N, 6) break singular ties."""
+    w, r, c = solver.axes, solver.points, solver.wrist_centre
+    n = X_targets.shape[0]
+    R_target, p_target = X_targets[:, :3, :3], X_targets[:, :3, 3]
+    c_in_end = solver.X_BE0[:3, :3].T @ (c - solver.X_BE0[:3, 3])
+    p_wrist = np.einsum("nij,j->ni", R_target, c_in_end) + p_target                   # (N, 3)
+
+    # q1: (R1(q1) w2) . (p_w - r1) = w2 . (c - r2) - (r1 - r2) . w2, as A cos + B sin = C.
+    w1, w2 = w[0], w[1]
+    w2_perp = w2 - w1 * (w1 @ w2)
+    v = p_wrist - r[0]
+    A, B = v @ w2_perp, v @ _cross(w1, w2)
+    C = w2 @ (c - r[1]) - (r[0] - r[1]) @ w2 - (v @ w1) * (w1 @ w2)
+    rho = np.hypot(A, B)
+    shoulder_singular = rho < SINGULAR_TOLERANCE
+    ratio = np.where(shoulder_singular, 0.0, C / np.where(shoulder_singular, 1.0, rho))
+    reach1 = np.abs(ratio) <= 1.0 + REACH_SLACK
+    phi = np.arctan2(B, A)
+    spread = np.arccos(np.clip(ratio, -1.0, 1.0))
+    q1 = np.stack([phi + spread, phi - spread], axis=1)                                # (N, 2)
+    q1 = np.where(shoulder_singular[:, None], seeds[:, :1], q1)
+
+    # q3: |e^{xi3 q3} c - r2| = |p' - r2| with p' = e^{-xi1 q1} p_w (subproblem 3 about axis 3).
+    p_prime = r[0] + _rotate(w1, -q1, (p_wrist - r[0])[:, None, :])                  # (N, 2, 3)
+    w3 = w[2]
+    u, vv = c - r[2], r[1] - r[2]
+    u_p, v_p = u - w3 * (w3 @ u), vv - w3 * (w3 @ vv)
+    delta_sq = _dot(p_prime - r[1], p_prime - r[1]) - (w3 @ (c - r[1])) ** 2
+    kappa = (u_p @ u_p + v_p @ v_p - delta_sq) / (2.0 * np.linalg.norm(u_p) * np.linalg.norm(v_p))
+    reach3 = np.abs(kappa) <= 1.0 + REACH_SLACK
+    theta0 = math.atan2(w3 @ _cross(u_p, v_p), u_p @ v_p)
+    spread3 = np.arccos(np.clip(kappa, -1.0, 1.0))
+    q3 = np.stack([theta0 - spread3, theta0 + spread3], axis=2)                        # (N, 2, 2)
+
+    # q2: rotate e^{xi3 q3} c about axis 2 onto p' (subproblem 1).
+    p3 = r[2] + _rotate(w3, q3, np.broadcast_to(c - r[2], q3.shape + (3,)))          # (N, 2, 2, 3)
+    q2 = _angle_about(w2, p3 - r[1], p_prime[:, :, None, :] - r[1])                   # (N, 2, 2)
+
+    q1_b = np.broadcast_to(q1[:, :, None], q3.shape)
+    R_arm = _rotation_matrix(w1, q1_b) @ _rotation_matrix(w2, q2) @ _rotation_matrix(w3, q3)
+    R_wrist = np.swapaxes(R_arm, -1, -2) @ R_target[:, None, None] @ solver.X_BE0[:3, :3].T  # (N,2,2,3,3)
+
+    # q4, q5: e^{w4 q4} e^{w5 q5} w6 = d (subproblem 2), two roots; then q6 (subproblem 1).
+    w4, w5, w6 = w[3], w[4], w[5]
+    d = R_wrist @ w6                                                                  # (N, 2, 2, 3)
+    c45 = w4 @ w5
+    alpha = (c45 * (w5 @ w6) - d @ w4) / (c45**2 - 1.0)
+    beta = (c45 * (d @ w4) - w5 @ w6) / (c45**2 - 1.0)
+    n45 = _cross(w4, w5)
+    gamma = np.sqrt(np.clip((1.0 - alpha**2 - beta**2 - 2 * alpha * beta * c45) / (n45 @ n45), 0.0, None))
+    gammas = np.stack([gamma, -gamma], axis=-1)                                       # (N, 2, 2, 2)
+    z = (alpha[..., None, None] * w4 + beta[..., None, None] * w5 + gammas[..., None] * n45)
+    d_b = np.broadcast_to(d[..., None, :], z.shape)
+    q4 = _angle_about(w4, z, d_b)
+    q5 = _angle_about(w5, np.broadcast_to(w6, z.shape), z)
+    wrist_singular = np.linalg.norm(_cross(w4, d_b), axis=-1) < SINGULAR_TOLERANCE
+    seed_shape = (n, 1, 1, 1)
+    seed4, seed6 = seeds[:, 3].reshape(seed_shape), seeds[:, 5].reshape(seed_shape)
+    if wrist_singular.any():
+        q4 = np.where(wrist_singular, seed4, q4)
+        z_singular = _rotate(w4, -q4, d_b)
+        q5 = np.where(wrist_singular, _angle_about(w5, np.broadcast_to(w6, z.shape), z_singular), q5)
+    R45 = _rotation_matrix(w4, q4) @ _rotation_matrix(w5, q5)
+    n6 = _unit(_cross(w6, [1.0, 0.0, 0.0]) if abs(w6[0]) < 0.9 else _cross(w6, [0.0, 1.0, 0.0]))
+    R_wrist_b = np.broadcast_to(R_wrist[..., None, :, :], R45.shape)
+    target_n6 = np.swapaxes(R45, -1, -2) @ R_wrist_b @ n6
+    q6 = _angle_about(w6, np.broadcast_to(n6, target_n6.shape), target_n6)
+    if wrist_singular.any():
+        # Only q4 + sigma q6 is fixed: split the change nearest the seed.
+        sigma = np.sign(_dot(w4, _rotate(w5, q5, np.broadcast_to(w6, z.shape))))
+        step = _wrap(sigma * (q6 - seed6))
+        q4 = np.where(wrist_singular, seed4 + step / 2.0, q4)
+        q6 = np.where(wrist_singular, q6 - sigma * step / 2.0, q6)
+
+    shape = (n, 2, 2, 2)
+    Q = np.stack([np.broadcast_to(x, shape) for x in (q1[:, :, None, None], q2[..., None], q3[..., None],
+                                                      q4, q5, q6)], axis=-1).reshape(n, BRANCHES, 6)
+    reachable = np.broadcast_to((reach1[:, None] & reach3)[..., None, None], shape).reshape(n, BRANCHES)
+    labels = _labels(solver, Q, p_wrist)
+    return BranchSolutions(_wrap(Q), reachable, labels)
+
+
+def _labels(solver: AnalyticSolver, Q: np.ndarray, p_wrist: np.ndarray) -> np.ndarray:
+    """Branch names: shoulder front/back, elbow up/down, wrist flip/noflip, per (N, 8) branch.
+
+    Front: the wrist centre is on the side of axis 1 it is on at q = 0. Up: the elbow (on axis 3) is
+    above the shoulder (axis 2) to wrist-centre line. Flip: q5 < 0.
+    """
+    w, r, c = solver.axes, solver.points, solver.wrist_centre
+    forward0 = (c - r[0]) - w[0] * (w[0] @ (c - r[0]))
+    forward = _rotate(w[0], Q[..., 0], np.broadcast_to(forward0, Q.shape[:-1] + (3,)))
+    front = _dot(forward, p_wrist[:, None, :] - r[0]) >= 0.0
+    shoulder = r[0] + _rotate(w[0], Q[..., 0], np.broadcast_to(r[1] - r[0], forward.shape))
+    elbow_local = r[1] + _rotate(w[1], Q[..., 1], np.broadcast_to(r[2] - r[1], forward.shape))
+    elbow = r[0] + _rotate(w[0], Q[..., 0], elbow_local - r[0])
+    line = _unit_rows(p_wrist[:, None, :] - shoulder)
+    offset = elbow - shoulder
+    up = (offset - line * _dot(offset, line)[..., None])[..., 2] >= 0.0
+    names = np.empty(Q.shape[:-1], dtype=object)
+    for index in np.ndindex(names.shape):
+        names[index] = (f"shoulder {'front' if front[index] else 'back'}, elbow {'up' if up[index] else 'down'}, "
+                        f"wrist {'flip' if Q[index][4] < 0 else 'noflip'}")
+    return names
+
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(norm > 0.0, norm, 1.0)
+
+
+#: 2 pi shifts tried per joint: enough for ranges up to 4 pi (+-720 deg).
+_SHIFTS = TWO_PI * np.arange(-2, 3)
+
+
+def joint_values_in_limits(Q: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each joint's 2 pi shifts (..., 6, 5) and which of them lie inside the limits (same shape)."""
+    values = Q[..., None] + _SHIFTS
+    inside = (values >= q_min[:, None]) & (values <= q_max[:, None])
+    return values, inside
+
+
+def in_limit_variants(values: np.ndarray, inside: np.ndarray) -> list[np.ndarray]:
+    """Every in-limit combination of one branch's shifted joint values (6, 5) -> list of q (6,)."""
+    choices = [values[j][inside[j]] for j in range(values.shape[0])]
+    return [np.array(combo) for combo in itertools.product(*choices)]
+
+
+def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
+    """Closed-form IK of one target: every in-limit branch, verified by our FK, nearest the seed first."""
+    return solve_analytic_batch(robot, target.X_BE[None], q_seed[None], target.kind)[0]
+
+
+def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: str = FULL_POSE) -> list[IkResult]:
+    """Closed-form IK of N targets (N, 4, 4) with seeds (N, 6), vectorised; one IkResult each."""
+    solver = analytic_solver_for(robot)
+    n = X_targets.shape[0]
+    if not solver.applicable or kind != FULL_POSE:
+        reason = solver.reason or f"the closed form solves full poses only, not {kind!r} targets"
+        return [_failure(robot, X_targets[i], seeds[i], reason) for i in range(n)]
+    branches = solve_branches(solver, X_targets, seeds)
+    limits = robot.limits
+    X_branches = robot.fk_batch(branches.Q.reshape(-1, 6)).reshape(n, BRANCHES, 4, 4)
+    position_error = np.linalg.norm(X_branches[..., :3, 3] - X_targets[:, None, :3, 3], axis=-1)
+    R_error = np.swapaxes(X_branches[..., :3, :3], -1, -2) @ X_targets[:, None, :3, :3]
+    rotation_error = _rotation_angles(R_error)
+    strict = (position_error <= POSITION_TOLERANCE) & (rotation_error <= ROTATION_TOLERANCE)
+    values, inside = joint_values_in_limits(branches.Q, limits.q_min, limits.q_max)
+    return [
+        _result_for_target(robot, i, branches, values[i], inside[i], strict[i], position_error[i],
+                           rotation_error[i], seeds[i])
+        for i in range(n)
+    ]
+
+
+def _rotation_angles(R: np.ndarray) -> np.ndarray:
+    """Angles [rad] of rotation matrices (..., 3, 3), accurate near zero."""
+    skew = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    return np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
+
+
+def _result_for_target(robot, i, branches, values, inside, strict, position_error, rotation_error, seed):
+    fits = strict & inside.any(axis=-1).all(axis=-1)
+    solutions = [
+        Solution(q, float(position_error[b]), float(rotation_error[b]), branches.labels[i, b])
+        for b in np.flatnonzero(fits)
+        for q in in_limit_variants(values[b], inside[b])
+    ]
+    if solutions:
+        found = distinct_solutions(solutions, seed)
+        best = found[0]
+        return IkResult(True, best.q, best.position_error, best.rotation_error, 1, "analytic", "", found,
+                        details={"branch": best.branch, "branches_reachable": int(branches.reachable[i].sum())})
+    best_branch = int(np.argmin(position_error + rotation_error))
+    if not branches.reachable[i].any():
+        reason = "target out of reach: no closed-form branch reaches the wrist centre"
+    elif not strict.any():
+        reason = "no branch verified by FK (numerical failure near a singularity)"
+    else:
+        reason = _limit_reason(robot, branches.Q[i][strict])
+    return IkResult(False, branches.Q[i, best_branch], float(position_error[best_branch]),
+                    float(rotation_error[best_branch]), 1, "analytic", reason, (),
+                    details={"branches_reachable": int(branches.reachable[i].sum())})
+
+
+def _limit_reason(robot, Q_strict: np.ndarray) -> str:
+    """Why exact solutions were rejected: the smallest joint-limit violation among them and their 2 pi shifts."""
+    limits = robot.limits
+    values, _ = joint_values_in_limits(Q_strict, limits.q_min, limits.q_max)
+    excess = np.maximum(np.maximum(limits.q_min[:, None] - values, values - limits.q_max[:, None]), 0.0).min(axis=-1)
+    worst = excess.max(axis=-1)
+    b = int(np.argmin(worst))
+    j = int(np.argmax(excess[b]))
+    return (f"reachable only outside the joint limits: {len(Q_strict)} exact branch(es); the closest violates "
+            f"{robot.joint_names[j]} by {worst[b]:.4g} rad")
+
+
+def _failure(robot, X_target: np.ndarray, seed: np.ndarray, reason: str) -> IkResult:
+    """A result for a robot or target the closed form does not fit: the seed, with its errors."""
+    position_error, rotation_error = pose_errors(robot.fk(seed), IkTarget(X_target))
+    return IkResult(False, np.array(seed, dtype=float), position_error, rotation_error, 0, "analytic", reason)
