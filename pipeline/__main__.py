@@ -50,9 +50,16 @@ def cmd_check(args) -> int:
 
 def cmd_bench(args) -> int:
     """Benchmarks beside the peers measured in the same run."""
-    from .bench.kinematics import run_kinematics_benchmark
+    if args.suite == "ik":
+        from .bench.ik import METHODS, ROBOTS, run_ik_benchmark
 
-    report = run_kinematics_benchmark(args.robot, batch=args.batch, single_calls=args.calls, seed=args.seed)
+        robots = tuple(n.strip() for n in args.robots.split(",") if n.strip()) if args.robots else ROBOTS
+        methods = tuple(m.strip() for m in args.methods.split(",") if m.strip()) if args.methods else METHODS
+        report = run_ik_benchmark(robots, targets=args.targets, seed=args.seed, methods=methods)
+    else:
+        from .bench.kinematics import run_kinematics_benchmark
+
+        report = run_kinematics_benchmark(args.robot, batch=args.batch, single_calls=args.calls, seed=args.seed)
     print(report.format_table())
     if args.out:
         write_text_atomic(args.out, json.dumps(report.to_dict(), indent=2))
@@ -76,10 +83,13 @@ def build_parser() -> argparse.ArgumentParser:
     check.set_defaults(func=cmd_check)
 
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
-    bench.add_argument("suite", choices=["kinematics"])
-    bench.add_argument("--robot", default="gp7")
-    bench.add_argument("--batch", type=int, default=100_000, help="configurations in the batch timing")
-    bench.add_argument("--calls", type=int, default=2000, help="single calls timed per implementation")
+    bench.add_argument("suite", choices=["kinematics", "ik"])
+    bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
+    bench.add_argument("--robots", help="ik: comma-separated robots (default gp7,lrmate200id,irb1600,arm6)")
+    bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake)")
+    bench.add_argument("--targets", type=int, default=1000, help="ik: targets per robot (default 1000)")
+    bench.add_argument("--batch", type=int, default=100_000, help="kinematics: configurations in the batch timing")
+    bench.add_argument("--calls", type=int, default=2000, help="kinematics: single calls timed per implementation")
     bench.add_argument("--seed", type=int, default=0)
     bench.add_argument("--out", help="JSON file for the results")
     bench.set_defaults(func=cmd_bench)

@@ -108,7 +108,12 @@ class DhKinematics:
         value = (Q * self._sign)[..., None, None]
         return self._P + np.cos(value) * self._C + np.sin(value) * self._S + value * self._V
 
-    def _joint_frames(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    @property
+    def revolute_mask(self) -> np.ndarray:
+        """Boolean (dof,): True for revolute joints."""
+        return self._revolute
+
+    def joint_frames(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint frames (..., dof, 4, 4) (z = joint i's axis, before its motion) and the end pose (..., 4, 4)."""
         T = self._moved_links(Q)
         frames = np.empty_like(T)
@@ -140,7 +145,7 @@ class DhKinematics:
         Q = self.as_batch(Q)
         T = self._moved_links(Q)
         value = Q * self._sign
-        frames, end = self._joint_frames(Q)
+        frames, end = self.joint_frames(Q)
         X = np.empty((Q.shape[0], self.dof + 2, 4, 4))
         X[:, 0] = self.spec.X_BaseD0
         # DH frame i = joint frame i @ M_i @ R_i, and M_i = (M_i K_i) K_i^-1 is cheaper as a rotation:
@@ -176,21 +181,35 @@ class DhKinematics:
 
     def jacobian_batch(self, Q) -> np.ndarray:
         """Geometric Jacobians, rows [v; w], base frame, at the end-frame origin -> (N, 6, dof)."""
-        return self._jacobian_from_frames(*self._joint_frames(self.as_batch(Q)))
+        return self._jacobian_from_frames(*self.joint_frames(self.as_batch(Q)))
 
     def jacobian(self, q) -> np.ndarray:
         """Geometric Jacobian (6, dof), rows [v; w] in the base frame at the end-frame origin."""
-        return self._jacobian_from_frames(*self._joint_frames(self.as_configuration(q)))
+        return self._jacobian_from_frames(*self.joint_frames(self.as_configuration(q)))
+
+    def fk_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """X_BE (4, 4) [m] and the Jacobian (6, dof) from one pass along the chain (no input check)."""
+        frames, X = self.joint_frames(q)
+        return X, self._jacobian_from_frames(frames, X)
 
 
 def rotation_log(R: np.ndarray) -> np.ndarray:
-    """Rotation vector (axis * angle) [rad] of a rotation matrix, for small and moderate angles."""
-    cos_angle = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos_angle)
+    """Rotation vector (axis * angle, angle in [0, pi]) [rad] of a rotation matrix, accurate at 0 and pi."""
     vee = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    if angle < 1e-8:
+    sin_angle = 0.5 * np.linalg.norm(vee)
+    cos_angle = 0.5 * (np.trace(R) - 1.0)
+    angle = np.arctan2(sin_angle, cos_angle)
+    if angle < 1e-6:
         return vee / 2.0
-    return vee * angle / (2.0 * np.sin(angle))
+    if angle < np.pi - 1e-6:
+        return vee * (angle / (2.0 * sin_angle))
+    # Near pi the skew part vanishes: the axis is the dominant column of (R + I) / 2 = a a^T.
+    B = (R + np.eye(3)) / 2.0
+    k = int(np.argmax(np.diag(B)))
+    axis = B[:, k] / np.sqrt(B[k, k])
+    if axis @ vee < 0.0:
+        axis = -axis
+    return axis * angle
 
 
 def finite_difference_jacobian(fk, q: np.ndarray, step: float = 1e-6) -> np.ndarray:

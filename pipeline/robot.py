@@ -36,6 +36,38 @@ class Robot(DhKinematics):
         span = hi - lo
         return rng.uniform(lo + margin * span, hi - margin * span, size=(count, self.dof))
 
+    # -- inverse kinematics (pipeline.ik) ------------------------------------------------------
+    def ik(self, X_target, q_seed=None, method: str = "auto", target_kind: str = "pose", **options):
+        """IK for one end-frame pose X_BE (4x4, base frame, [m]) -> IkResult (never None).
+
+        ``method``: ``auto`` | ``analytic`` | ``jacobian`` | ``drake``; ``target_kind``: ``pose`` |
+        ``position+axis`` | ``position``. See ``pipeline.ik.solve_ik`` for the options.
+        """
+        from .ik import solve_ik
+
+        return solve_ik(self, X_target, q_seed, method=method, target_kind=target_kind, **options)
+
+    def ik_batch(self, X_targets, q_seeds=None, method: str = "auto", target_kind: str = "pose", **options):
+        """IK for N poses (N, 4, 4); seeds (N, dof), one (dof,) for all, or None. Returns N IkResults.
+
+        The closed form runs vectorised over all targets; the numeric methods solve one by one.
+        """
+        from .ik import solve_ik_batch
+
+        return solve_ik_batch(self, X_targets, q_seeds, method=method, target_kind=target_kind, **options)
+
+    def ik_path(self, X_path, q_start, method: str = "auto", target_kind: str = "pose", **options):
+        """IK along poses (K, 4, 4) that keeps one branch and never jumps -> PathIkResult."""
+        from .ik.sequence import solve_ik_path
+
+        return solve_ik_path(self, X_path, q_start, method=method, target_kind=target_kind, **options)
+
+    def joint_velocities(self, q, twist, **options):
+        """Joint rates for an end-frame twist [v; w] (base frame) via the damped pseudo-inverse."""
+        from .ik.velocity import joint_velocities
+
+        return joint_velocities(self, q, twist, **options)
+
     def __str__(self) -> str:
         return self.spec.dh_table()
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -113,8 +114,10 @@ class RobotSpec:
     def dof(self) -> int:
         return len(self.joints)
 
-    @property
+    @cached_property
     def limits(self) -> Limits:
+        """Joint limits as SI arrays (computed once)."""
+
         def column(field: str) -> np.ndarray | None:
             values = [getattr(j, field) for j in self.joints]
             return None if any(v is None for v in values) else np.array(values, dtype=float)

@@ -23,15 +23,9 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     ``options`` go to the method: ``rng`` (np.random.Generator for restarts), ``max_restarts``,
     ``max_iterations``, ``time_budget`` [s].
     """
-    if method not in METHODS:
-        raise ConfigurationError(f"unknown IK method {method!r}; choose one of {', '.join(METHODS)}")
     target = make_target(X_target, target_kind)
-    limits = robot.limits
-    seed = (limits.q_min + limits.q_max) / 2.0 if q_seed is None else robot.as_configuration(q_seed)
-    if method == "auto":
-        from .analytic import analytic_solver_for
-
-        method = "analytic" if analytic_solver_for(robot).applicable and target.kind == FULL_POSE else "jacobian"
+    seed = _seed(robot, q_seed)
+    method = _resolve_method(robot, method, target.kind)
     if method == "analytic":
         from .analytic import solve_analytic
 
@@ -45,4 +39,41 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     return solve_drake(robot, target, seed, **options)
 
 
-__all__ = ["IkResult", "IkTarget", "METHODS", "Solution", "solve_ik", "make_target"]
+def _seed(robot, q_seed) -> np.ndarray:
+    """The seed as a checked configuration; default the middle of the joint ranges."""
+    limits = robot.limits
+    return (limits.q_min + limits.q_max) / 2.0 if q_seed is None else robot.as_configuration(q_seed)
+
+
+def _resolve_method(robot, method: str, kind: str) -> str:
+    """Validate the method name; ``auto`` becomes ``analytic`` where the closed form fits, else ``jacobian``."""
+    if method not in METHODS:
+        raise ConfigurationError(f"unknown IK method {method!r}; choose one of {', '.join(METHODS)}")
+    if method != "auto":
+        return method
+    from .analytic import analytic_solver_for
+
+    return "analytic" if analytic_solver_for(robot).applicable and kind == FULL_POSE else "jacobian"
+
+
+def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_kind: str = FULL_POSE,
+                   **options) -> list[IkResult]:
+    """IK for N targets (N, 4, 4); ``q_seeds`` (N, dof), (dof,) or None. The closed form is vectorised."""
+    X_targets = np.asarray(X_targets, dtype=float)
+    if X_targets.ndim != 3 or X_targets.shape[1:] != (4, 4):
+        raise ConfigurationError(f"targets must have shape (N, 4, 4), got {X_targets.shape}")
+    targets = [make_target(X, target_kind) for X in X_targets]
+    if q_seeds is None or np.ndim(q_seeds) == 1:
+        seeds = np.tile(_seed(robot, q_seeds), (len(targets), 1))
+    else:
+        seeds = robot.as_batch(q_seeds)
+        if len(seeds) != len(targets):
+            raise ConfigurationError(f"{len(targets)} targets but {len(seeds)} seeds")
+    if _resolve_method(robot, method, target_kind) == "analytic":
+        from .analytic import solve_analytic_batch
+
+        return solve_analytic_batch(robot, X_targets, seeds, target_kind)
+    return [solve_ik(robot, t.X_BE, s, method, target_kind, **options) for t, s in zip(targets, seeds)]
+
+
+__all__ = ["IkResult", "IkTarget", "METHODS", "Solution", "make_target", "solve_ik", "solve_ik_batch"]

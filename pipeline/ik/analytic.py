@@ -32,7 +32,8 @@ from .result import (
     IkResult,
     IkTarget,
     Solution,
-    distinct_solutions,
+    distinct_order,
+    limit_variants,
     pose_errors,
 )
 
@@ -64,24 +65,39 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rodrigues: rotate vectors v (..., 3) about the unit axis (3,) by angle (...) [rad]."""
-    c, s = np.cos(angle)[..., None], np.sin(angle)[..., None]
-    return v * c + _cross(axis, v) * s + axis * (_dot(axis, v)[..., None] * (1.0 - c))
+def _skew(w: np.ndarray) -> np.ndarray:
+    """The matrix K with K v = w x v."""
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
-def _rotation_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) about the unit axis (3,) by angle (...)."""
-    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
-    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+@dataclass(frozen=True, eq=False)
+class _Axis:
+    """A unit joint axis w with its cross-product matrix K (K v = w x v) and K^2."""
 
+    w: np.ndarray
+    K: np.ndarray
+    K2: np.ndarray
 
-def _angle_about(axis: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Subproblem 1: the rotation angle about ``axis`` taking u's projection to v's [rad]."""
-    u_perp = u - axis * _dot(axis, u)[..., None]
-    v_perp = v - axis * _dot(axis, v)[..., None]
-    return np.arctan2(_dot(axis, _cross(u_perp, v_perp)), _dot(u_perp, v_perp))
+    @classmethod
+    def of(cls, w: np.ndarray) -> "_Axis":
+        K = _skew(w)
+        return cls(w, K, K @ K)
+
+    def rotate(self, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Rodrigues: rotate vectors v (..., 3) about this axis by angle (...) [rad]."""
+        c, s = np.cos(angle)[..., None], np.sin(angle)[..., None]
+        return v + s * (v @ self.K.T) + (1.0 - c) * (v @ self.K2.T)
+
+    def matrix(self, angle: np.ndarray) -> np.ndarray:
+        """Rotation matrices (..., 3, 3) about this axis by angle (...) [rad]."""
+        c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
+        return np.eye(3) + s * self.K + (1.0 - c) * self.K2
+
+    def angle(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Subproblem 1: the rotation about this axis taking u's projection onto v's [rad]."""
+        y = -_dot(u, v @ self.K.T)                       # w . (u x v)
+        x = _dot(u, v) - (u @ self.w) * (v @ self.w)      # projections' dot product
+        return np.arctan2(y, x)
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -129,7 +145,7 @@ def _derive_solver(robot) -> AnalyticSolver:
     spec = robot.spec
     if spec.dof != 6 or not all(j.is_revolute for j in spec.joints):
         return AnalyticSolver(False, f"{spec.name}: the closed form needs 6 revolute joints (has {spec.dof})")
-    frames, X_BE0 = robot._joint_frames(np.zeros(6))
+    frames, X_BE0 = robot.joint_frames(np.zeros(6))
     axes = frames[:, :3, 2] * np.array([j.sign for j in spec.joints])[:, None]
     points = frames[:, :3, 3].copy()
     if np.linalg.norm(_cross(axes[3], axes[4])) < GEOMETRY_TOLERANCE:
@@ -159,6 +175,7 @@ class BranchSolutions:
 def solve_branches(solver: AnalyticSolver, X_targets: np.ndarray, seeds: np.ndarray) -> BranchSolutions:
     """All 8 closed-form branches for targets X (N, 4, 4) [m]; seeds (N, 6) break singular ties."""
     w, r, c = solver.axes, solver.points, solver.wrist_centre
+    ax = [_Axis.of(wi) for wi in w]
     n = X_targets.shape[0]
     R_target, p_target = X_targets[:, :3, :3], X_targets[:, :3, 3]
     c_in_end = solver.X_BE0[:3, :3].T @ (c - solver.X_BE0[:3, 3])
@@ -180,7 +197,7 @@ def solve_branches(solver: AnalyticSolver, X_targets: np.ndarray, seeds: np.ndar
     q1 = np.where(shoulder_singular[:, None], seeds[:, :1], q1)
 
     # q3: |e^{xi3 q3} c - r2| = |p' - r2| with p' = e^{-xi1 q1} p_w (subproblem 3 about axis 3).
-    p_prime = r[0] + _rotate(w1, -q1, (p_wrist - r[0])[:, None, :])                  # (N, 2, 3)
+    p_prime = r[0] + ax[0].rotate(-q1, (p_wrist - r[0])[:, None, :])                  # (N, 2, 3)
     w3 = w[2]
     u, vv = c - r[2], r[1] - r[2]
     u_p, v_p = u - w3 * (w3 @ u), vv - w3 * (w3 @ vv)
@@ -192,11 +209,11 @@ def solve_branches(solver: AnalyticSolver, X_targets: np.ndarray, seeds: np.ndar
     q3 = np.stack([theta0 - spread3, theta0 + spread3], axis=2)                        # (N, 2, 2)
 
     # q2: rotate e^{xi3 q3} c about axis 2 onto p' (subproblem 1).
-    p3 = r[2] + _rotate(w3, q3, np.broadcast_to(c - r[2], q3.shape + (3,)))          # (N, 2, 2, 3)
-    q2 = _angle_about(w2, p3 - r[1], p_prime[:, :, None, :] - r[1])                   # (N, 2, 2)
+    p3 = r[2] + ax[2].rotate(q3, c - r[2])          # (N, 2, 2, 3)
+    q2 = ax[1].angle(p3 - r[1], p_prime[:, :, None, :] - r[1])                   # (N, 2, 2)
 
     q1_b = np.broadcast_to(q1[:, :, None], q3.shape)
-    R_arm = _rotation_matrix(w1, q1_b) @ _rotation_matrix(w2, q2) @ _rotation_matrix(w3, q3)
+    R_arm = ax[0].matrix(q1_b) @ ax[1].matrix(q2) @ ax[2].matrix(q3)
     R_wrist = np.swapaxes(R_arm, -1, -2) @ R_target[:, None, None] @ solver.X_BE0[:3, :3].T  # (N,2,2,3,3)
 
     # q4, q5: e^{w4 q4} e^{w5 q5} w6 = d (subproblem 2), two roots; then q6 (subproblem 1).
@@ -210,23 +227,22 @@ def solve_branches(solver: AnalyticSolver, X_targets: np.ndarray, seeds: np.ndar
     gammas = np.stack([gamma, -gamma], axis=-1)                                       # (N, 2, 2, 2)
     z = (alpha[..., None, None] * w4 + beta[..., None, None] * w5 + gammas[..., None] * n45)
     d_b = np.broadcast_to(d[..., None, :], z.shape)
-    q4 = _angle_about(w4, z, d_b)
-    q5 = _angle_about(w5, np.broadcast_to(w6, z.shape), z)
-    wrist_singular = np.linalg.norm(_cross(w4, d_b), axis=-1) < SINGULAR_TOLERANCE
+    q4 = ax[3].angle(z, d_b)
+    q5 = ax[4].angle(w6, z)
+    wrist_singular = np.linalg.norm(d_b @ ax[3].K.T, axis=-1) < SINGULAR_TOLERANCE
     seed_shape = (n, 1, 1, 1)
     seed4, seed6 = seeds[:, 3].reshape(seed_shape), seeds[:, 5].reshape(seed_shape)
     if wrist_singular.any():
         q4 = np.where(wrist_singular, seed4, q4)
-        z_singular = _rotate(w4, -q4, d_b)
-        q5 = np.where(wrist_singular, _angle_about(w5, np.broadcast_to(w6, z.shape), z_singular), q5)
-    R45 = _rotation_matrix(w4, q4) @ _rotation_matrix(w5, q5)
+        q5 = np.where(wrist_singular, ax[4].angle(w6, ax[3].rotate(-q4, d_b)), q5)
+    R45 = ax[3].matrix(q4) @ ax[4].matrix(q5)
     n6 = _unit(_cross(w6, [1.0, 0.0, 0.0]) if abs(w6[0]) < 0.9 else _cross(w6, [0.0, 1.0, 0.0]))
     R_wrist_b = np.broadcast_to(R_wrist[..., None, :, :], R45.shape)
     target_n6 = np.swapaxes(R45, -1, -2) @ R_wrist_b @ n6
-    q6 = _angle_about(w6, np.broadcast_to(n6, target_n6.shape), target_n6)
+    q6 = ax[5].angle(n6, target_n6)
     if wrist_singular.any():
         # Only q4 + sigma q6 is fixed: split the change nearest the seed.
-        sigma = np.sign(_dot(w4, _rotate(w5, q5, np.broadcast_to(w6, z.shape))))
+        sigma = np.sign(ax[4].rotate(q5, w6) @ w4)
         step = _wrap(sigma * (q6 - seed6))
         q4 = np.where(wrist_singular, seed4 + step / 2.0, q4)
         q6 = np.where(wrist_singular, q6 - sigma * step / 2.0, q6)
@@ -246,12 +262,12 @@ def _labels(solver: AnalyticSolver, Q: np.ndarray, p_wrist: np.ndarray) -> np.nd
     above the shoulder (axis 2) to wrist-centre line. Flip: q5 < 0.
     """
     w, r, c = solver.axes, solver.points, solver.wrist_centre
+    axis1, axis2 = _Axis.of(w[0]), _Axis.of(w[1])
     forward0 = (c - r[0]) - w[0] * (w[0] @ (c - r[0]))
-    forward = _rotate(w[0], Q[..., 0], np.broadcast_to(forward0, Q.shape[:-1] + (3,)))
+    forward = axis1.rotate(Q[..., 0], forward0)
     front = _dot(forward, p_wrist[:, None, :] - r[0]) >= 0.0
-    shoulder = r[0] + _rotate(w[0], Q[..., 0], np.broadcast_to(r[1] - r[0], forward.shape))
-    elbow_local = r[1] + _rotate(w[1], Q[..., 1], np.broadcast_to(r[2] - r[1], forward.shape))
-    elbow = r[0] + _rotate(w[0], Q[..., 0], elbow_local - r[0])
+    shoulder = r[0] + axis1.rotate(Q[..., 0], r[1] - r[0])
+    elbow = r[0] + axis1.rotate(Q[..., 0], r[1] - r[0] + axis2.rotate(Q[..., 1], r[2] - r[1]))
     line = _unit_rows(p_wrist[:, None, :] - shoulder)
     offset = elbow - shoulder
     up = (offset - line * _dot(offset, line)[..., None])[..., 2] >= 0.0
@@ -265,23 +281,6 @@ def _labels(solver: AnalyticSolver, Q: np.ndarray, p_wrist: np.ndarray) -> np.nd
 def _unit_rows(v: np.ndarray) -> np.ndarray:
     norm = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(norm > 0.0, norm, 1.0)
-
-
-#: 2 pi shifts tried per joint: enough for ranges up to 4 pi (+-720 deg).
-_SHIFTS = TWO_PI * np.arange(-2, 3)
-
-
-def joint_values_in_limits(Q: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each joint's 2 pi shifts (..., 6, 5) and which of them lie inside the limits (same shape)."""
-    values = Q[..., None] + _SHIFTS
-    inside = (values >= q_min[:, None]) & (values <= q_max[:, None])
-    return values, inside
-
-
-def in_limit_variants(values: np.ndarray, inside: np.ndarray) -> list[np.ndarray]:
-    """Every in-limit combination of one branch's shifted joint values (6, 5) -> list of q (6,)."""
-    choices = [values[j][inside[j]] for j in range(values.shape[0])]
-    return [np.array(combo) for combo in itertools.product(*choices)]
 
 
 def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
@@ -303,10 +302,12 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
     R_error = np.swapaxes(X_branches[..., :3, :3], -1, -2) @ X_targets[:, None, :3, :3]
     rotation_error = _rotation_angles(R_error)
     strict = (position_error <= POSITION_TOLERANCE) & (rotation_error <= ROTATION_TOLERANCE)
-    values, inside = joint_values_in_limits(branches.Q, limits.q_min, limits.q_max)
+    revolute = np.ones(6, dtype=bool)
+    candidates, valid = limit_variants(branches.Q, revolute, limits.q_min, limits.q_max)  # (N, 8, V, 6)
+    valid &= strict[..., None]
     return [
-        _result_for_target(robot, i, branches, values[i], inside[i], strict[i], position_error[i],
-                           rotation_error[i], seeds[i])
+        _result_for_target(robot, branches, i, candidates[i], valid[i], position_error[i], rotation_error[i],
+                           strict[i], seeds[i])
         for i in range(n)
     ]
 
@@ -317,15 +318,17 @@ def _rotation_angles(R: np.ndarray) -> np.ndarray:
     return np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
 
 
-def _result_for_target(robot, i, branches, values, inside, strict, position_error, rotation_error, seed):
-    fits = strict & inside.any(axis=-1).all(axis=-1)
-    solutions = [
-        Solution(q, float(position_error[b]), float(rotation_error[b]), branches.labels[i, b])
-        for b in np.flatnonzero(fits)
-        for q in in_limit_variants(values[b], inside[b])
-    ]
-    if solutions:
-        found = distinct_solutions(solutions, seed)
+def _result_for_target(robot, branches, i, candidates, valid, position_error, rotation_error, strict, seed):
+    """The IkResult of target i from its branch candidates (8, V, 6) and their validity (8, V)."""
+    branch_of, variant_of = np.nonzero(valid)
+    if branch_of.size:
+        Q = candidates[branch_of, variant_of]
+        keep = distinct_order(Q, seed)
+        found = tuple(
+            Solution(Q[k], float(position_error[branch_of[k]]), float(rotation_error[branch_of[k]]),
+                     branches.labels[i, branch_of[k]])
+            for k in keep
+        )
         best = found[0]
         return IkResult(True, best.q, best.position_error, best.rotation_error, 1, "analytic", "", found,
                         details={"branch": best.branch, "branches_reachable": int(branches.reachable[i].sum())})
@@ -344,13 +347,13 @@ def _result_for_target(robot, i, branches, values, inside, strict, position_erro
 def _limit_reason(robot, Q_strict: np.ndarray) -> str:
     """Why exact solutions were rejected: the smallest joint-limit violation among them and their 2 pi shifts."""
     limits = robot.limits
-    values, _ = joint_values_in_limits(Q_strict, limits.q_min, limits.q_max)
-    excess = np.maximum(np.maximum(limits.q_min[:, None] - values, values - limits.q_max[:, None]), 0.0).min(axis=-1)
+    candidates, _ = limit_variants(Q_strict, np.ones(6, dtype=bool), limits.q_min, limits.q_max)
+    excess = np.maximum(np.maximum(limits.q_min - candidates, candidates - limits.q_max), 0.0)   # (B, V, 6)
     worst = excess.max(axis=-1)
-    b = int(np.argmin(worst))
-    j = int(np.argmax(excess[b]))
+    b, v = np.unravel_index(np.argmin(worst), worst.shape)
+    j = int(np.argmax(excess[b, v]))
     return (f"reachable only outside the joint limits: {len(Q_strict)} exact branch(es); the closest violates "
-            f"{robot.joint_names[j]} by {worst[b]:.4g} rad")
+            f"{robot.joint_names[j]} by {worst[b, v]:.4g} rad")
 
 
 def _failure(robot, X_target: np.ndarray, seed: np.ndarray, reason: str) -> IkResult:

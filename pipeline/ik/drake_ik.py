@@ -6,16 +6,21 @@ end frame's z axis and the target's (``position+axis``), or nothing more (``posi
 come from the plant. The seed is the initial guess; when a solve gives no strict answer, the next one
 starts from a random in-limit configuration, within ``max_restarts`` and ``time_budget``.
 
-Why the tight solver options: Drake imposes an orientation as ``trace(R_AB) >= 2 cos(theta_bound) + 1``
-and an axis as ``cos(angle) >= cos(angle_upper)``. With a bound of 0 both are met only at their
-maximum, where their gradient vanishes, so a constraint violation of ``eps`` is an angle error of
-about ``sqrt(2 eps)``. With SNOPT's default tolerances (1e-6) Drake reports success with orientation
-errors up to ~1e-3 rad (on 200 GP7 targets from random seeds: 73 reported successes, 35 of them not
-strict, worst 1.0e-3 rad). ``Major optimality tolerance`` 1e-10 is what makes SNOPT keep going to
-~1e-7 rad (worst 8.3e-7 rad on the same targets, and every reported success strict); the feasibility
-tolerance alone does not help, and theta_bound > 0 only loosens it. A second solve restarted from a
-reported but not strict answer does not reliably polish it either. Whatever the solver says, only
-answers that pass our FK check (``is_strict`` and ``within_limits``) count.
+Why the tight solver options and the polish: Drake imposes an orientation as
+``trace(R_AB) >= 2 cos(theta_bound) + 1`` and an axis as ``cos(angle) >= cos(angle_upper)``. With a
+bound of 0 both are met only at their maximum, where their gradient vanishes, so a constraint
+violation of ``eps`` is an angle error of about ``sqrt(2 eps)``. With SNOPT's default tolerances
+(1e-6) Drake reports success with orientation errors up to ~1e-3 rad (200 GP7 targets from random
+seeds: 73 reported successes, 35 of them not strict, worst 1.0e-3 rad). ``Major optimality
+tolerance`` 1e-10 makes SNOPT go on to ~5e-7 rad (every reported success strict on those targets);
+the feasibility tolerance alone does not help, and theta_bound > 0 only loosens it. That is about the
+floor of the trace form in double precision, so a few answers (more for the axis form, up to 1e-5
+rad on arm5) still miss 1e-6 rad. Such a near miss (within ``POLISH_POSITION`` and
+``POLISH_ROTATION``) is polished by one more solve from it with a first-order form of the same
+constraints: points of the end frame pinned in the target frame (x axis tip: y = z = 0; y axis tip:
+z = 0; for an axis, z axis tip: x = y = 0), whose violation is linear in the angle error. That form
+alone converges from fewer random seeds, hence the two steps. Whatever the solver says, only answers
+that pass our FK check (``is_strict`` and ``within_limits``) count.
 """
 
 from __future__ import annotations
@@ -30,12 +35,13 @@ from .result import (
     FULL_POSE,
     MATCHED_COMPONENTS,
     POSITION_AND_AXIS,
+    POSITION_ONLY,
     POSITION_TOLERANCE,
     ROTATION_TOLERANCE,
     IkResult,
     IkTarget,
     Solution,
-    distinct_solutions,
+    distinct_order,
     is_strict,
     pose_errors,
     within_limits,
@@ -51,6 +57,12 @@ SOLVER_OPTIONS = {
     SNOPT: {"Major feasibility tolerance": 1e-10, "Major optimality tolerance": 1e-10},
     IPOPT: {"tol": 1e-12, "constr_viol_tol": 1e-12, "print_level": 0},
 }
+
+#: Near misses worth one polish solve (see the module docstring) [m], [rad].
+POLISH_POSITION = 1e-3
+POLISH_ROTATION = 1e-2
+
+_UNIT = np.eye(3)
 
 #: Drake models built once per robot object (dropped with the robot).
 _DRAKE_MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -81,20 +93,34 @@ def pick_solver(name: str = "auto"):
     raise RuntimeError(f"Drake solver {name!r} is not available in this pydrake build")
 
 
-def build_ik_program(drake_robot, target: IkTarget):
-    """An ``InverseKinematics`` (own context, joint limits on) with the constraints of ``target``."""
-    from pydrake.math import RotationMatrix
+def build_ik_program(drake_robot, target: IkTarget, first_order: bool = False):
+    """An ``InverseKinematics`` (own context, joint limits on) with the constraints of ``target``.
+
+    ``first_order=False``: Drake's orientation / angle-between-vectors constraints with a bound of 0.
+    ``first_order=True``: the same targets as unit points of the end frame pinned in the target
+    frame T (the polish step; see the module docstring).
+    """
+    from pydrake.math import RigidTransform, RotationMatrix
     from pydrake.multibody.inverse_kinematics import InverseKinematics
 
     plant, B, E = drake_robot.plant, drake_robot.base_frame, drake_robot.end_frame
     ik = InverseKinematics(plant, with_joint_limits=True)
-    p_BT = np.asarray(target.X_BE[:3, 3], dtype=float)
+    p_BT = np.array(target.X_BE[:3, 3], dtype=float)
+    R_BT = RotationMatrix(np.array(target.X_BE[:3, :3], dtype=float))
     ik.AddPositionConstraint(E, np.zeros(3), B, p_BT, p_BT)
-    if target.kind == FULL_POSE:
-        ik.AddOrientationConstraint(B, RotationMatrix(target.X_BE[:3, :3]), E, RotationMatrix(), 0.0)
+    if target.kind == FULL_POSE and not first_order:
+        ik.AddOrientationConstraint(B, R_BT, E, RotationMatrix(), 0.0)
+    elif target.kind == POSITION_AND_AXIS and not first_order:
+        ik.AddAngleBetweenVectorsConstraint(B, R_BT.col(2), E, _UNIT[2], 0.0, 0.0)
+    elif target.kind == FULL_POSE:
+        X_BT = RigidTransform(R_BT, p_BT)
+        # x axis tip at (x >= 0, 0, 0) in T, y axis tip at (any, y >= 0, 0): 6 independent equalities.
+        ik.AddPositionConstraint(E, _UNIT[0], B, X_BT, np.zeros(3), np.array([np.inf, 0.0, 0.0]))
+        ik.AddPositionConstraint(E, _UNIT[1], B, X_BT, np.array([-np.inf, 0.0, 0.0]),
+                                 np.array([np.inf, np.inf, 0.0]))
     elif target.kind == POSITION_AND_AXIS:
-        ik.AddAngleBetweenVectorsConstraint(B, np.array(target.X_BE[:3, 2], dtype=float), E,
-                                            np.array([0.0, 0.0, 1.0]), 0.0, 0.0)
+        ik.AddPositionConstraint(E, _UNIT[2], B, RigidTransform(R_BT, p_BT), np.zeros(3),
+                                 np.array([0.0, 0.0, np.inf]))
     return ik
 
 
@@ -137,48 +163,61 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     drake_robot = drake_robot_for(robot)
 
     start = time.perf_counter()
-    solves = reported_not_strict = 0
+    solves = polish_solves = reported_not_strict = 0
     strict: list[Solution] = []
     best = None   # (score, q, position error, rotation error, solver info)
     guess = q_seed
-    while True:
-        ik = build_ik_program(drake_robot, target)
-        result = drake_solver.Solve(ik.prog(), guess, options)
+
+    def attempt(initial_guess: np.ndarray, first_order: bool):
+        nonlocal solves, reported_not_strict, best
+        ik = build_ik_program(drake_robot, target, first_order)
+        result = drake_solver.Solve(ik.prog(), initial_guess, options)
         solves += 1
         q = np.asarray(result.GetSolution(ik.q()), dtype=float)
         if not np.isfinite(q).all():
-            q = np.clip(guess, q_min, q_max)
+            q = np.clip(initial_guess, q_min, q_max)
         position_error, rotation_error = pose_errors(robot.fk(q), target)
-        ok = is_strict(position_error, rotation_error) and within_limits(q, q_min, q_max)
+        in_limits = within_limits(q, q_min, q_max)
+        ok = is_strict(position_error, rotation_error) and in_limits
         info = _solver_info(label, result)
         if result.is_success() and not ok:
             reported_not_strict += 1
             log.debug("%s reported success but is not strict: %.2e m, %.2e rad (%s)",
                       label, position_error, rotation_error, info)
-        score = _score(position_error, rotation_error) + (0.0 if within_limits(q, q_min, q_max) else 1e12)
+        score = _score(position_error, rotation_error) + (0.0 if in_limits else 1e12)
         if best is None or score < best[0]:
             best = (score, q, position_error, rotation_error, info)
         if ok:
-            strict.append(Solution(q, position_error, rotation_error, branch=f"drake solve {solves}"))
-            break
-        elapsed = time.perf_counter() - start
-        if solves > max_restarts or elapsed >= time_budget:
+            strict.append(Solution(q, position_error, rotation_error,
+                                   branch=f"drake solve {solves}" + (" (polished)" if first_order else "")))
+        return q, ok, in_limits and position_error <= POLISH_POSITION and rotation_error <= POLISH_ROTATION
+
+    starts, out_of_time = 0, False
+    while True:
+        starts += 1
+        q, ok, near = attempt(guess, first_order=False)
+        if not ok and near and target.kind != POSITION_ONLY:
+            polish_solves += 1
+            q, ok, _ = attempt(q, first_order=True)
+        out_of_time = time.perf_counter() - start >= time_budget
+        if ok or starts > max_restarts or out_of_time:
             break
         guess = robot.random_configurations(rng, 1)[0]
 
     elapsed = time.perf_counter() - start
-    details = {"solver": label, "solves": solves, "reported_success_but_not_strict": reported_not_strict,
+    details = {"solver": label, "solves": solves, "starts": starts, "polish_solves": polish_solves,
+               "reported_success_but_not_strict": reported_not_strict,
                "time_s": elapsed, "solver_options": dict(SOLVER_OPTIONS[label])}
     matched = MATCHED_COMPONENTS[target.kind]
     if strict:
-        solutions = distinct_solutions(strict, q_seed)
+        solutions = tuple(strict[i] for i in distinct_order(np.array([s.q for s in strict]), q_seed))
         first = solutions[0]
         return IkResult(True, first.q, first.position_error, first.rotation_error, solves, "drake",
                         solutions=solutions, matched=matched, details=details)
     _, q, position_error, rotation_error, info = best
-    stopped = "time budget of %.3g s used up after" % time_budget if solves <= max_restarts else "no strict solution in"
-    reason = (f"{stopped} {solves} Drake solve(s) ({label}): best position error {position_error:.3g} m, "
-              f"rotation error {rotation_error:.3g} rad ({info})")
+    stopped = f"time budget of {time_budget:g} s used up after" if out_of_time else "no strict solution in"
+    reason = (f"{stopped} {solves} Drake solves ({label}, {starts} starts): best position error "
+              f"{position_error:.3g} m, rotation error {rotation_error:.3g} rad ({info})")
     if reported_not_strict:
         reason += f"; {reported_not_strict} reported success but failed our FK check"
     return IkResult(False, q, position_error, rotation_error, solves, "drake", reason=reason,

@@ -120,40 +120,51 @@ def wrap_into_limits(q: np.ndarray, revolute: np.ndarray, q_min: np.ndarray, q_m
     """Shift revolute joints by multiples of 2 pi into their limits where possible.
 
     Among the in-limit representatives, the one nearest ``reference`` (default: the middle of the
-    range) is chosen; joints that cannot be brought inside keep their nearest representative.
+    range) is chosen; a joint that cannot be brought inside keeps the representative nearest it.
     """
-    q = np.array(q, dtype=float)
-    centre = (q_min + q_max) / 2.0 if reference is None else reference
-    for i in np.flatnonzero(revolute):
-        k_low = math.ceil((q_min[i] - q[i]) / TWO_PI)
-        k_high = math.floor((q_max[i] - q[i]) / TWO_PI)
-        if k_low <= k_high:
-            candidates = q[i] + TWO_PI * np.arange(k_low, k_high + 1)
-        else:
-            candidates = q[i] + TWO_PI * np.array([k_high, k_low])
-        q[i] = candidates[np.argmin(np.abs(candidates - centre[i]))]
-    return q
+    reference = (q_min + q_max) / 2.0 if reference is None else reference
+    nearest = q - TWO_PI * np.round((q - reference) / TWO_PI)
+    candidates = nearest[:, None] + _NEIGHBOUR_SHIFTS                     # (dof, 3): nearest first
+    inside = (candidates >= q_min[:, None]) & (candidates <= q_max[:, None])
+    distance = np.abs(candidates - reference[:, None]) + np.where(inside, 0.0, np.inf)
+    pick = np.where(inside.any(axis=1), np.argmin(distance, axis=1), 0)
+    return np.where(revolute, candidates[np.arange(q.size), pick], q)
 
 
-def two_pi_variants(q: np.ndarray, revolute: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) -> list[np.ndarray]:
-    """Every in-limit configuration equal to q up to multiples of 2 pi on revolute joints."""
-    options = []
-    for i in range(q.size):
-        if revolute[i]:
-            k_low = math.ceil((q_min[i] - q[i]) / TWO_PI - 1e-12)
-            k_high = math.floor((q_max[i] - q[i]) / TWO_PI + 1e-12)
-            values = [q[i] + TWO_PI * k for k in range(k_low, k_high + 1)]
-            options.append([min(max(v, q_min[i]), q_max[i]) for v in values])
-        else:
-            options.append([q[i]] if q_min[i] <= q[i] <= q_max[i] else [])
-    return [np.array(combo) for combo in itertools.product(*options)]
+_NEIGHBOUR_SHIFTS = np.array([0.0, -TWO_PI, TWO_PI])
 
 
-def distinct_solutions(solutions: list[Solution], q_seed: np.ndarray, tolerance: float = 1e-6) -> tuple[Solution, ...]:
-    """Solutions without duplicates (max joint difference <= tolerance), nearest to the seed first."""
-    ordered = sorted(solutions, key=lambda s: float(np.linalg.norm(s.q - q_seed)))
-    kept: list[Solution] = []
-    for s in ordered:
-        if all(np.abs(s.q - k.q).max() > tolerance for k in kept):
-            kept.append(s)
-    return tuple(kept)
+#: 2 pi shifts tried per joint: enough for joint ranges up to 4 pi (+-720 deg).
+_SHIFTS = TWO_PI * np.arange(-2, 3)
+
+
+def limit_variants(Q: np.ndarray, revolute: np.ndarray, q_min: np.ndarray, q_max: np.ndarray):
+    """Every 2 pi shift of configurations Q (..., dof) that may fit the limits.
+
+    Returns candidates (..., V, dof) and a mask (..., V) of those inside every limit. Joints whose
+    range spans more than 2 pi are enumerated (V = 5^m for m such joints); the others have at most one
+    in-limit representative, which is taken. Prismatic joints are not shifted.
+    """
+    values = Q[..., None] + np.where(revolute[:, None], _SHIFTS, 0.0)            # (..., dof, 5)
+    inside = (values >= q_min[:, None]) & (values <= q_max[:, None])
+    multi = np.flatnonzero(revolute & (q_max - q_min > TWO_PI))
+    single = np.setdiff1d(np.arange(Q.shape[-1]), multi)
+    combos = np.array(list(itertools.product(range(_SHIFTS.size), repeat=multi.size)), dtype=int).reshape(-1, multi.size)
+    candidates = np.repeat(Q[..., None, :], len(combos), axis=-2)
+    pick = np.argmax(inside[..., single, :], axis=-1)                             # first in-limit shift
+    candidates[..., single] = np.take_along_axis(values[..., single, :], pick[..., None], axis=-1)[..., 0][..., None, :]
+    valid = np.take_along_axis(inside[..., single, :], pick[..., None], axis=-1)[..., 0].all(axis=-1)[..., None]
+    valid = np.broadcast_to(valid, candidates.shape[:-1]).copy()
+    for column, joint in enumerate(multi):
+        candidates[..., joint] = values[..., joint, :][..., combos[:, column]]
+        valid &= inside[..., joint, :][..., combos[:, column]]
+    return candidates, valid
+
+
+def distinct_order(Q: np.ndarray, q_seed: np.ndarray, tolerance: float = 1e-6) -> np.ndarray:
+    """Indices of the distinct rows of Q (k, dof) (max joint difference > tolerance), nearest the seed first."""
+    order = np.argsort(np.linalg.norm(Q - q_seed, axis=1), kind="stable")
+    Q = Q[order]
+    close = np.abs(Q[:, None, :] - Q[None, :, :]).max(axis=-1) <= tolerance
+    duplicate = np.tril(close, k=-1).any(axis=1)
+    return order[~duplicate]
