@@ -70,3 +70,15 @@ def test_unavailable_method_is_reported(monkeypatch):
     robot = report.robots[0]
     assert "NotImplementedError" in robot.unavailable[ours_name("jacobian")]
     assert ours_name("jacobian") not in [row.name for row in robot.rows]
+
+
+def test_cli_bench_ik(tmp_path, capsys):
+    from pipeline.__main__ import main
+
+    out = tmp_path / "ik.json"
+    code = main(["bench", "ik", "--robots", "gp7", "--targets", "2", "--methods", "drake", "--seed", "4",
+                 "--out", str(out)])
+    assert code == 0
+    assert "strict" in capsys.readouterr().out
+    data = json.loads(out.read_text())
+    assert data["targets"] == 2 and data["robots"][0]["robot_name"] == "gp7"

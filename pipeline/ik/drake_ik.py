@@ -6,21 +6,24 @@ end frame's z axis and the target's (``position+axis``), or nothing more (``posi
 come from the plant. The seed is the initial guess; when a solve gives no strict answer, the next one
 starts from a random in-limit configuration, within ``max_restarts`` and ``time_budget``.
 
-Why the tight solver options and the polish: Drake imposes an orientation as
+Why the polish, and its tight solver options: Drake imposes an orientation as
 ``trace(R_AB) >= 2 cos(theta_bound) + 1`` and an axis as ``cos(angle) >= cos(angle_upper)``. With a
 bound of 0 both are met only at their maximum, where their gradient vanishes, so a constraint
 violation of ``eps`` is an angle error of about ``sqrt(2 eps)``. With SNOPT's default tolerances
 (1e-6) Drake reports success with orientation errors up to ~1e-3 rad (200 GP7 targets from random
-seeds: 73 reported successes, 35 of them not strict, worst 1.0e-3 rad). ``Major optimality
-tolerance`` 1e-10 makes SNOPT go on to ~5e-7 rad (every reported success strict on those targets);
-the feasibility tolerance alone does not help, and theta_bound > 0 only loosens it. That is about the
-floor of the trace form in double precision, so a few answers (more for the axis form, up to 1e-5
-rad on arm5) still miss 1e-6 rad. Such a near miss (within ``POLISH_POSITION`` and
-``POLISH_ROTATION``) is polished by one more solve from it with a first-order form of the same
-constraints: points of the end frame pinned in the target frame (x axis tip: y = z = 0; y axis tip:
-z = 0; for an axis, z axis tip: x = y = 0), whose violation is linear in the angle error. That form
-alone converges from fewer random seeds, hence the two steps. Whatever the solver says, only answers
-that pass our FK check (``is_strict`` and ``within_limits``) count.
+seeds: 73 reported successes, 35 of them not strict, worst 1.0e-3 rad). Tightening SNOPT helps only
+so far: ``Major optimality tolerance`` 1e-10 takes the same solves to ~5e-7 rad (the feasibility
+tolerance alone does not help, theta_bound > 0 only loosens it), about the floor of the trace form
+in double precision, so some answers still miss 1e-6 rad (more for the axis form: up to 1e-5 rad on
+arm5); and tight tolerances make the failing solves (SNOPT info 13, a local minimum of the
+infeasibility) grind on: 2-3x the mean time per target, 3-5x the p95. So the main solves use the
+solver's defaults, and a near miss (within ``POLISH_POSITION`` and ``POLISH_ROTATION``) is polished
+by one more solve from it, with ``POLISH_OPTIONS`` and a first-order form of the same constraints:
+points of the end frame pinned in the target frame (x axis tip: y = z = 0; y axis tip: z = 0; for an
+axis, z axis tip: x = y = 0), whose violation is linear in the angle error (results ~1e-9 rad). That
+form alone converges from fewer random seeds (18.5 % vs 36.5 % on the GP7 targets), hence the two
+steps. Whatever the solver says, only answers that pass our FK check (``is_strict`` and
+``within_limits``) count.
 """
 
 from __future__ import annotations
@@ -52,8 +55,10 @@ log = logging.getLogger(__name__)
 SNOPT = "SNOPT"
 IPOPT = "IPOPT"
 
-#: Solver options per solver (see the module docstring for why and what was measured).
-SOLVER_OPTIONS = {
+#: Solver options of the main solves (the solvers' defaults: tight ones make failing solves slow)
+#: and of the polish solves (see the module docstring for why and what was measured).
+MAIN_OPTIONS = {SNOPT: {}, IPOPT: {"print_level": 0}}
+POLISH_OPTIONS = {
     SNOPT: {"Major feasibility tolerance": 1e-10, "Major optimality tolerance": 1e-10},
     IPOPT: {"tol": 1e-12, "constr_viol_tol": 1e-12, "print_level": 0},
 }
@@ -124,11 +129,11 @@ def build_ik_program(drake_robot, target: IkTarget, first_order: bool = False):
     return ik
 
 
-def _solver_options(label: str, solver):
+def _solver_options(solver, values: dict):
     from pydrake.solvers import SolverOptions
 
     options = SolverOptions()
-    for key, value in SOLVER_OPTIONS[label].items():
+    for key, value in values.items():
         options.SetOption(solver.solver_id(), key, value)
     return options
 
@@ -159,7 +164,8 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     q_seed = np.asarray(q_seed, dtype=float)
     q_min, q_max = robot.limits.q_min, robot.limits.q_max
     label, drake_solver = pick_solver(solver)
-    options = _solver_options(label, drake_solver)
+    main_options = _solver_options(drake_solver, MAIN_OPTIONS[label])
+    polish_options = _solver_options(drake_solver, POLISH_OPTIONS[label])
     drake_robot = drake_robot_for(robot)
 
     start = time.perf_counter()
@@ -171,7 +177,7 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     def attempt(initial_guess: np.ndarray, first_order: bool):
         nonlocal solves, reported_not_strict, best
         ik = build_ik_program(drake_robot, target, first_order)
-        result = drake_solver.Solve(ik.prog(), initial_guess, options)
+        result = drake_solver.Solve(ik.prog(), initial_guess, polish_options if first_order else main_options)
         solves += 1
         q = np.asarray(result.GetSolution(ik.q()), dtype=float)
         if not np.isfinite(q).all():
@@ -207,7 +213,8 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     elapsed = time.perf_counter() - start
     details = {"solver": label, "solves": solves, "starts": starts, "polish_solves": polish_solves,
                "reported_success_but_not_strict": reported_not_strict,
-               "time_s": elapsed, "solver_options": dict(SOLVER_OPTIONS[label])}
+               "time_s": elapsed, "main_options": dict(MAIN_OPTIONS[label]),
+               "polish_options": dict(POLISH_OPTIONS[label])}
     matched = MATCHED_COMPONENTS[target.kind]
     if strict:
         solutions = tuple(strict[i] for i in distinct_order(np.array([s.q for s in strict]), q_seed))
