@@ -32,7 +32,7 @@ from .result import (
     IkResult,
     IkTarget,
     Solution,
-    distinct_order,
+    distinct_order_batch,
     limit_variants,
     pose_errors,
 )
@@ -302,14 +302,28 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
     R_error = np.swapaxes(X_branches[..., :3, :3], -1, -2) @ X_targets[:, None, :3, :3]
     rotation_error = _rotation_angles(R_error)
     strict = (position_error <= POSITION_TOLERANCE) & (rotation_error <= ROTATION_TOLERANCE)
-    revolute = np.ones(6, dtype=bool)
-    candidates, valid = limit_variants(branches.Q, revolute, limits.q_min, limits.q_max)  # (N, 8, V, 6)
+    candidates, valid = limit_variants(branches.Q, np.ones(6, dtype=bool), limits.q_min, limits.q_max)
+    variants = candidates.shape[2]
     valid &= strict[..., None]
-    return [
-        _result_for_target(robot, branches, i, candidates[i], valid[i], position_error[i], rotation_error[i],
-                           strict[i], seeds[i])
-        for i in range(n)
-    ]
+    order, keep = distinct_order_batch(candidates.reshape(n, -1, 6), valid.reshape(n, -1), seeds)
+    flat = candidates.reshape(n, -1, 6)
+    results = []
+    for i in range(n):
+        chosen = order[i][keep[i]]
+        if chosen.size == 0:
+            results.append(_failure_for_target(robot, branches, i, position_error[i], rotation_error[i], strict[i]))
+            continue
+        branch_of = chosen // variants
+        found = tuple(
+            Solution(q, e_p, e_r, label)
+            for q, e_p, e_r, label in zip(flat[i, chosen], position_error[i, branch_of].tolist(),
+                                          rotation_error[i, branch_of].tolist(), branches.labels[i, branch_of])
+        )
+        best = found[0]
+        results.append(IkResult(True, best.q, best.position_error, best.rotation_error, 1, "analytic", "", found,
+                                details={"branch": best.branch,
+                                         "branches_reachable": int(branches.reachable[i].sum())}))
+    return results
 
 
 def _rotation_angles(R: np.ndarray) -> np.ndarray:
@@ -318,20 +332,8 @@ def _rotation_angles(R: np.ndarray) -> np.ndarray:
     return np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
 
 
-def _result_for_target(robot, branches, i, candidates, valid, position_error, rotation_error, strict, seed):
-    """The IkResult of target i from its branch candidates (8, V, 6) and their validity (8, V)."""
-    branch_of, variant_of = np.nonzero(valid)
-    if branch_of.size:
-        Q = candidates[branch_of, variant_of]
-        keep = distinct_order(Q, seed)
-        found = tuple(
-            Solution(Q[k], float(position_error[branch_of[k]]), float(rotation_error[branch_of[k]]),
-                     branches.labels[i, branch_of[k]])
-            for k in keep
-        )
-        best = found[0]
-        return IkResult(True, best.q, best.position_error, best.rotation_error, 1, "analytic", "", found,
-                        details={"branch": best.branch, "branches_reachable": int(branches.reachable[i].sum())})
+def _failure_for_target(robot, branches, i, position_error, rotation_error, strict) -> IkResult:
+    """Target i has no exact in-limit branch: the best attempt and why."""
     best_branch = int(np.argmin(position_error + rotation_error))
     if not branches.reachable[i].any():
         reason = "target out of reach: no closed-form branch reaches the wrist centre"

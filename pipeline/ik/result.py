@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,8 +48,7 @@ def make_target(X_target, kind: str = FULL_POSE) -> IkTarget:
     return IkTarget(check_pose(X_target, "IK target"), kind)
 
 
-@dataclass(frozen=True, eq=False)
-class Solution:
+class Solution(NamedTuple):
     """One in-limit IK solution: joint values [rad or m], its errors and its branch label."""
 
     q: np.ndarray
@@ -134,37 +134,64 @@ def wrap_into_limits(q: np.ndarray, revolute: np.ndarray, q_min: np.ndarray, q_m
 _NEIGHBOUR_SHIFTS = np.array([0.0, -TWO_PI, TWO_PI])
 
 
-#: 2 pi shifts tried per joint: enough for joint ranges up to 4 pi (+-720 deg).
-_SHIFTS = TWO_PI * np.arange(-2, 3)
-
-
 def limit_variants(Q: np.ndarray, revolute: np.ndarray, q_min: np.ndarray, q_max: np.ndarray):
-    """Every 2 pi shift of configurations Q (..., dof) that may fit the limits.
+    """Every 2 pi shift of configurations Q (..., dof) that fits the limits.
 
-    Returns candidates (..., V, dof) and a mask (..., V) of those inside every limit. Joints whose
-    range spans more than 2 pi are enumerated (V = 5^m for m such joints); the others have at most one
-    in-limit representative, which is taken. Prismatic joints are not shifted.
+    Returns candidates (..., V, dof) and a mask (..., V) of those inside every limit. Revolute joints
+    are wrapped into (-pi, pi], each joint's in-limit shifts are found, and their combinations are
+    enumerated in mixed radix, so V is the largest number of combinations any row has (often 1-4).
+    Prismatic joints are not shifted.
     """
-    values = Q[..., None] + np.where(revolute[:, None], _SHIFTS, 0.0)            # (..., dof, 5)
+    Q = np.where(revolute, Q - TWO_PI * np.ceil((Q - np.pi) / TWO_PI), Q)
+    k_low = np.where(revolute, np.ceil((q_min - np.pi) / TWO_PI), 0).astype(int)
+    k_high = np.where(revolute, np.floor((q_max + np.pi) / TWO_PI), 0).astype(int)
+    shifts = TWO_PI * np.arange(k_low.min(), k_high.max() + 1)                     # (S,)
+    values = Q[..., None] + np.where(revolute[:, None], shifts, 0.0)[..., :]        # (..., dof, S)
+    if not revolute.all():
+        values[..., ~revolute, :] = Q[..., ~revolute, None]
     inside = (values >= q_min[:, None]) & (values <= q_max[:, None])
-    multi = np.flatnonzero(revolute & (q_max - q_min > TWO_PI))
-    single = np.setdiff1d(np.arange(Q.shape[-1]), multi)
-    combos = np.array(list(itertools.product(range(_SHIFTS.size), repeat=multi.size)), dtype=int).reshape(-1, multi.size)
-    candidates = np.repeat(Q[..., None, :], len(combos), axis=-2)
-    pick = np.argmax(inside[..., single, :], axis=-1)                             # first in-limit shift
-    candidates[..., single] = np.take_along_axis(values[..., single, :], pick[..., None], axis=-1)[..., 0][..., None, :]
-    valid = np.take_along_axis(inside[..., single, :], pick[..., None], axis=-1)[..., 0].all(axis=-1)[..., None]
-    valid = np.broadcast_to(valid, candidates.shape[:-1]).copy()
-    for column, joint in enumerate(multi):
-        candidates[..., joint] = values[..., joint, :][..., combos[:, column]]
-        valid &= inside[..., joint, :][..., combos[:, column]]
+    counts = inside.sum(axis=-1)                                                    # (..., dof)
+    total = np.prod(counts, axis=-1)                                                # (..., )
+    width = max(int(total.max(initial=0)), 1)
+    combo = np.arange(width)                                                        # (V,)
+    strides = np.cumprod(np.concatenate([np.ones(counts.shape[:-1] + (1,), int), counts[..., :-1]], axis=-1),
+                         axis=-1)                                                   # (..., dof)
+    pick = (combo[:, None] // np.maximum(strides, 1)[..., None, :]) % np.maximum(counts, 1)[..., None, :]
+    rank = np.cumsum(inside, axis=-1) - 1                                           # rank of each in-limit shift
+    chosen = (rank[..., None, :, :] == pick[..., None]) & inside[..., None, :, :]  # (..., V, dof, S)
+    candidates = (values[..., None, :, :] * chosen).sum(axis=-1)
+    valid = combo < total[..., None]
     return candidates, valid
+
+
+#: Sorted by distance to the seed, a duplicate is compared with this many nearer candidates: two
+#: copies of one solution have equal distances, so only a candidate whose distance falls within
+#: 1e-6 of theirs could stand between them.
+DUPLICATE_WINDOW = 4
+
+
+def distinct_order_batch(candidates: np.ndarray, valid: np.ndarray, seeds: np.ndarray,
+                         tolerance: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct valid candidates of N problems, nearest the seed first.
+
+    ``candidates`` (N, K, dof), ``valid`` (N, K), ``seeds`` (N, dof). Returns ``order`` (N, M) indices
+    into K sorted by distance to the seed, and ``keep`` (N, M): valid and not within ``tolerance``
+    (max joint difference) of one of the ``DUPLICATE_WINDOW`` nearer candidates. M is the largest
+    valid count.
+    """
+    distance = np.where(valid, np.linalg.norm(candidates - seeds[:, None, :], axis=-1), np.inf)
+    m = max(int(valid.sum(axis=1).max(initial=0)), 1)
+    order = np.argsort(distance, axis=1, kind="stable")[:, :m]
+    Q = np.take_along_axis(candidates, order[..., None], axis=1)
+    is_valid = np.take_along_axis(valid, order, axis=1)
+    duplicate = np.zeros_like(is_valid)
+    for lag in range(1, min(DUPLICATE_WINDOW, m - 1) + 1):
+        close = np.abs(Q[:, lag:] - Q[:, :-lag]).max(axis=-1) <= tolerance
+        duplicate[:, lag:] |= close & is_valid[:, :-lag]
+    return order, is_valid & ~duplicate
 
 
 def distinct_order(Q: np.ndarray, q_seed: np.ndarray, tolerance: float = 1e-6) -> np.ndarray:
     """Indices of the distinct rows of Q (k, dof) (max joint difference > tolerance), nearest the seed first."""
-    order = np.argsort(np.linalg.norm(Q - q_seed, axis=1), kind="stable")
-    Q = Q[order]
-    close = np.abs(Q[:, None, :] - Q[None, :, :]).max(axis=-1) <= tolerance
-    duplicate = np.tril(close, k=-1).any(axis=1)
-    return order[~duplicate]
+    order, keep = distinct_order_batch(Q[None], np.ones((1, len(Q)), dtype=bool), q_seed[None], tolerance)
+    return order[0][keep[0]]
