@@ -307,12 +307,37 @@ def benchmark_robot(robot: Robot, targets: int, seed: int, methods: tuple[str, .
             median_us=float(np.median(times[k])) / 1e3, p95_us=float(np.percentile(times[k], 95)) / 1e3,
             first_error=first_error[k],
         ))
+    if "analytic" in methods and ours_name("analytic") not in unavailable:
+        rows.append(analytic_batch_row(robot, Q_target, Q_seed))
     ours_rows = [r for r in rows if r.ours]
     peer_rows = [r for r in rows if not r.ours]
     fastest = min(peer_rows, key=lambda r: r.median_us).name if peer_rows else ""
     ratio = {o.name: {p.name: o.median_us / p.median_us for p in peer_rows} for o in ours_rows}
     return IkRobotReport(robot_name=robot.name, convention=robot.spec.convention, dof=robot.dof,
                          rows=tuple(rows), ratio=ratio, fastest_peer=fastest, unavailable=unavailable)
+
+
+def analytic_batch_row(robot: Robot, Q_target: np.ndarray, Q_seed: np.ndarray) -> IkRow:
+    """The closed form solving all targets in one vectorised ``ik_batch`` call (best of 3 runs).
+
+    Its median and p95 are both the run time divided by the number of targets: a batch has no
+    per-target times.
+    """
+    X = robot.fk_batch(Q_target)
+    best = float("inf")
+    for _ in range(3):
+        start = time.perf_counter_ns()
+        results = robot.ik_batch(X, Q_seed, method="analytic")
+        best = min(best, time.perf_counter_ns() - start)
+    per_target_us = best / len(X) / 1e3
+    reported = np.array([r.success for r in results])
+    strict = np.array([_strict(robot, r.q, make_target(x)) for r, x in zip(results, X)])
+    n = len(X)
+    return IkRow(name=f"ours: analytic, one batch of {n} (time / target)", ours=True, targets=n,
+                 reported=int(reported.sum()), strict=int(strict.sum()),
+                 reported_not_strict=int((reported & ~strict).sum()), errors=0,
+                 reported_pct=100.0 * reported.mean(), strict_pct=100.0 * strict.mean(),
+                 median_us=per_target_us, p95_us=per_target_us)
 
 
 def _version(distribution: str) -> str:

@@ -1,0 +1,123 @@
+"""Time-parameterised joint profiles and their certification against the limits.
+
+``certify(profile, limits)`` is the one judge of every profile this package makes: per-joint
+peak/limit ratios of q, qd, qdd and qddd on the profile's samples, the worst sample, pass/fail.
+A position ratio is the peak distance from the middle of the range over half the range, so 1 is
+"on a limit" for every quantity.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .robot_spec import Limits
+
+#: A peak/limit ratio up to 1 + this passes (round-off of the samples) [1].
+CERTIFY_TOLERANCE = 1e-6
+QUANTITIES = ("q", "qd", "qdd", "qddd")
+UNITS = {"q": "rad", "qd": "rad/s", "qdd": "rad/s^2", "qddd": "rad/s^3"}
+
+
+@dataclass(frozen=True, eq=False)
+class Profile:
+    """Samples of a timed joint trajectory, time-major: ``t`` (N,) [s], ``q``, ``qd``, ``qdd``,
+    ``qddd`` (N, dof) [rad, rad/s, rad/s^2, rad/s^3 (m for prismatic joints)].
+
+    ``method``: what timed it; ``limits``: the limits it was timed against (after any speed scale;
+    ``qddd_max`` None when jerk was not limited); ``details``: what the back end did and changed.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    qddd: np.ndarray
+    method: str
+    limits: Limits
+    joint_names: tuple[str, ...]
+    details: dict = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        """[s]"""
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def dof(self) -> int:
+        return self.q.shape[1]
+
+    def __str__(self) -> str:
+        return (f"Profile [{self.method}]: {self.dof} joints, {self.duration:.4f} s, "
+                f"{len(self.t)} samples")
+
+
+@dataclass(frozen=True, eq=False)
+class LimitReport:
+    """Peak/limit ratios per quantity and joint (``ratios[name]`` (dof,), absent when no limit),
+    the worst sample (quantity, joint index, sample index, time [s], ratio), and ``passed``."""
+
+    ratios: dict[str, np.ndarray]
+    worst_quantity: str
+    worst_joint: int
+    worst_index: int
+    worst_time: float
+    worst_ratio: float
+    passed: bool
+    tolerance: float
+
+    def max_ratio(self, quantity: str) -> float:
+        return float(self.ratios[quantity].max()) if quantity in self.ratios else float("nan")
+
+    def __str__(self) -> str:
+        peaks = ", ".join(f"{name} {self.max_ratio(name):.6f}" for name in QUANTITIES if name in self.ratios)
+        verdict = "PASS" if self.passed else "FAIL"
+        return (f"{verdict}: peak/limit {peaks}; worst {self.worst_quantity} of joint {self.worst_joint + 1} "
+                f"at t = {self.worst_time:.4f} s ({self.worst_ratio:.6f})")
+
+    def to_dict(self) -> dict:
+        return {
+            "passed": self.passed,
+            "tolerance": self.tolerance,
+            "max_ratio": {name: self.max_ratio(name) for name in self.ratios},
+            "ratios": {name: values.tolist() for name, values in self.ratios.items()},
+            "worst": {"quantity": self.worst_quantity, "joint": self.worst_joint + 1,
+                      "sample": self.worst_index, "t_s": self.worst_time, "ratio": self.worst_ratio},
+        }
+
+
+def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
+    """|value| / limit per sample (N, dof) for every quantity that has a limit."""
+    middle, half = (limits.q_max + limits.q_min) / 2.0, (limits.q_max - limits.q_min) / 2.0
+    out = {"q": np.abs(profile.q - middle) / half, "qd": np.abs(profile.qd) / limits.qd_max}
+    if limits.qdd_max is not None:
+        out["qdd"] = np.abs(profile.qdd) / limits.qdd_max
+    if limits.qddd_max is not None:
+        out["qddd"] = np.abs(profile.qddd) / limits.qddd_max
+    return out
+
+
+def certify(profile: Profile, limits: Limits | None = None, tolerance: float = CERTIFY_TOLERANCE) -> LimitReport:
+    """Judge a profile against limits (default: the ones it was timed against) on all its samples."""
+    limits = profile.limits if limits is None else limits
+    normalised = _normalised(profile, limits)
+    ratios = {name: values.max(axis=0) for name, values in normalised.items()}
+    worst_quantity = max(normalised, key=lambda name: ratios[name].max())
+    index, joint = np.unravel_index(np.argmax(normalised[worst_quantity]), normalised[worst_quantity].shape)
+    worst = float(normalised[worst_quantity][index, joint])
+    return LimitReport(ratios, worst_quantity, int(joint), int(index), float(profile.t[index]), worst,
+                       bool(worst <= 1.0 + tolerance), tolerance)
+
+
+def scale_limits(limits: Limits, speed_scale: float) -> Limits:
+    """Limits for a speed scale in (0, 1]: qd x s, qdd x s^2, qddd x s^3 (positions unchanged)."""
+    if not 0.0 < speed_scale <= 1.0 or not np.isfinite(speed_scale):
+        raise ValueError(f"speed_scale must be in (0, 1], got {speed_scale}")
+    return Limits(
+        q_min=limits.q_min,
+        q_max=limits.q_max,
+        qd_max=limits.qd_max * speed_scale,
+        qdd_max=None if limits.qdd_max is None else limits.qdd_max * speed_scale**2,
+        qddd_max=None if limits.qddd_max is None else limits.qddd_max * speed_scale**3,
+    )
