@@ -224,3 +224,17 @@ def test_bad_seed_method_and_kind_are_typed_errors():
         robot.ik(X, target_kind="orientation")
     with pytest.raises(ConfigurationError):
         robot.ik_batch(np.zeros((3, 4)))
+
+
+@pytest.mark.parametrize("name", SIX_DOF)
+def test_drake_round_trip(name):
+    """500 targets from random seeds: every reported success is strict, and >= 99 % succeed."""
+    robot = load_robot(name)
+    rng = np.random.default_rng(13)
+    Q = robot.random_configurations(rng, ROUND_TRIPS)
+    seeds = robot.random_configurations(rng, ROUND_TRIPS)
+    X = robot.fk_batch(Q)
+    results = robot.ik_batch(X, seeds, method="drake", rng=np.random.default_rng(0))
+    strict = [strict_in_limits(robot, r, x) for r, x in zip(results, X)]
+    assert all(s for r, s in zip(results, strict) if r.success)
+    assert np.mean(strict) >= 0.99
