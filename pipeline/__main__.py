@@ -48,14 +48,31 @@ def cmd_check(args) -> int:
     return 0 if passed else 1
 
 
+def _names(text: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
+    """A comma-separated list, or the default."""
+    return tuple(n.strip() for n in text.split(",") if n.strip()) if text else default
+
+
+def cmd_run(args) -> int:
+    """Run a job file: IK for pose waypoints, path, timing, certification, output files."""
+    from .runner import run_job_file
+
+    outcome = run_job_file(args.job, args.out)
+    print(outcome.summary())
+    return 0
+
+
 def cmd_bench(args) -> int:
     """Benchmarks beside the peers measured in the same run."""
-    if args.suite == "ik":
+    if args.suite == "timing":
+        from .bench.timing import ROBOTS, run_timing_benchmark
+
+        report = run_timing_benchmark(_names(args.robots, ROBOTS), paths=args.paths, seed=args.seed)
+    elif args.suite == "ik":
         from .bench.ik import METHODS, ROBOTS, run_ik_benchmark
 
-        robots = tuple(n.strip() for n in args.robots.split(",") if n.strip()) if args.robots else ROBOTS
-        methods = tuple(m.strip() for m in args.methods.split(",") if m.strip()) if args.methods else METHODS
-        report = run_ik_benchmark(robots, targets=args.targets, seed=args.seed, methods=methods)
+        report = run_ik_benchmark(_names(args.robots, ROBOTS), targets=args.targets, seed=args.seed,
+                                  methods=_names(args.methods, METHODS))
     else:
         from .bench.kinematics import run_kinematics_benchmark
 
@@ -82,10 +99,16 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--out", help="directory for JSON reports")
     check.set_defaults(func=cmd_check)
 
+    run = sub.add_parser("run", help="run a job file (IK, path, timing, certification) and write its outputs")
+    run.add_argument("job", help="job file, e.g. trajectories/jobs/gp7_demo.yaml")
+    run.add_argument("--out", required=True, help="output directory (profile CSV/NPZ, JSON report, PNG plot)")
+    run.set_defaults(func=cmd_run)
+
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
-    bench.add_argument("suite", choices=["kinematics", "ik"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing"])
     bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
-    bench.add_argument("--robots", help="ik: comma-separated robots (default gp7,lrmate200id,irb1600,arm6)")
+    bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6)")
+    bench.add_argument("--paths", type=int, default=5, help="timing: seeded random 10-waypoint paths per robot")
     bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake)")
     bench.add_argument("--targets", type=int, default=1000, help="ik: targets per robot (default 1000)")
     bench.add_argument("--batch", type=int, default=100_000, help="kinematics: configurations in the batch timing")

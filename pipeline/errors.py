@@ -46,3 +46,11 @@ class RobotNotFoundError(PipelineError):
 
 class ConfigurationError(PipelineError):
     """A joint vector or batch has the wrong shape or non-finite values."""
+
+
+class TimingError(PipelineError):
+    """A path could not be timed within the limits (names the waypoint or segment where it can)."""
+
+
+class JobFileError(PipelineError):
+    """A job file is not valid: names the file, the field and, for waypoints, the waypoint index."""

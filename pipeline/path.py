@@ -2,8 +2,9 @@
 
 Two shapes:
 
-- ``spline``: a C2 cubic spline through every waypoint (zero slope at the ends), parameterised by
-  cumulative joint-space chord length. A spline can overshoot between waypoints, so it is sampled
+- ``spline``: a C2 cubic spline through every waypoint (not-a-knot ends: a clamped spline's zero
+  slope at the ends costs toppra ~3x the discretisation gap), parameterised by cumulative
+  joint-space chord length. A spline can overshoot between waypoints, so it is sampled
   densely and rejected, naming the segment and the joint, if it leaves the joint limits.
 - ``linear``: straight segments in joint space with each interior corner rounded by a quadratic
   blend (C1). It never leaves the limits (the box of limits is convex), passes through the first
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .errors import PipelineError
+from .errors import TimingError
 
 SHAPES = ("spline", "linear")
 #: Fraction of the shorter neighbouring segment used by each corner blend of a linear path.
@@ -28,7 +29,7 @@ LIMIT_CHECK_SAMPLES = 200
 DUPLICATE_DISTANCE = 1e-9
 
 
-class PathError(PipelineError):
+class PathError(TimingError):
     """A path cannot be built from the waypoints (names the waypoint or segment and the joint)."""
 
 
@@ -80,7 +81,7 @@ def _check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndar
 
 
 def _spline_pieces(s_knots: np.ndarray, waypoints: np.ndarray):
-    spline = CubicSpline(s_knots, waypoints, bc_type="clamped", axis=0)
+    spline = CubicSpline(s_knots, waypoints, bc_type="not-a-knot" if len(s_knots) > 2 else "natural", axis=0)
     derivatives = (spline, spline.derivative(1), spline.derivative(2))
     return lambda s, order: derivatives[order](s)
 

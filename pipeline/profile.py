@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .errors import ConfigurationError
 from .robot_spec import Limits
 
 #: A peak/limit ratio up to 1 + this passes (round-off of the samples) [1].
@@ -112,8 +113,8 @@ def certify(profile: Profile, limits: Limits | None = None, tolerance: float = C
 
 def scale_limits(limits: Limits, speed_scale: float) -> Limits:
     """Limits for a speed scale in (0, 1]: qd x s, qdd x s^2, qddd x s^3 (positions unchanged)."""
-    if not 0.0 < speed_scale <= 1.0 or not np.isfinite(speed_scale):
-        raise ValueError(f"speed_scale must be in (0, 1], got {speed_scale}")
+    if not np.isfinite(speed_scale) or not 0.0 < speed_scale <= 1.0:
+        raise ConfigurationError(f"speed_scale must be in (0, 1], got {speed_scale}")
     return Limits(
         q_min=limits.q_min,
         q_max=limits.q_max,

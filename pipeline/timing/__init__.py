@@ -1,0 +1,58 @@
+"""Time parameterisation behind one function: ``retime(robot, path_or_waypoints, method=...)``.
+
+Methods: ``toppra`` (time-optimal along the path, velocity and acceleration limits), ``ruckig``
+(jerk-limited, waypoint to waypoint), ``toppra+ruckig`` (jerk-limited and following the path within
+a stated tolerance). Every profile is certified by ``pipeline.profile.certify`` before it is
+returned: a profile that fails is an error, never a result.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigurationError, TimingError
+from ..path import JointPath, make_path
+from ..profile import Profile, certify, scale_limits
+from ..robot_spec import Limits
+
+METHODS = ("toppra", "ruckig", "toppra+ruckig")
+DEFAULT_DT = 0.004   # [s]
+
+
+def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
+           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = "spline", **options) -> Profile:
+    """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits.
+
+    ``speed_scale`` in (0, 1] scales qd, qdd, qddd limits by s, s^2, s^3; ``limits`` replaces the
+    robot's; ``dt`` [s] is the sample time of the returned profile; ``shape`` (``spline`` or
+    ``linear``) builds the path from waypoints. The profile starts and ends at rest.
+    """
+    if method not in METHODS:
+        raise ConfigurationError(f"unknown timing method {method!r}; choose one of {', '.join(METHODS)}")
+    if not np.isfinite(dt) or dt <= 0.0:
+        raise ConfigurationError(f"dt must be a positive number of seconds, got {dt}")
+    limits = scale_limits(robot.limits if limits is None else limits, speed_scale)
+    names = tuple(robot.joint_names)
+    if method == "ruckig":
+        from .ruckig_backend import retime_ruckig
+
+        waypoints = path_or_waypoints.waypoints if isinstance(path_or_waypoints, JointPath) else path_or_waypoints
+        profile = retime_ruckig(np.asarray(waypoints, dtype=float), limits, dt, names, **options)
+    else:
+        path = (path_or_waypoints if isinstance(path_or_waypoints, JointPath)
+                else make_path(path_or_waypoints, limits.q_min, limits.q_max, shape))
+        if method == "toppra":
+            from .toppra_backend import retime_toppra
+
+            profile = retime_toppra(path, limits, dt, names, **options)
+        else:
+            from .ruckig_backend import retime_toppra_ruckig
+
+            profile = retime_toppra_ruckig(path, limits, dt, names, **options)
+    report = certify(profile)
+    if not report.passed:
+        raise TimingError(f"{method} profile failed certification: {report}")
+    return profile
+
+
+__all__ = ["METHODS", "retime"]
