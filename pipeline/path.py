@@ -25,8 +25,9 @@ SHAPES = ("spline", "linear")
 DEFAULT_BLEND = 0.2
 #: Samples per segment when checking that a spline stays inside the joint limits.
 LIMIT_CHECK_SAMPLES = 200
-#: Waypoints closer than this (joint-space norm) are one waypoint [rad or m].
-DUPLICATE_DISTANCE = 1e-9
+#: Waypoints closer than this (joint-space norm) are one waypoint [rad or m]: far below any
+#: controller resolution, and a spline through two such knots would swing wildly between them.
+DUPLICATE_DISTANCE = 1e-6
 
 
 class PathError(TimingError):
@@ -38,11 +39,13 @@ class JointPath:
     """A geometric path: ``q(s)``, ``dq/ds``, ``d2q/ds2`` for s in [0, 1] (arrays broadcast over s).
 
     ``waypoints`` (K, dof) after merging duplicates, ``s_waypoints`` (K,) their path parameters,
-    ``shape`` ``spline`` or ``linear``, ``length`` the joint-space chord length [rad or m].
+    ``breakpoints``: every s where d2q/ds2 may jump (knots, blend ends), ``shape``, ``length`` the
+    joint-space chord length [rad or m].
     """
 
     waypoints: np.ndarray
     s_waypoints: np.ndarray
+    breakpoints: np.ndarray
     shape: str
     length: float
     _pieces: object
@@ -81,8 +84,8 @@ def _check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndar
 
 
 def _spline_pieces(s_knots: np.ndarray, waypoints: np.ndarray):
-    spline = CubicSpline(s_knots, waypoints, bc_type="not-a-knot" if len(s_knots) > 2 else "natural", axis=0)
-    derivatives = (spline, spline.derivative(1), spline.derivative(2))
+    cubic = CubicSpline(s_knots, waypoints, bc_type="not-a-knot" if len(s_knots) > 2 else "natural", axis=0)
+    derivatives = (cubic, cubic.derivative(1), cubic.derivative(2))
     return lambda s, order: derivatives[order](s)
 
 
@@ -110,7 +113,7 @@ def _blend_pieces(s_knots: np.ndarray, waypoints: np.ndarray, blend: float):
         for i in interior:
             b = half[i]
             u = flat - (s_knots[i] - b)
-            inside = (u > 0.0) & (u < 2.0 * b)
+            inside = (u >= 0.0) & (u < 2.0 * b)          # at a breakpoint: the piece that starts there
             if b <= 0.0 or not inside.any():
                 continue
             m_in, m_out = slopes[i - 1], slopes[i]
@@ -141,11 +144,14 @@ def make_path(waypoints, q_min: np.ndarray, q_max: np.ndarray, shape: str = "spl
     length = float(chords.sum())
     s_knots = np.concatenate([[0.0], np.cumsum(chords) / length])
     s_knots[-1] = 1.0
-    if shape == "spline":
-        pieces = _spline_pieces(s_knots, waypoints)
-    else:
+    if shape == "linear":
         pieces = _blend_pieces(s_knots, waypoints, blend)
-    path = JointPath(waypoints, s_knots, shape, length, pieces)
+        half = blend * np.minimum(np.diff(s_knots)[:-1], np.diff(s_knots)[1:])
+        breakpoints = np.unique(np.concatenate([s_knots, s_knots[1:-1] - half, s_knots[1:-1] + half]))
+    else:
+        pieces = _spline_pieces(s_knots, waypoints)
+        breakpoints = s_knots
+    path = JointPath(waypoints, s_knots, breakpoints, shape, length, pieces)
     if shape == "spline":
         _check_spline_limits(path, q_min, q_max)
     return path
