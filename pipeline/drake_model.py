@@ -7,12 +7,15 @@ frame is DH frame i. This is the only module that turns Drake's ``[w; v]`` rows 
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
     JacobianWrtVariable,
+    MultibodyForces,
     PrismaticJoint,
     RevoluteJoint,
     RotationalInertia,
@@ -124,6 +127,20 @@ class DrakeRobot:
         )
         return angular_first_to_linear_first(J_wv)
 
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """Joint torques [N m or N] for (N, dof) or (dof,) positions, velocities, accelerations
+        (gravity -9.81 m/s^2 along base z included)."""
+        q, qd, qdd = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q, qd, qdd))
+        forces = MultibodyForces(self.plant)
+        tau = np.empty_like(q)
+        for k in range(len(q)):
+            self.plant.SetPositions(self.context, q[k])
+            self.plant.SetVelocities(self.context, qd[k])
+            # CalcInverseDynamics applies only the forces passed in: gravity is added here.
+            tau[k] = (self.plant.CalcInverseDynamics(self.context, qdd[k], forces)
+                      - self.plant.CalcGravityGeneralizedForces(self.context))
+        return tau
+
     def __repr__(self) -> str:
         return f"DrakeRobot({self.spec.name!r}, bodies={self.plant.num_bodies()}, dof={self.dof})"
 
@@ -131,4 +148,15 @@ class DrakeRobot:
 def build_drake_robot(spec: RobotSpec) -> DrakeRobot:
     """Build the Drake model (plant + context + named frames) of a RobotSpec."""
     return DrakeRobot(spec)
+
+
+_DRAKE_MODELS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def drake_robot_for(robot) -> DrakeRobot:
+    """The DrakeRobot of a Robot (built on first use, then cached for the robot's lifetime)."""
+    model = _DRAKE_MODELS.get(robot)
+    if model is None:
+        model = _DRAKE_MODELS[robot] = build_drake_robot(robot.spec)
+    return model
 

@@ -17,8 +17,8 @@ from .robot_spec import Limits
 
 #: A peak/limit ratio up to 1 + this passes (round-off of the samples) [1].
 CERTIFY_TOLERANCE = 1e-6
-QUANTITIES = ("q", "qd", "qdd", "qddd")
-UNITS = {"q": "rad", "qd": "rad/s", "qdd": "rad/s^2", "qddd": "rad/s^3"}
+QUANTITIES = ("q", "qd", "qdd", "qddd", "tau")
+UNITS = {"q": "rad", "qd": "rad/s", "qdd": "rad/s^2", "qddd": "rad/s^3", "tau": "N m"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -27,7 +27,8 @@ class Profile:
     ``qddd`` (N, dof) [rad, rad/s, rad/s^2, rad/s^3 (m for prismatic joints)].
 
     ``method``: what timed it; ``limits``: the limits it was timed against (after any speed scale;
-    ``qddd_max`` None when jerk was not limited); ``details``: what the back end did and changed.
+    ``qddd_max`` None when jerk was not limited); ``details``: what the back end did and changed;
+    ``tau`` (N, dof) [N m or N]: joint torques from Drake's inverse dynamics, when torques are limited.
     """
 
     t: np.ndarray
@@ -39,6 +40,7 @@ class Profile:
     limits: Limits
     joint_names: tuple[str, ...]
     details: dict = field(default_factory=dict)
+    tau: np.ndarray | None = None
 
     @property
     def duration(self) -> float:
@@ -96,6 +98,10 @@ def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
         out["qdd"] = np.abs(profile.qdd) / limits.qdd_max
     if limits.qddd_max is not None:
         out["qddd"] = np.abs(profile.qddd) / limits.qddd_max
+    if limits.tau_max is not None:
+        if profile.tau is None:
+            raise ConfigurationError("the limits bound joint torques but the profile carries none to judge")
+        out["tau"] = np.abs(profile.tau) / limits.tau_max
     return out
 
 
@@ -121,4 +127,5 @@ def scale_limits(limits: Limits, speed_scale: float) -> Limits:
         qd_max=limits.qd_max * speed_scale,
         qdd_max=None if limits.qdd_max is None else limits.qdd_max * speed_scale**2,
         qddd_max=None if limits.qddd_max is None else limits.qddd_max * speed_scale**3,
+        tau_max=limits.tau_max,
     )

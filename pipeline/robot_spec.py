@@ -33,7 +33,7 @@ JOINT_TYPES = ("revolute", "prismatic")
 _TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
 _TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
 _JOINT_REQUIRED = ("a", "alpha", "d", "q_min", "q_max", "qd_max")
-_JOINT_OPTIONAL = ("theta_offset", "sign", "type", "name", "qdd_max", "qddd_max", "inertia", "note")
+_JOINT_OPTIONAL = ("theta_offset", "sign", "type", "name", "qdd_max", "qddd_max", "tau_max", "inertia", "note")
 _FRAME_KEYS = ("xyz", "rpy")
 _INERTIA_REQUIRED = ("mass",)
 _INERTIA_OPTIONAL = ("com", "I")
@@ -75,6 +75,7 @@ class DhJoint:
     qdd_max: float | None
     qddd_max: float | None
     inertia: LinkInertia | None
+    tau_max: float | None = None
 
     @property
     def is_revolute(self) -> bool:
@@ -83,13 +84,15 @@ class DhJoint:
 
 @dataclass(frozen=True, eq=False)
 class Limits:
-    """Joint limits as SI arrays of length dof; ``qdd_max``/``qddd_max`` are None when not given."""
+    """Joint limits as SI arrays of length dof; ``qdd_max``, ``qddd_max``, ``tau_max`` [N m or N] are
+    None when not given."""
 
     q_min: np.ndarray
     q_max: np.ndarray
     qd_max: np.ndarray
     qdd_max: np.ndarray | None
     qddd_max: np.ndarray | None
+    tau_max: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,6 +131,7 @@ class RobotSpec:
             qd_max=column("qd_max"),
             qdd_max=column("qdd_max"),
             qddd_max=column("qddd_max"),
+            tau_max=column("tau_max"),
         )
 
     def dh_table(self) -> str:
@@ -260,6 +264,10 @@ class _Reader:
         optional = {}
         for key in ("qdd_max", "qddd_max"):
             optional[key] = self.positive(raw, key, index) * q_scale if key in raw else None
+        tau_max = self.positive(raw, "tau_max", index) if "tau_max" in raw else None
+        if tau_max is not None and "inertia" not in raw:
+            self.fail(MissingFieldError, "inertia", "tau_max needs the link's inertia (torques come from its dynamics)",
+                      index)
         name = raw.get("name", f"joint{index + 1}")
         if not isinstance(name, str) or not name:
             self.fail(InvalidValueError, "name", "must be a non-empty string", index, name)
@@ -277,6 +285,7 @@ class _Reader:
             qdd_max=optional["qdd_max"],
             qddd_max=optional["qddd_max"],
             inertia=self.inertia(raw["inertia"], index, length_scale) if "inertia" in raw else None,
+            tau_max=tau_max,
         )
 
     def spec(self, doc) -> RobotSpec:
@@ -296,7 +305,7 @@ class _Reader:
         for i, n in enumerate(names):
             if names.index(n) != i:
                 self.fail(InvalidValueError, "name", "joint names must be unique", i, n)
-        for field in ("qdd_max", "qddd_max"):
+        for field in ("qdd_max", "qddd_max", "tau_max"):
             given = [getattr(j, field) is not None for j in joints]
             if any(given) and not all(given):
                 self.fail(MissingFieldError, field, "given for some joints, so required for all",

@@ -145,6 +145,8 @@ BAD_INPUTS = [
     ("unknown tool key", ("tool",), {"xyz": [0, 0, 0], "quat": [1, 0, 0, 0]}, UnknownFieldError, None, "tool.quat"),
     ("bad inertia", ("joints", 0, "inertia"), {"mass": -1}, InvalidValueError, 0, "inertia.mass"),
     ("duplicate joint names", ("joints", 1, "name"), "joint1", InvalidValueError, 1, "name"),
+    ("torque limit without inertia", ("joints", 0, "tau_max"), 10, MissingFieldError, 0, "inertia"),
+    ("negative torque limit", ("joints", 0, "tau_max"), -10, InvalidValueError, 0, "tau_max"),
 ]
 
 

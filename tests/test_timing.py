@@ -127,3 +127,34 @@ def test_bad_arguments_are_typed_errors(kwargs, error):
     robot = load_robot("gp7")
     with pytest.raises(error):
         retime(robot, np.zeros((2, 6)) + [[0.0] * 6, [0.1] * 6], **kwargs)
+
+
+def test_torque_limits_through_drake_inverse_dynamics():
+    """A robot file with inertias and tau_max: toppra limits the torques, certify() judges them."""
+    robot = load_robot(DATA_DIR / "arm2_dynamics.yaml")
+    waypoints = np.radians([[-60.0, 30.0], [40.0, -50.0], [100.0, 20.0]])
+    profile = retime(robot, waypoints, method="toppra", dt=0.002)
+    report = certify(profile)
+    assert report.passed and "tau" in report.ratios
+    assert 0.98 < report.max_ratio("tau") <= 1 + CERTIFY_TOLERANCE          # the torque limit is active
+    # the same path without torque limits is faster, and would exceed them
+    from pipeline.drake_model import drake_robot_for
+    from pipeline.robot_spec import Limits
+
+    limits = robot.limits
+    free = retime(robot, waypoints, method="toppra", dt=0.002,
+                  limits=Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None))
+    assert free.duration < profile.duration
+    tau_free = drake_robot_for(robot).inverse_dynamics(free.q, free.qd, free.qdd)
+    assert np.max(np.abs(tau_free) / limits.tau_max) > 1.05
+
+
+def test_holding_torque_over_the_limit_is_a_typed_error():
+    from pipeline.errors import TimingError
+    from pipeline.robot_spec import Limits
+
+    robot = load_robot(DATA_DIR / "arm2_dynamics.yaml")
+    limits = robot.limits
+    weak = Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None, limits.tau_max / 10)
+    with pytest.raises(TimingError, match="just to hold the path"):
+        retime(robot, np.radians([[0.0, 0.0], [10.0, 10.0]]), limits=weak)

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import logging
 import time
-import weakref
 
 import numpy as np
 
@@ -68,20 +67,6 @@ POLISH_POSITION = 1e-3
 POLISH_ROTATION = 1e-2
 
 _UNIT = np.eye(3)
-
-#: Drake models built once per robot object (dropped with the robot).
-_DRAKE_MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def drake_robot_for(robot):
-    """The DrakeRobot of ``robot`` (built on first use, then cached for the robot's lifetime)."""
-    model = _DRAKE_MODELS.get(robot)
-    if model is None:
-        from ..drake_model import build_drake_robot
-
-        model = _DRAKE_MODELS[robot] = build_drake_robot(robot.spec)
-    return model
-
 
 def pick_solver(name: str = "auto"):
     """(label, solver instance): SNOPT when available (``auto``), else IPOPT; or the one asked for."""
@@ -166,6 +151,8 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     label, drake_solver = pick_solver(solver)
     main_options = _solver_options(drake_solver, MAIN_OPTIONS[label])
     polish_options = _solver_options(drake_solver, POLISH_OPTIONS[label])
+    from ..drake_model import drake_robot_for
+
     drake_robot = drake_robot_for(robot)
 
     start = time.perf_counter()

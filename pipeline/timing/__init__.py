@@ -8,6 +8,8 @@ returned: a profile that fails is an error, never a result.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..errors import ConfigurationError, TimingError
@@ -25,7 +27,9 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
 
     ``speed_scale`` in (0, 1] scales qd, qdd, qddd limits by s, s^2, s^3; ``limits`` replaces the
     robot's; ``dt`` [s] is the sample time of the returned profile; ``shape`` (``spline`` or
-    ``linear``) builds the path from waypoints. The profile starts and ends at rest.
+    ``linear``) builds the path from waypoints. The profile starts and ends at rest. When the
+    limits bound joint torques (``tau_max``, robot files with inertias), the torques come from
+    Drake's inverse dynamics: toppra limits them, and every method's profile is judged on them.
     """
     if method not in METHODS:
         raise ConfigurationError(f"unknown timing method {method!r}; choose one of {', '.join(METHODS)}")
@@ -33,6 +37,11 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
         raise ConfigurationError(f"dt must be a positive number of seconds, got {dt}")
     limits = scale_limits(robot.limits if limits is None else limits, speed_scale)
     names = tuple(robot.joint_names)
+    inverse_dynamics = None
+    if limits.tau_max is not None:
+        from ..drake_model import drake_robot_for
+
+        inverse_dynamics = drake_robot_for(robot).inverse_dynamics
     if method == "ruckig":
         from .ruckig_backend import retime_ruckig
 
@@ -44,11 +53,13 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
         if method == "toppra":
             from .toppra_backend import retime_toppra
 
-            profile = retime_toppra(path, limits, dt, names, **options)
+            profile = retime_toppra(path, limits, dt, names, inverse_dynamics=inverse_dynamics, **options)
         else:
             from .ruckig_backend import retime_toppra_ruckig
 
             profile = retime_toppra_ruckig(path, limits, dt, names, **options)
+    if inverse_dynamics is not None:
+        profile = dataclasses.replace(profile, tau=inverse_dynamics(profile.q, profile.qd, profile.qdd))
     report = certify(profile)
     if not report.passed:
         raise TimingError(f"{method} profile failed certification: {report}")

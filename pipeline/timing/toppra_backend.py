@@ -83,15 +83,21 @@ def _toppra_path(path: ArcLengthPath):
     return Adapter()
 
 
-def toppra_instance(path: ArcLengthPath, limits: Limits, gridpoints: np.ndarray):
-    """A toppra TOPPRA instance with joint velocity and acceleration constraints on the path."""
+def toppra_instance(path: ArcLengthPath, limits: Limits, gridpoints: np.ndarray, inverse_dynamics=None):
+    """A toppra TOPPRA instance with joint velocity and acceleration constraints on the path, and
+    torque constraints when ``inverse_dynamics(q, qd, qdd) -> tau`` is given with ``limits.tau_max``."""
     import toppra.algorithm
     import toppra.constraint
 
-    velocity = toppra.constraint.JointVelocityConstraint(np.stack([-limits.qd_max, limits.qd_max], axis=1))
-    acceleration = toppra.constraint.JointAccelerationConstraint(
-        np.stack([-limits.qdd_max, limits.qdd_max], axis=1))
-    return toppra.algorithm.TOPPRA([velocity, acceleration], _toppra_path(path), gridpoints=gridpoints,
+    constraints = [
+        toppra.constraint.JointVelocityConstraint(np.stack([-limits.qd_max, limits.qd_max], axis=1)),
+        toppra.constraint.JointAccelerationConstraint(np.stack([-limits.qdd_max, limits.qdd_max], axis=1)),
+    ]
+    if inverse_dynamics is not None:
+        constraints.append(toppra.constraint.JointTorqueConstraint(
+            lambda q, qd, qdd: inverse_dynamics(q, qd, qdd)[0], np.stack([-limits.tau_max, limits.tau_max], axis=1),
+            np.zeros(limits.tau_max.size)))
+    return toppra.algorithm.TOPPRA(constraints, _toppra_path(path), gridpoints=gridpoints,
                                    parametrizer="ParametrizeConstAccel")
 
 
@@ -138,28 +144,34 @@ class GridTiming:
         return (self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel()
 
 
-def solve_grid_timing(path: ArcLengthPath, limits: Limits, gridpoints: int) -> GridTiming | None:
+def solve_grid_timing(path: ArcLengthPath, limits: Limits, gridpoints: int, inverse_dynamics=None) -> GridTiming | None:
     """toppra's grid solution as a GridTiming, or None when toppra fails on this grid."""
     grid = path.gridpoints(gridpoints)
-    _, sd, _ = toppra_instance(path, limits, grid).compute_parameterization(0.0, 0.0)
+    _, sd, _ = toppra_instance(path, limits, grid, inverse_dynamics).compute_parameterization(0.0, 0.0)
     if sd is None or not np.all(np.isfinite(sd)):
         return None
     return GridTiming.from_grid(grid, sd)
 
 
 def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                  gridpoints: int = GRIDPOINTS) -> Profile:
+                  gridpoints: int = GRIDPOINTS, inverse_dynamics=None) -> Profile:
     """Time-optimal profile along ``path`` within qd_max and qdd_max, at rest at both ends.
 
-    Sampled every ``dt`` [s] (and at the end). Raises TimingError when toppra fails on every grid.
+    With ``limits.tau_max`` and ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched, [N m]) the joint
+    torques are limited too. Sampled every ``dt`` [s] (and at the end). Raises TimingError when
+    toppra fails on every grid.
     """
+    torques = inverse_dynamics if limits.tau_max is not None else None
     if limits.qdd_max is None:
         raise TimingError("toppra needs acceleration limits (qdd_max) for every joint")
     start = time.perf_counter()
     path = ArcLengthPath(path)
+    if torques is not None:
+        q_grid = path(path.gridpoints(gridpoints))
+        _check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
     attempts = [gridpoints, *[g for g in RETRY_GRIDPOINTS if g > gridpoints]]
     for used in attempts:
-        timing = solve_grid_timing(path, limits, used)
+        timing = solve_grid_timing(path, limits, used, torques)
         if timing is not None:
             break
     else:
@@ -168,6 +180,8 @@ def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
     velocity_ratio, acceleration_ratio = _peak_ratios(timing, path, check_t, limits, 1.0)
     stretch = _stretch_for(velocity_ratio, acceleration_ratio, 1.0)
+    if torques is not None:
+        stretch = max(stretch, _torque_stretch(timing, path, check_t, limits, torques))
     t = sample_times(timing.duration * stretch, dt)
     q, qd, qdd = timing.at(path, t, stretch)
     # The output samples are judged too (certify() reads them): stretch more if one of them exceeds.
@@ -189,7 +203,7 @@ def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple
         "compute_s": time.perf_counter() - start,
         "jerk": "not limited (qddd is the finite difference of qdd)",
     }
-    timed_limits = Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None)
+    timed_limits = Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None, limits.tau_max)
     return Profile(t, q, qd, qdd, np.gradient(qdd, t, axis=0), "toppra", timed_limits, joint_names, details)
 
 
@@ -201,6 +215,30 @@ def _ratios(qd: np.ndarray, qdd: np.ndarray, limits: Limits) -> tuple[float, flo
 def _peak_ratios(timing: GridTiming, path: ArcLengthPath, t: np.ndarray, limits: Limits, stretch: float):
     _, qd, qdd = timing.at(path, t, stretch)
     return _ratios(qd, qdd, limits)
+
+
+def _check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) -> None:
+    """Raise TimingError if the gravity torque alone at some sample exceeds tau_max."""
+    over = np.abs(static) >= limits.tau_max
+    if over.any():
+        k, j = np.argwhere(over)[0]
+        raise TimingError(f"joint {j + 1} needs {abs(static[k, j]):.4g} N m just to hold the path at q = "
+                          f"{np.round(q[k], 4).tolist()} rad, over its torque limit {limits.tau_max[j]:.4g} N m")
+
+
+def _torque_stretch(timing: GridTiming, path: ArcLengthPath, t: np.ndarray, limits: Limits, torques) -> float:
+    """The time stretch k that keeps every torque sample within tau_max [1].
+
+    Slowing by k scales the velocity-dependent and inertial torques d by 1/k^2 and leaves the
+    static (gravity) torque g alone, so k^2 >= d / (tau_max - g) where d > 0, -d / (tau_max + g) where d < 0.
+    """
+    q, qd, qdd = timing.at(path, t)
+    static = torques(q, np.zeros_like(q), np.zeros_like(q))
+    _check_holding_torques(q, static, limits)
+    dynamic = torques(q, qd, qdd) - static
+    room = np.where(dynamic > 0.0, limits.tau_max - static, limits.tau_max + static)
+    k_squared = float(np.max(np.abs(dynamic) / room))
+    return float(np.sqrt(k_squared)) * (1.0 + STRETCH_MARGIN) if k_squared > 1.0 else 1.0
 
 
 def _stretch_for(velocity_ratio: float, acceleration_ratio: float, stretch: float) -> float:

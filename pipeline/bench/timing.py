@@ -1,0 +1,564 @@
+"""Time-parameterisation benchmark: our ``retime(method="toppra")`` beside raw toppra and Drake's Toppra.
+
+Per robot, ``paths`` seeded random paths through ``WAYPOINTS`` = 10 waypoints drawn uniformly in the
+middle 80 % of every joint range (each robot draws from its own generator seeded with ``seed``). The
+path is our not-a-knot cubic spline over chord length, ``make_path(W, q_min, q_max)``; when the
+spline leaves the joint limits between waypoints (``PathError``) the waypoints are drawn again and
+the redraws are counted. Velocity and acceleration limits are the robot's, at rest at both ends.
+
+Every method times the SAME geometric path:
+
+* ours: ``retime(robot, path, method="toppra")`` as a user calls it (toppra on ``GRIDPOINTS`` + the
+  knots, dense certification, the uniform time stretch, sampling every ``DEFAULT_DT`` and
+  ``certify``), timed whole;
+* raw toppra at 100 and 1000 grid points: our backend's ``toppra_instance`` (toppra's own joint
+  velocity and acceleration constraints, our path through toppra's geometric-path interface,
+  exactly as our backend hands it to toppra) on n uniform grid points over the path's whole
+  parameter range, + ``compute_trajectory(0, 0)`` with ``ParametrizeConstAccel``. No knots added,
+  no check: toppra as a user calls it;
+* Drake's ``Toppra`` at 100 and 1000 grid points (``np.linspace(0, 1, n)``): the path is handed to
+  Drake as ``PiecewisePolynomial.CubicHermite`` with breaks at our knots and our spline's q and
+  dq/ds there. Our spline is one cubic per knot interval, and a cubic is fixed by its values and
+  slopes at both ends, so this IS our path (the largest difference of q, dq/ds and d2q/ds2 on dense
+  samples is reported; round-off, ~1e-12). Drake's plant (``build_drake_robot``) is built once per
+  robot; ``AddJointVelocityLimit``, ``AddJointAccelerationLimit`` (default kInterpolation),
+  ``SolvePathParameterization()``. A ``None`` is a failure; its reason is the message Drake logs;
+* the reference: raw toppra at ``REFERENCE_GRIDPOINTS`` = 10,000 grid points. Its duration is the
+  dense optimum the gaps are measured to (its own ratios are measured too).
+
+Timing: the wall clock (``time.perf_counter_ns``) of the solve and of producing the trajectory
+object (toppra's parametrizer, Drake's s(t)); for ours the whole ``retime`` call, which includes
+our certification and sampling. Building the geometric path (ours, and Drake's PiecewisePolynomial
+from it) is not timed for anyone. Every method runs once on the robot's first path before timing
+(imports, caches), then on each path all methods take turns in an order rotated from path to path,
+so that drift of a shared machine's speed hits all of them alike. Failed calls are timed too.
+
+Limit ratios, like with like: every trajectory is evaluated on ``SAMPLES`` = 20,001 evenly spaced
+times over its own duration, with the exact chain rule (qd = q'(s) sd, qdd = q'(s) sdd + q''(s) sd^2,
+never finite differences): toppra's parametrizer by its own evaluation, Drake's s(t) and its
+derivatives composed with the (identical) path, ours by a second, untimed ``retime`` of the same
+path with ``dt = duration / (SAMPLES - 1)``: what ours returns when asked for that many samples
+(analytic values, certified by ``retime``). Its gap is that dense profile's duration too, so gap and
+ratios describe one trajectory. ``retime`` also checks its own output samples and stretches time a
+little more if one exceeds, so the dense profile can be a hair slower than the timed one: the
+largest relative change is reported (``our_dense_duration_change``, ~1e-8). A path counts as
+a violation when a ratio exceeds 1 + ``VIOLATION_TOLERANCE`` (the tolerance of ``certify``). Note
+that the reference itself exceeds the limits slightly between its grid points (toppra checks
+them only at the grid points), so "the dense optimum" is a hair faster than feasible.
+
+Goals (from the issue): our largest gap <= 0.5 %, zero violations, and our compute time below raw
+toppra at 1000 grid points (median over all paths of the per-path ratio ours / raw toppra 1000).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import logging
+import platform
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import ConfigurationError
+from ..path import JointPath, PathError, make_path
+from ..profile import CERTIFY_TOLERANCE
+from ..robot import Robot, load_robot
+from ..robot_spec import Limits
+from ..timing import retime
+from ..timing import toppra_backend
+from ..timing.toppra_backend import GRIDPOINTS, toppra_instance
+
+ROBOTS = ("gp7", "lrmate200id", "irb1600", "arm6")
+WAYPOINTS = 10
+MARGIN = 0.1                        # waypoints in the middle 80 % of each joint range
+MAX_REDRAWS = 1000                  # rejected draws per path before giving up on the robot
+SAMPLES = 20_001                    # evaluation samples per trajectory, the same for every method
+VIOLATION_TOLERANCE = CERTIFY_TOLERANCE
+REFERENCE_GRIDPOINTS = 10_000
+RAW_GRIDPOINTS = (100, 1000)
+
+GAP_GOAL_PCT = 0.5
+COMPUTE_GOAL_RATIO = 1.0
+
+OURS = f"ours: retime toppra ({GRIDPOINTS} grid points + knots, certified)"
+REFERENCE = f"toppra, {REFERENCE_GRIDPOINTS} grid points (reference)"
+
+
+def toppra_name(gridpoints: int) -> str:
+    return f"toppra, {gridpoints} grid points"
+
+
+def drake_name(gridpoints: int) -> str:
+    return f"Drake Toppra, {gridpoints} grid points"
+
+
+TOPPRA_1000 = toppra_name(1000)
+METHOD_NAMES = (OURS, *(toppra_name(n) for n in RAW_GRIDPOINTS), *(drake_name(n) for n in RAW_GRIDPOINTS), REFERENCE)
+
+log = logging.getLogger(__name__)
+
+
+# -- report values ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MethodRun:
+    """One method on one path. ``duration_s``, ``gap_pct`` (to the reference) and the peak ratios are
+    None when the method (or, for the gap, the reference) failed; ``failure`` says why."""
+
+    duration_s: float | None
+    gap_pct: float | None
+    max_qd_ratio: float | None
+    max_qdd_ratio: float | None
+    compute_ms: float
+    samples: int
+    failure: str = ""
+
+    @property
+    def violation(self) -> bool:
+        """A ratio above 1 + VIOLATION_TOLERANCE (False when there is no trajectory: a failure)."""
+        return (self.max_qd_ratio is not None
+                and max(self.max_qd_ratio, self.max_qdd_ratio) > 1.0 + VIOLATION_TOLERANCE)
+
+
+@dataclass(frozen=True)
+class PathRecord:
+    """One random path: its waypoints (K, dof) [rad] as lists, the draws rejected before it, its
+    joint-space length [rad], and every method's run by name."""
+
+    index: int
+    redraws: int
+    length: float
+    waypoints: list
+    runs: dict[str, MethodRun]
+
+
+@dataclass(frozen=True)
+class TimingRow:
+    """One method on one robot. Compute times [ms] per call, failed calls included; gaps [%] to the
+    reference duration over the paths both solved; peak ratios over all solved paths; ``violations``:
+    solved paths with a ratio above 1 + VIOLATION_TOLERANCE; ``failures``: paths with no trajectory."""
+
+    name: str
+    ours: bool
+    paths: int
+    compute_median_ms: float
+    compute_max_ms: float
+    gap_median_pct: float | None
+    gap_max_pct: float | None
+    max_qd_ratio: float | None
+    max_qdd_ratio: float | None
+    violations: int
+    failures: int
+    first_failure: str = ""
+
+
+@dataclass(frozen=True)
+class TimingRobotReport:
+    """All rows of one robot, ours first and the reference last.
+
+    ``compute_ratio``: median over paths of ours / raw toppra at 1000 grid points (per-path ratios,
+    below 1: ours is faster); ``drake_geometry_error``: largest difference between Drake's
+    PiecewisePolynomial and our path on dense samples, for q [rad], dq/ds and d2q/ds2;
+    ``our_time_stretch``: largest uniform slow-down our certification applied (1: none; None when
+    ours failed on every path); ``our_dense_duration_change``: largest relative change of our
+    duration from the timed profile (``DEFAULT_DT`` samples) to the dense one that is measured.
+    """
+
+    robot_name: str
+    dof: int
+    paths: int
+    redraws: int
+    rows: tuple[TimingRow, ...]
+    compute_ratio: float
+    compute_ratios: list[float]
+    drake_geometry_error: dict[str, float]
+    our_time_stretch: float | None
+    our_dense_duration_change: float | None
+    records: tuple[PathRecord, ...]
+
+
+@dataclass(frozen=True)
+class Goal:
+    """One goal of the issue: the measured value (None when nothing could be measured), the bound it
+    must satisfy, and the verdict."""
+
+    name: str
+    value: float | None
+    bound: str
+    passed: bool
+
+
+@dataclass(frozen=True)
+class TimingBenchReport:
+    """Result of one timing benchmark run: one TimingRobotReport per robot, the goals over all robots."""
+
+    paths: int
+    seed: int
+    waypoints: int
+    samples: int
+    robots: tuple[TimingRobotReport, ...]
+    goals: tuple[Goal, ...]
+    versions: dict[str, str]
+
+    @property
+    def passed(self) -> bool:
+        return all(goal.passed for goal in self.goals)
+
+    def format_table(self) -> str:
+        """One table per robot (method | compute | gaps | ratios | violations | failures), then the goals."""
+        lines = [
+            f"Timing benchmark: {self.paths} seeded random paths per robot through {self.waypoints} waypoints "
+            f"(middle 80 % of the limits), seed {self.seed}; qd and qdd limits, rest to rest",
+            f"gap: duration relative to {REFERENCE}; ratios: peak |qd|/limit and |qdd|/limit on {self.samples} "
+            f"samples (exact chain rule); violation: a path with a ratio > 1 + {VIOLATION_TOLERANCE:g}; "
+            "compute: median per call, interleaved, failed calls included",
+        ]
+        for robot in self.robots:
+            lines += ["", f"{robot.robot_name} ({robot.dof} dof), {robot.paths} paths "
+                          f"({robot.redraws} waypoint draws rejected: the spline left the limits)",
+                      *_table(robot.rows)]
+            lines.append(f"  ours / {TOPPRA_1000} compute time: median of per-path ratios {robot.compute_ratio:.3g}x "
+                         f"(per path: {', '.join(f'{r:.3g}' for r in robot.compute_ratios)})")
+            error = robot.drake_geometry_error
+            if error:
+                lines.append(f"  Drake's path vs ours, largest difference: q {error['q']:.2g} rad, "
+                             f"dq/ds {error['dq_ds']:.2g}, d2q/ds2 {error['d2q_ds2']:.2g}")
+            stretch, change = _fmt(robot.our_time_stretch, ".6f"), _fmt(robot.our_dense_duration_change, ".2g")
+            lines.append(f"  ours: largest uniform time stretch from the dense check {stretch}; duration of the "
+                         f"{self.samples}-sample profile vs the timed one: {change} (relative)")
+            lines += [f"  {row.name}: failed on {row.failures} of {row.paths} paths, first: {row.first_failure}"
+                      for row in robot.rows if row.failures]
+        lines += ["", "Goals over all robots and paths:"]
+        lines += [f"  {'PASS' if goal.passed else 'FAIL'}  {goal.name}: {_fmt(goal.value, '.4g')} ({goal.bound})"
+                  for goal in self.goals]
+        lines.append("versions: " + ", ".join(f"{k} {v}" for k, v in self.versions.items()))
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """The report as JSON-serialisable builtins (None where a value does not exist)."""
+        data = dataclasses.asdict(self)
+        data["passed"] = self.passed
+        return data
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def _table(rows: tuple[TimingRow, ...]) -> list[str]:
+    head = ("method", "compute median ms", "gap median %", "gap max %", "max qd ratio", "max qdd ratio",
+            "violations", "failures")
+    body = [(r.name, f"{r.compute_median_ms:.1f}", _fmt(r.gap_median_pct, "+.3f"), _fmt(r.gap_max_pct, "+.3f"),
+             _fmt(r.max_qd_ratio, ".6f"), _fmt(r.max_qdd_ratio, ".6f"), str(r.violations), str(r.failures))
+            for r in rows]
+    widths = [max(len(row[c]) for row in (head, *body)) for c in range(len(head))]
+    return ["  " + "  ".join(v.ljust(w) if c == 0 else v.rjust(w) for c, (v, w) in enumerate(zip(row, widths)))
+            for row in (head, *body)]
+
+
+# -- the paths --------------------------------------------------------------------------------------
+def random_paths(robot: Robot, count: int, rng: np.random.Generator) -> list[tuple[JointPath, int]]:
+    """``count`` spline paths through WAYPOINTS random waypoints in the middle 80 % of the ranges,
+    each with the number of draws rejected before it (the spline left the limits)."""
+    limits = robot.limits
+    paths = []
+    for _ in range(count):
+        for redraws in range(MAX_REDRAWS + 1):
+            W = robot.random_configurations(rng, WAYPOINTS, margin=MARGIN)
+            try:
+                path = make_path(W, limits.q_min, limits.q_max)
+            except PathError:
+                continue
+            paths.append((path, redraws))
+            break
+        else:
+            raise ConfigurationError(f"{robot.name}: {MAX_REDRAWS + 1} random draws of {WAYPOINTS} waypoints all "
+                                     "gave a spline that leaves the joint limits")
+    return paths
+
+
+# -- the methods: solve (timed) -> a result; evaluate (untimed) -> duration, qd, qdd on SAMPLES ------
+@dataclass(frozen=True)
+class Evaluation:
+    """A solved trajectory seen at its evaluation samples: duration [s], qd and qdd (n, dof);
+    ``time_stretch``: the uniform slow-down our certification applied, ``duration_change``: the
+    relative change of duration from the timed profile to the dense one (ours only)."""
+
+    duration: float
+    qd: np.ndarray
+    qdd: np.ndarray
+    time_stretch: float | None = None
+    duration_change: float | None = None
+
+
+@dataclass(frozen=True)
+class Method:
+    """``solve(path)``: the timed call, a trajectory object or None (failed); ``evaluate(path, result)``:
+    untimed, an Evaluation, or a string saying why the result is no trajectory."""
+
+    name: str
+    solve: Callable[[JointPath], object]
+    evaluate: Callable[[JointPath, object], "Evaluation | str"]
+    none_means: str = "returned None"
+
+
+def ours_method(robot: Robot) -> Method:
+    """``retime(robot, path, method="toppra")``, timed whole; evaluated by a dense second retime."""
+
+    def solve(path: JointPath):
+        return retime(robot, path, method="toppra")
+
+    def evaluate(path: JointPath, profile) -> Evaluation | str:
+        # retime certifies the dense profile itself (and raises if it fails): the ratios below are
+        # measured again, by the same formula as every other row's.
+        dense = retime(robot, path, method="toppra", dt=profile.duration / (SAMPLES - 1))
+        return Evaluation(dense.duration, dense.qd, dense.qdd, float(dense.details.get("time_stretch", 1.0)),
+                          dense.duration / profile.duration - 1.0)
+
+    return Method(OURS, solve, evaluate)
+
+
+def toppra_geometry(path: JointPath) -> tuple[toppra_backend.ArcLengthPath, float]:
+    """Our path as our toppra backend hands it to toppra (by chord length), and the end of its range:
+    raw toppra gets exactly what ours gets, so the rows differ only in what toppra does with it."""
+    wrapped = toppra_backend.ArcLengthPath(path)
+    return wrapped, float(wrapped.length)
+
+
+def _reaches_end(path: JointPath, q_end: np.ndarray) -> str:
+    error = float(np.abs(np.asarray(q_end) - path(1.0)).max())
+    return "" if error <= 1e-9 else f"the trajectory ends {error:.3g} away from the path's end"
+
+
+def raw_toppra_method(limits: Limits, gridpoints: int, name: str | None = None) -> Method:
+    """toppra on ``gridpoints`` uniform grid points, ParametrizeConstAccel, its own evaluation."""
+
+    def solve(path: JointPath):
+        geometry, end = toppra_geometry(path)
+        return toppra_instance(geometry, limits, np.linspace(0.0, end, gridpoints)).compute_trajectory(0.0, 0.0)
+
+    def evaluate(path: JointPath, trajectory) -> Evaluation | str:
+        duration = float(trajectory.duration)
+        if not np.isfinite(duration) or duration <= 0.0:
+            return f"no usable trajectory (duration {duration} s)"
+        t = np.linspace(0.0, duration, SAMPLES)
+        return _reaches_end(path, trajectory(duration)) or Evaluation(
+            duration, np.asarray(trajectory(t, 1)), np.asarray(trajectory(t, 2)))
+
+    return Method(name or toppra_name(gridpoints), solve, evaluate)
+
+
+class _DrakeLog(logging.Handler):
+    """Collects what Drake logs (pydrake forwards its C++ log to the Python logger ``drake``)."""
+
+    def __init__(self):
+        super().__init__(level=logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+def drake_path(path: JointPath):
+    """Our spline as a Drake PiecewisePolynomial: cubic Hermite at our knots with our q and dq/ds there.
+
+    Exact up to round-off: each piece of our spline is a cubic, fixed by its end values and slopes.
+    """
+    from pydrake.trajectories import PiecewisePolynomial
+
+    s = path.s_waypoints
+    return PiecewisePolynomial.CubicHermite(s, path(s).T, path(s, 1).T)
+
+
+def drake_geometry_error(path: JointPath, polynomial) -> dict[str, float]:
+    """Largest difference of q, dq/ds and d2q/ds2 between Drake's polynomial and our path on SAMPLES."""
+    s = np.linspace(0.0, 1.0, SAMPLES)
+    pieces = (polynomial, polynomial.derivative(1), polynomial.derivative(2))
+    return {key: float(np.abs(piece.vector_values(s).T - path(s, order)).max())
+            for order, (key, piece) in enumerate(zip(("q", "dq_ds", "d2q_ds2"), pieces))}
+
+
+def drake_toppra_method(robot: Robot, plant, gridpoints: int, polynomials: dict[int, object]) -> Method:
+    """Drake's Toppra on the PiecewisePolynomial of our path (``polynomials[id(path)]``, built untimed)."""
+    from pydrake.multibody.optimization import Toppra
+
+    limits = robot.limits
+    grid = np.linspace(0.0, 1.0, gridpoints)
+
+    def solve(path: JointPath):
+        toppra = Toppra(polynomials[id(path)], plant, grid)
+        toppra.AddJointVelocityLimit(-limits.qd_max, limits.qd_max)
+        toppra.AddJointAccelerationLimit(-limits.qdd_max, limits.qdd_max)
+        return toppra.SolvePathParameterization()
+
+    def evaluate(path: JointPath, s_of_t) -> Evaluation | str:
+        t0, t1 = s_of_t.start_time(), s_of_t.end_time()
+        t = np.linspace(t0, t1, SAMPLES)
+        s = s_of_t.vector_values(t).ravel()
+        if abs(s[0]) > 1e-9 or abs(s[-1] - 1.0) > 1e-9:
+            return f"s(t) runs from {s[0]:.9g} to {s[-1]:.9g}, not 0 to 1"
+        sd = s_of_t.derivative(1).vector_values(t).ravel()
+        sdd = s_of_t.derivative(2).vector_values(t).ravel()
+        d1, d2 = path(s, 1), path(s, 2)
+        return Evaluation(float(t1 - t0), d1 * sd[:, None], d1 * sdd[:, None] + d2 * (sd**2)[:, None])
+
+    return Method(drake_name(gridpoints), solve, evaluate, "SolvePathParameterization returned None")
+
+
+# -- running ----------------------------------------------------------------------------------------
+def _peak_ratios(evaluation: Evaluation, limits: Limits) -> tuple[float, float]:
+    return (float((np.abs(evaluation.qd) / limits.qd_max).max()),
+            float((np.abs(evaluation.qdd) / limits.qdd_max).max()))
+
+
+def _run_once(method: Method, path: JointPath) -> tuple[object, float, str]:
+    """(result or None, compute [ms], failure reason) of one timed call.
+
+    What Drake logs during the call is collected (outside the timed region) for the failure reason.
+    """
+    drake_logger, drake_log = logging.getLogger("drake"), _DrakeLog()
+    drake_logger.addHandler(drake_log)
+    try:
+        start = time.perf_counter_ns()
+        try:
+            result = method.solve(path)
+            failure = ""
+        except Exception as exc:  # noqa: BLE001 - a failure of a method is a row entry, not fatal
+            result, failure = None, f"{type(exc).__name__}: {exc}"
+        elapsed = (time.perf_counter_ns() - start) / 1e6
+    finally:
+        drake_logger.removeHandler(drake_log)
+    if result is None and not failure:
+        failure = method.none_means + (f" ({'; '.join(drake_log.messages)})" if drake_log.messages else "")
+    return result, elapsed, failure
+
+
+def _row(name: str, runs: list[MethodRun]) -> TimingRow:
+    solved = [r for r in runs if r.duration_s is not None]
+    gaps = [r.gap_pct for r in solved if r.gap_pct is not None]
+    compute = [r.compute_ms for r in runs]
+    failures = [r for r in runs if r.failure]
+    return TimingRow(
+        name=name, ours=name == OURS, paths=len(runs),
+        compute_median_ms=float(np.median(compute)), compute_max_ms=float(np.max(compute)),
+        gap_median_pct=float(np.median(gaps)) if gaps else None, gap_max_pct=float(np.max(gaps)) if gaps else None,
+        max_qd_ratio=max((r.max_qd_ratio for r in solved), default=None),
+        max_qdd_ratio=max((r.max_qdd_ratio for r in solved), default=None),
+        violations=sum(r.violation for r in solved), failures=len(failures),
+        first_failure=failures[0].failure if failures else "",
+    )
+
+
+def benchmark_robot(robot: Robot, paths: int, seed: int) -> TimingRobotReport:
+    """Every method on ``paths`` seeded random paths of one robot, interleaved."""
+    from ..drake_model import build_drake_robot
+
+    limits = robot.limits
+    if limits.qdd_max is None:
+        raise ConfigurationError(f"{robot.name}: the timing benchmark needs acceleration limits (qdd_max)")
+    drawn = random_paths(robot, paths, np.random.default_rng(seed))
+    plant = build_drake_robot(robot.spec).plant
+    polynomials = {id(path): drake_path(path) for path, _ in drawn}
+    geometry = [drake_geometry_error(path, polynomials[id(path)]) for path, _ in drawn]
+
+    methods = [ours_method(robot), *(raw_toppra_method(limits, n) for n in RAW_GRIDPOINTS),
+               *(drake_toppra_method(robot, plant, n, polynomials) for n in RAW_GRIDPOINTS),
+               raw_toppra_method(limits, REFERENCE_GRIDPOINTS, REFERENCE)]
+    for method in methods:                                  # warm-up: imports, caches; not counted
+        _run_once(method, drawn[0][0])
+
+    count = len(methods)
+    outcomes: list[list[tuple[Evaluation | None, float, str]]] = [[None] * paths for _ in range(count)]
+    for p, (path, _) in enumerate(drawn):
+        for k in np.roll(np.arange(count), -p):             # interleaved, order rotated per path
+            method = methods[k]
+            result, compute_ms, failure = _run_once(method, path)
+            evaluation = None
+            if result is not None:
+                try:
+                    evaluation = method.evaluate(path, result)
+                except Exception as exc:  # noqa: BLE001 - a trajectory that cannot be evaluated is a failure
+                    evaluation = f"evaluating the result raised {type(exc).__name__}: {exc}"
+                if isinstance(evaluation, str):
+                    failure, evaluation = evaluation, None
+            if failure:
+                log.info("%s, path %d: %s failed: %s", robot.name, p, method.name, failure)
+            outcomes[k][p] = (evaluation, compute_ms, failure)
+
+    reference = outcomes[-1]
+    records, runs_by_method = [], {m.name: [] for m in methods}
+    stretches = [e.time_stretch for e, _, _ in outcomes[0] if e is not None]
+    changes = [e.duration_change for e, _, _ in outcomes[0] if e is not None]
+    for p, (path, redraws) in enumerate(drawn):
+        runs = {}
+        ref_duration = reference[p][0].duration if reference[p][0] is not None else None
+        for method, per_path in zip(methods, outcomes):
+            evaluation, compute_ms, failure = per_path[p]
+            if evaluation is None:
+                run = MethodRun(None, None, None, None, compute_ms, 0, failure or "no trajectory")
+            else:
+                qd_ratio, qdd_ratio = _peak_ratios(evaluation, limits)
+                gap = None if ref_duration is None else 100.0 * (evaluation.duration / ref_duration - 1.0)
+                run = MethodRun(evaluation.duration, gap, qd_ratio, qdd_ratio, compute_ms, len(evaluation.qd))
+            runs[method.name] = run
+            runs_by_method[method.name].append(run)
+        records.append(PathRecord(p, redraws, path.length, path.waypoints.tolist(), runs))
+
+    ratios = [o.compute_ms / t.compute_ms for o, t in zip(runs_by_method[OURS], runs_by_method[TOPPRA_1000])]
+    return TimingRobotReport(
+        robot_name=robot.name, dof=robot.dof, paths=paths, redraws=sum(r for _, r in drawn),
+        rows=tuple(_row(m.name, runs_by_method[m.name]) for m in methods),
+        compute_ratio=float(np.median(ratios)), compute_ratios=ratios,
+        drake_geometry_error={key: max(g[key] for g in geometry) for key in geometry[0]},
+        our_time_stretch=max(stretches, default=None),
+        our_dense_duration_change=max(changes, key=abs, default=None),
+        records=tuple(records),
+    )
+
+
+def evaluate_goals(robots: tuple[TimingRobotReport, ...]) -> tuple[Goal, ...]:
+    """The issue's goals over all robots and paths: our gap, our violations, our compute time."""
+    ours = [record.runs[OURS] for robot in robots for record in robot.records]
+    gaps = [run.gap_pct for run in ours if run.gap_pct is not None]
+    unmeasured = sum(run.gap_pct is None for run in ours)
+    violations = sum(run.violation for run in ours)
+    failures = sum(run.duration_s is None for run in ours)
+    ratios = [ratio for robot in robots for ratio in robot.compute_ratios]
+    gap_max = max(gaps, default=None)
+    ratio = float(np.median(ratios))
+    return (
+        Goal("our largest duration gap to the dense optimum [%]", gap_max,
+             f"<= {GAP_GOAL_PCT} %" + (f"; {unmeasured} path(s) without a gap" if unmeasured else ""),
+             gap_max is not None and unmeasured == 0 and gap_max <= GAP_GOAL_PCT),
+        Goal("our limit violations (paths; failures count too)", float(violations + failures),
+             f"= 0 over {len(ours)} paths ({failures} failed)", violations + failures == 0),
+        Goal(f"our compute time / {TOPPRA_1000} (median of per-path ratios)", ratio,
+             f"< {COMPUTE_GOAL_RATIO:g}", ratio < COMPUTE_GOAL_RATIO),
+    )
+
+
+def _version(distribution: str) -> str:
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0) -> TimingBenchReport:
+    """Ours beside raw toppra (100, 1000 grid points) and Drake's Toppra (100, 1000) on each robot.
+
+    ``robots``: preset names or robot files; ``paths``: seeded random 10-waypoint paths per robot;
+    ``seed``: of the waypoints (each robot draws from its own generator seeded with it).
+    """
+    if paths < 1:
+        raise ValueError(f"paths must be >= 1, got {paths}")
+    robots = (robots,) if isinstance(robots, str) else tuple(robots)
+    if not robots:
+        raise ValueError("no robots to benchmark")
+    reports = tuple(benchmark_robot(load_robot(name), paths, seed) for name in robots)
+    versions = {"python": platform.python_version(), "numpy": np.__version__, "scipy": _version("scipy"),
+                "toppra": _version("toppra"), "drake": _version("drake")}
+    return TimingBenchReport(paths=paths, seed=seed, waypoints=WAYPOINTS, samples=SAMPLES, robots=reports,
+                             goals=evaluate_goals(reports), versions=versions)

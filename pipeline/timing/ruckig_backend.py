@@ -1,0 +1,426 @@
+"""Jerk-limited timing with Ruckig, offline and segment by segment (the cloud API is never used).
+
+``retime_ruckig``: one time-optimal, synchronised Ruckig trajectory per pair of consecutive
+waypoints, at rest at each waypoint or passing it with a given velocity. The community edition
+sends ``intermediate_positions`` to a cloud service, so we never set them: every segment is its own
+``Ruckig(dof).calculate(InputParameter, Trajectory)`` call.
+
+``retime_toppra_ruckig``: jerk-limited AND within ``path_tolerance`` of the geometric path, which
+no open library does. toppra's time-optimal profile switches acceleration instantly, so Ruckig
+cannot follow its states (measured: Ruckig through toppra's own states takes 1.6-26x longer and
+leaves the path by radians). We therefore build a jerk-aware guide along the path first:
+
+1. toppra's joint-space speed along the path |qd(t)| [rad/s] is averaged over a window of
+   max(qdd_max / qddd_max) (a moving average of width w turns an acceleration step into a ramp of
+   duration w), which starts and ends at rest;
+2. the guide q(t) = path(s(sigma(t))) (sigma: joint-space arc length) is checked against qd, qdd,
+   qddd on its samples; where it exceeds them, time is locally stretched by a smooth factor (a few
+   rounds), and any remainder by one uniform factor.
+
+Ruckig is then given guide states (position on the path, velocity, acceleration) at waypoints
+along the path, one segment at a time. The deviation of every segment from the path (distance
+from dense Ruckig samples to a fine polyline of the path near that segment, plus the polyline's own
+chord error) is measured, and segments above the tolerance are split until all pass or the
+budget is spent.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.ndimage import maximum_filter1d, uniform_filter1d
+
+from ..errors import TimingError
+from ..path import JointPath
+from ..profile import Profile
+from ..robot_spec import Limits
+from .toppra_backend import retime_toppra, sample_times
+
+#: Velocities and accelerations below this count as rest [rad/s, rad/s^2].
+REST_TOLERANCE = 1e-12
+#: Target states are kept this far inside Ruckig's admissible set (round-off of its check) [1].
+ADMISSIBLE_MARGIN = 1e-6
+#: Sample step of the toppra reference and of the guide [s].
+GUIDE_STEP = 1e-3
+#: Rounds of local time stretching of the guide before the uniform remainder.
+WARP_ROUNDS = 4
+#: Points of the polyline that stands for the path in the deviation check.
+PATH_TABLE_POINTS = 20001
+#: Guide time between the first waypoints [s]; segments above the tolerance are halved.
+INITIAL_SPACING = 0.1
+#: Refinement rounds, and uniform slow-downs of the guide after a Ruckig failure (x SLOWDOWN each).
+MAX_ROUNDS = 10
+MAX_SLOWDOWNS = 3
+SLOWDOWN = 1.1
+#: Ruckig samples per segment in the deviation check.
+DEVIATION_SAMPLES = 24
+DEFAULT_PATH_TOLERANCE = 1e-3   # [rad]
+
+
+# -- Ruckig segments --------------------------------------------------------------------------
+
+class RuckigSegmentError(TimingError):
+    """Ruckig rejected or failed one segment (the message names it)."""
+
+
+class SegmentSolver:
+    """One Ruckig instance with the joint limits; ``solve`` times one segment between two states."""
+
+    def __init__(self, limits: Limits):
+        import ruckig
+
+        self._ruckig = ruckig
+        self.dof = limits.qd_max.size
+        self.otg = ruckig.Ruckig(self.dof)
+        self.input = ruckig.InputParameter(self.dof)
+        self.input.max_velocity = limits.qd_max.tolist()
+        self.input.max_acceleration = limits.qdd_max.tolist()
+        self.input.max_jerk = limits.qddd_max.tolist()
+        self.input.min_position = limits.q_min.tolist()
+        self.input.max_position = limits.q_max.tolist()
+        self.calls = 0
+        self.compute_s = 0.0
+
+    def solve(self, start, target, where: str):
+        """Time-optimal trajectory from state ``start`` to ``target`` (each (q, qd, qdd)); ``where``
+        names the segment in the TimingError raised when Ruckig fails."""
+        ruckig = self._ruckig
+        inp = self.input
+        inp.current_position, inp.current_velocity, inp.current_acceleration = (np.asarray(x).tolist() for x in start)
+        inp.target_position, inp.target_velocity, inp.target_acceleration = (np.asarray(x).tolist() for x in target)
+        trajectory = ruckig.Trajectory(self.dof)
+        began = time.perf_counter()
+        try:
+            result = self.otg.calculate(inp, trajectory)
+        except ruckig.RuckigError as error:
+            raise RuckigSegmentError(f"Ruckig rejected {where}: {str(error).strip()}") from error
+        finally:
+            self.calls += 1
+            self.compute_s += time.perf_counter() - began
+        if result not in (ruckig.Result.Working, ruckig.Result.Finished):
+            raise RuckigSegmentError(f"Ruckig failed on {where}: {result.name}")
+        return trajectory
+
+
+def segment_jerk(trajectory, tau: np.ndarray) -> np.ndarray:
+    """Jerk (n, dof) [rad/s^3] at times tau [s] of a one-section trajectory, exactly: the constant
+    jerk of the phase Ruckig's ``at_time`` integrates from (brake phases first, zero after the end)."""
+    jerk = np.zeros((tau.size, trajectory.degrees_of_freedom))
+    for dof, phases in enumerate(trajectory.profiles[0]):
+        t = tau.copy()
+        brake = phases.brake
+        if brake.duration > 0.0:
+            in_brake = t < brake.duration
+            jerk[in_brake, dof] = np.where(t[in_brake] < brake.t[0], brake.j[0], brake.j[1])
+            t = t - brake.duration
+        else:
+            in_brake = np.zeros(t.size, dtype=bool)
+        index = np.searchsorted(np.cumsum(phases.t), t, side="right")
+        main = ~in_brake & (index < len(phases.j))
+        jerk[main, dof] = np.asarray(phases.j)[index[main]]
+    return jerk
+
+
+def sample_segment(trajectory, tau: np.ndarray):
+    """q, qd, qdd, qddd (n, dof) at times tau [s] from the segment's start (``at_time``)."""
+    q, qd, qdd = (np.array(x) for x in zip(*(trajectory.at_time(float(t)) for t in tau)))
+    return q, qd, qdd, segment_jerk(trajectory, tau)
+
+
+def profile_from_segments(trajectories, dt: float, method: str, limits: Limits,
+                          joint_names: tuple[str, ...], details: dict) -> Profile:
+    """Concatenate segments into one Profile sampled every ``dt`` [s] and at every segment end."""
+    durations = np.array([trajectory.duration for trajectory in trajectories])
+    ends = np.concatenate([[0.0], np.cumsum(durations)])
+    t = np.unique(np.concatenate([sample_times(ends[-1], dt), ends]))
+    segment = np.clip(np.searchsorted(ends, t, side="right") - 1, 0, len(trajectories) - 1)
+    columns = [np.empty((t.size, limits.qd_max.size)) for _ in range(4)]
+    for k in np.unique(segment):
+        rows = segment == k
+        tau = np.clip(t[rows] - ends[k], 0.0, durations[k])
+        for column, values in zip(columns, sample_segment(trajectories[k], tau)):
+            column[rows] = values
+    q, qd, qdd, qddd = columns
+    return Profile(t=t, q=q, qd=qd, qdd=qdd, qddd=qddd, method=method, limits=limits,
+                   joint_names=joint_names, details=details)
+
+
+def require_jerk_limits(limits: Limits, method: str) -> None:
+    """Ruckig needs acceleration and jerk limits for every joint."""
+    missing = [name for name in ("qdd_max", "qddd_max") if getattr(limits, name) is None]
+    if missing:
+        raise TimingError(f"{method} needs {' and '.join(missing)} for every joint (jerk-limited timing); "
+                          "add them to the robot file or pass limits=... with them")
+
+
+# -- waypoint to waypoint -----------------------------------------------------------------------
+
+def _check_inputs(waypoints: np.ndarray, velocities: np.ndarray, limits: Limits) -> None:
+    if waypoints.ndim != 2 or waypoints.shape[1] != limits.qd_max.size or len(waypoints) < 2:
+        raise TimingError(f"ruckig needs waypoints of shape (K >= 2, {limits.qd_max.size}), got {waypoints.shape}")
+    if velocities.shape != waypoints.shape:
+        raise TimingError(f"waypoint_velocities must have the waypoints' shape {waypoints.shape}, got {velocities.shape}")
+    for name, values in (("waypoint", waypoints), ("waypoint velocity", velocities)):
+        bad = np.argwhere(~np.isfinite(values))
+        if bad.size:
+            raise TimingError(f"{name} {bad[0][0]} has a non-finite value for joint {bad[0][1] + 1}")
+    outside = np.argwhere((waypoints < limits.q_min) | (waypoints > limits.q_max))
+    if outside.size:
+        k, j = outside[0]
+        raise TimingError(f"waypoint {k}: joint {j + 1} = {waypoints[k, j]:.6g} is outside its limits "
+                          f"[{limits.q_min[j]:.6g}, {limits.q_max[j]:.6g}]")
+    too_fast = np.argwhere(np.abs(velocities) > limits.qd_max)
+    if too_fast.size:
+        k, j = too_fast[0]
+        raise TimingError(f"waypoint {k}: velocity of joint {j + 1} = {velocities[k, j]:.6g} exceeds "
+                          f"qd_max {limits.qd_max[j]:.6g}")
+    if np.abs(velocities[[0, -1]]).max() > REST_TOLERANCE:
+        raise TimingError("waypoint_velocities must be zero at the first and last waypoint "
+                          "(the profile starts and ends at rest)")
+
+
+def retime_ruckig(waypoints: np.ndarray, limits: Limits, dt: float, joint_names: tuple[str, ...],
+                  waypoint_velocities=None) -> Profile:
+    """Jerk-limited, synchronised profile through waypoints (K, dof) [rad or m], sampled every ``dt`` [s].
+
+    At rest at every waypoint, or passing waypoint k with ``waypoint_velocities[k]`` [rad/s] (zero
+    acceleration there; the first and last rows must be zero). Raises TimingError naming the segment.
+    """
+    require_jerk_limits(limits, "ruckig")
+    velocities = np.zeros_like(waypoints) if waypoint_velocities is None else np.asarray(waypoint_velocities, float)
+    _check_inputs(waypoints, velocities, limits)
+    solver = SegmentSolver(limits)
+    zero = np.zeros(waypoints.shape[1])
+    states = [(q, v, zero) for q, v in zip(waypoints, velocities)]
+    trajectories = [solver.solve(states[k], states[k + 1], f"segment {k} (waypoint {k} to {k + 1})")
+                    for k in range(len(states) - 1)]
+    details = {
+        "mode": "rest at every waypoint" if waypoint_velocities is None else "through waypoints with velocities",
+        "segment_durations_s": [trajectory.duration for trajectory in trajectories],
+        "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
+        "jerk": "exact: the constant jerk of each Ruckig phase",
+        "cloud": "never used",
+    }
+    return profile_from_segments(trajectories, dt, "ruckig", limits, joint_names, details)
+
+
+# -- along the path: the guide ------------------------------------------------------------------
+
+class PathTable:
+    """The path sampled at PATH_TABLE_POINTS values of s: arc length ``sigma`` [rad], points ``q``,
+    the map sigma -> s, and ``chord_error``: the largest distance of the path from its polyline [rad]."""
+
+    def __init__(self, path: JointPath):
+        s = np.linspace(0.0, 1.0, PATH_TABLE_POINTS)
+        self.path = path
+        self.q = path(s)
+        self.sigma = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.q, axis=0), axis=1))])
+        self.length = float(self.sigma[-1])
+        self._q_squared = (self.q**2).sum(axis=1)
+        self._s_of_sigma = CubicSpline(self.sigma, s)
+        middle = path((s[1:] + s[:-1]) / 2.0)
+        self.chord_error = float(np.linalg.norm(middle - (self.q[1:] + self.q[:-1]) / 2.0, axis=1).max())
+
+    def at(self, sigma: np.ndarray) -> np.ndarray:
+        """Path points (n, dof) at arc lengths sigma [rad]."""
+        return self.path(np.clip(self._s_of_sigma(np.clip(sigma, 0.0, self.length)), 0.0, 1.0))
+
+    def distance(self, points: np.ndarray, sigma_lo: float, sigma_hi: float) -> float:
+        """Largest distance [rad] of ``points`` (n, dof) from the path between arc lengths sigma_lo and
+        sigma_hi: to the two polyline chords at the nearest table point, plus the chord error. Fewer
+        candidates only raise a minimum, so this bounds the distance from the whole path from above."""
+        lo = max(int(np.searchsorted(self.sigma, sigma_lo)) - 1, 0)
+        hi = min(int(np.searchsorted(self.sigma, sigma_hi)) + 1, len(self.sigma) - 1)
+        squared = self._q_squared[lo:hi + 1, None] - 2.0 * (self.q[lo:hi + 1] @ points.T)
+        nearest = lo + np.argmin(squared, axis=0)
+        chords = np.clip(np.stack([nearest - 1, nearest], axis=1), 0, len(self.q) - 2)    # (n, 2)
+        start, chord = self.q[chords], self.q[chords + 1] - self.q[chords]
+        offset = points[:, None, :] - start
+        along = np.clip((offset * chord).sum(axis=2) / np.maximum((chord**2).sum(axis=2), 1e-300), 0.0, 1.0)
+        gap = np.linalg.norm(offset - along[..., None] * chord, axis=2).min(axis=1)
+        return float(gap.max()) + self.chord_error
+
+
+@dataclass(frozen=True, eq=False)
+class Guide:
+    """A time-scaling of the path, uniformly sampled: times ``t`` (n,) [s], arc length ``sigma``,
+    positions on the path ``q``, ``qd``, ``qdd`` (n, dof); ``stretch`` the uniform factor applied."""
+
+    t: np.ndarray
+    sigma: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    stretch: float
+    warp_rounds: int
+
+    def slowed(self, factor: float) -> "Guide":
+        """The same motion ``factor`` times slower."""
+        return Guide(self.t * factor, self.sigma, self.q, self.qd / factor, self.qdd / factor**2,
+                     self.stretch * factor, self.warp_rounds)
+
+
+def time_scale_needed(qd, qdd, qddd, limits: Limits) -> np.ndarray:
+    """Per sample, the slow-down that brings qd, qdd, qddd within the limits (1 = at a limit)."""
+    return np.maximum.reduce([np.abs(qd) / limits.qd_max, np.sqrt(np.abs(qdd) / limits.qdd_max),
+                              np.cbrt(np.abs(qddd) / limits.qddd_max)]).max(axis=1)
+
+
+def _derivatives(q: np.ndarray, step: float):
+    qd = np.gradient(q, step, axis=0)
+    qdd = np.gradient(qd, step, axis=0)
+    return qd, qdd, np.gradient(qdd, step, axis=0)
+
+
+def _uniform(duration: float) -> np.ndarray:
+    """Uniform times from 0 to ``duration`` [s], about GUIDE_STEP apart."""
+    return np.linspace(0.0, duration, max(int(np.ceil(duration / GUIDE_STEP)), 2) + 1)
+
+
+def _smoothed_arc_length(reference: Profile, table: PathTable, window: float):
+    """Arc length [rad] at uniform times of toppra's speed averaged over ``window`` [s], and the step [s]."""
+    t = _uniform(reference.duration)
+    step = float(t[1])
+    samples = max(int(round(window / step)), 1)
+    speed = np.interp(t, reference.t, np.linalg.norm(reference.qd, axis=1))
+    speed = np.convolve(speed, np.ones(samples) / samples)       # zero outside: at rest at both ends
+    sigma = np.concatenate([[0.0], np.cumsum((speed[1:] + speed[:-1]) / 2.0)])
+    return sigma * (table.length / sigma[-1]), step
+
+
+def _warp(sigma: np.ndarray, step: float, needed: np.ndarray, window: float):
+    """Arc length at uniform times after stretching time by a smooth factor >= ``needed`` (n,)
+    that varies over ``window`` [s], and the new step [s]."""
+    samples = max(int(round(window / step)), 1)
+    factor = maximum_filter1d(np.maximum(needed, 1.0), size=2 * samples + 1, mode="nearest")
+    factor = uniform_filter1d(uniform_filter1d(factor, samples, mode="nearest"), samples, mode="nearest")
+    tau = np.concatenate([[0.0], np.cumsum((factor[1:] + factor[:-1]) / 2.0 * step)])
+    t = _uniform(tau[-1])
+    return CubicSpline(tau, sigma)(t), float(t[1])
+
+
+def build_guide(reference: Profile, table: PathTable, limits: Limits) -> Guide:
+    """A time-scaling of the path near toppra's, within qd, qdd and qddd on its samples (see module doc)."""
+    window = float(np.max(limits.qdd_max / limits.qddd_max))
+    sigma, step = _smoothed_arc_length(reference, table, window)
+    for rounds in range(WARP_ROUNDS + 1):
+        q = table.at(sigma)
+        qd, qdd, qddd = _derivatives(q, step)
+        needed = time_scale_needed(qd, qdd, qddd, limits)
+        if needed.max() <= 1.0 or rounds == WARP_ROUNDS:
+            break
+        sigma, step = _warp(sigma, step, needed, window)
+    guide = Guide(np.arange(len(sigma)) * step, sigma, q, qd, qdd, 1.0, rounds)
+    return guide.slowed(max(float(needed.max()), 1.0))
+
+
+# -- along the path: Ruckig through guide states ------------------------------------------------
+
+def admissible_scale(qd: np.ndarray, qdd: np.ndarray, limits: Limits) -> float:
+    """Largest c <= 1 for which the state (qd c, qdd c^2) is one Ruckig accepts: |qdd| <= qdd_max and
+    |qd| + qdd^2 / (2 qddd_max) <= qd_max (the velocity reached while the acceleration ramps to 0)."""
+    reach = np.abs(qd) + qdd**2 / (2.0 * limits.qddd_max)
+    c_velocity = limits.qd_max / np.maximum(reach, 1e-300)
+    c_acceleration = np.sqrt(limits.qdd_max / np.maximum(np.abs(qdd), 1e-300))
+    return min(1.0, float(c_velocity.min()), float(c_acceleration.min())) * (1.0 - ADMISSIBLE_MARGIN)
+
+
+def _guide_state(guide: Guide, k: int, limits: Limits):
+    """(q, qd, qdd) at guide sample k: at rest at both ends, else scaled into Ruckig's admissible set."""
+    if k in (0, len(guide.t) - 1):
+        zero = np.zeros_like(guide.q[k])
+        return guide.q[k], zero, zero
+    c = admissible_scale(guide.qd[k], guide.qdd[k], limits)
+    return guide.q[k], guide.qd[k] * c, guide.qdd[k] * c**2
+
+
+def _segment(guide: Guide, table: PathTable, solver: SegmentSolver, limits: Limits, a: int, b: int):
+    """Ruckig from guide sample a to b, and its largest distance from the path [rad]."""
+    where = (f"the path segment from arc length {guide.sigma[a]:.6g} to {guide.sigma[b]:.6g} rad "
+             f"(guide times {guide.t[a]:.4f} to {guide.t[b]:.4f} s)")
+    trajectory = solver.solve(_guide_state(guide, a, limits), _guide_state(guide, b, limits), where)
+    tau = np.linspace(0.0, trajectory.duration, DEVIATION_SAMPLES)
+    points = np.array([trajectory.at_time(float(t))[0] for t in tau])
+    span = guide.sigma[b] - guide.sigma[a]
+    return trajectory, table.distance(points, guide.sigma[a] - span, guide.sigma[b] + span)
+
+
+@dataclass(frozen=True, eq=False)
+class PathFollowing:
+    """Ruckig segments that follow the path: ``trajectories``, ``deviation`` [rad], ``rounds``,
+    ``waypoints`` (guide sample indices, (K,))."""
+
+    trajectories: list
+    deviation: float
+    rounds: int
+    waypoints: np.ndarray
+
+
+def follow_guide(guide: Guide, table: PathTable, solver: SegmentSolver, limits: Limits,
+                 tolerance: float, max_rounds: int) -> PathFollowing:
+    """Ruckig between guide samples INITIAL_SPACING apart; every segment farther than ``tolerance``
+    [rad] from the path is halved, for up to ``max_rounds`` rounds. Raises TimingError if that fails."""
+    last = len(guide.t) - 1
+    spacing = max(int(round(INITIAL_SPACING / guide.t[1] * guide.stretch)), 1)
+    marks = np.unique(np.append(np.arange(0, last, spacing), last))
+    solved = {}
+    for rounds in range(1, max_rounds + 1):
+        pairs = list(zip(marks[:-1].tolist(), marks[1:].tolist()))
+        for a, b in pairs:
+            if (a, b) not in solved:
+                solved[a, b] = _segment(guide, table, solver, limits, a, b)
+        deviations = np.array([solved[pair][1] for pair in pairs])
+        if deviations.max() <= tolerance:
+            return PathFollowing([solved[pair][0] for pair in pairs], float(deviations.max()), rounds, marks)
+        splits = [(a + b) // 2 for (a, b), deviation in zip(pairs, deviations) if deviation > tolerance and b - a > 1]
+        if not splits:
+            break
+        marks = np.union1d(marks, splits)
+    raise TimingError(f"toppra+ruckig reached a path deviation of {deviations.max():.3g} rad, above the "
+                      f"tolerance {tolerance:.3g} rad, after {rounds} rounds with {len(marks)} waypoints "
+                      f"({int((deviations > tolerance).sum())} segments still above it); raise path_tolerance")
+
+
+def retime_toppra_ruckig(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
+                         path_tolerance: float = DEFAULT_PATH_TOLERANCE, max_rounds: int = MAX_ROUNDS) -> Profile:
+    """Jerk-limited profile within ``path_tolerance`` [rad] of ``path``, at rest at both ends, sampled
+    every ``dt`` [s] and at every segment end (see the module doc). Raises TimingError when Ruckig
+    fails or the tolerance is not met within ``max_rounds`` refinements (after MAX_SLOWDOWNS retries)."""
+    require_jerk_limits(limits, "toppra+ruckig")
+    if not np.isfinite(path_tolerance) or path_tolerance <= 0.0:
+        raise TimingError(f"path_tolerance must be a positive number of radians, got {path_tolerance}")
+    began = time.perf_counter()
+    reference = retime_toppra(path, limits, GUIDE_STEP, joint_names)
+    table = PathTable(path)
+    guide = build_guide(reference, table, limits)
+    solver = SegmentSolver(limits)
+    for slowdowns in range(MAX_SLOWDOWNS + 1):
+        try:
+            following = follow_guide(guide, table, solver, limits, path_tolerance, max_rounds)
+            break
+        except TimingError as error:
+            if slowdowns == MAX_SLOWDOWNS:
+                raise TimingError(f"{error} (also with the guide slowed {slowdowns} times by {SLOWDOWN})") from error
+            guide = guide.slowed(SLOWDOWN)
+    duration = float(sum(trajectory.duration for trajectory in following.trajectories))
+    details = {
+        "path_tolerance": path_tolerance,
+        "path_deviation": following.deviation,
+        "path_chord_error": table.chord_error,
+        "toppra_duration_s": reference.duration,
+        "duration_ratio_to_toppra": duration / reference.duration,
+        "rounds": following.rounds,
+        "waypoints": int(len(following.waypoints)),
+        "guide": {"duration_s": float(guide.t[-1]), "smoothing_window_s": float(np.max(limits.qdd_max / limits.qddd_max)),
+                  "warp_rounds": guide.warp_rounds, "uniform_stretch": guide.stretch},
+        "slowdowns": slowdowns,
+        "ruckig_segments_solved": solver.calls,
+        "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
+        "compute_s": time.perf_counter() - began,
+        "jerk": "exact: the constant jerk of each Ruckig phase",
+        "cloud": "never used",
+    }
+    return profile_from_segments(following.trajectories, dt, "toppra+ruckig", limits, joint_names, details)
