@@ -13,10 +13,17 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
-# Demo: check every preset robot (Drake vs NumPy vs finite differences) and write the reports.
+# Demo: check every preset robot (Drake vs NumPy vs finite differences), then run every demo job in
+# trajectories/jobs/ into $(OUT)/<job name>/ (profile CSV/NPZ, JSON report, PNG plot).
 run: $(STAMP)
 	$(PY) -m pipeline check all --samples 200 --out $(OUT)/check
-	@echo "Reports written to $(OUT)/check/"
+	@set -e; for job in trajectories/jobs/*.yaml; do \
+		name=$$(basename $$job .yaml); \
+		echo "== $$job"; \
+		$(PY) -m pipeline run $$job --out $(OUT)/$$name; \
+	done
+	@echo "Jacobian check reports in $(OUT)/check/; the plots:"
+	@for job in trajectories/jobs/*.yaml; do echo "  $(OUT)/$$(basename $$job .yaml)/profile.png"; done
 
 test: $(STAMP)
 	$(PY) -m pytest -m "not slow"

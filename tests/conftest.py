@@ -1,4 +1,8 @@
-"""Shared fixtures: every robot file in models/ is tested automatically."""
+"""Shared fixtures: every robot file in models/ is tested automatically.
+
+``pytest --regen-golden`` rewrites the golden profiles in tests/golden/ from the demo jobs: the only
+run in which a test writes into the repository.
+"""
 
 from __future__ import annotations
 
@@ -12,6 +16,17 @@ from pipeline.robot_spec import preset_names
 
 DATA_DIR = Path(__file__).parent / "data"
 PRESETS = preset_names()
+
+
+def pytest_addoption(parser):
+    parser.addoption("--regen-golden", action="store_true", default=False,
+                     help="rewrite tests/golden/*.npz from the demo jobs in trajectories/jobs/")
+
+
+@pytest.fixture
+def regen_golden(request) -> bool:
+    """True when the run was asked to rewrite the golden profiles (--regen-golden)."""
+    return request.config.getoption("--regen-golden")
 
 
 @pytest.fixture(params=PRESETS)

@@ -1,0 +1,165 @@
+"""``run_job(job, out_dir)``: the one path from a job to certified output files.
+
+Steps: IK for pose waypoints (each seeded with the previous solution), the joint path, timing,
+certification (a profile that fails is an error, never an output), then every requested output
+written all or nothing. Used by the CLI (``python -m pipeline run``), the tests and the notebooks.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigurationError, JobFileError, TimingError
+from .io import write_files_atomic, write_json, write_profile_csv, write_profile_npz
+from .jobs import Job, JointWaypoint, load_job
+from .profile import QUANTITIES, LimitReport, Profile, certify
+from .timing import retime
+
+log = logging.getLogger(__name__)
+
+#: Output kind -> file name inside the output directory.
+FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png"}
+VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "numpy", "scipy")
+
+
+@dataclass(frozen=True, eq=False)
+class WaypointIk:
+    """How one waypoint became joint values: ``q`` [rad or m]; for a pose, the IK method that solved
+    it, its errors [m, rad] and the number of in-limit solutions it chose from (all None for joints)."""
+
+    q: np.ndarray
+    method: str | None = None
+    position_error: float | None = None
+    rotation_error: float | None = None
+    solutions: int | None = None
+
+    def to_dict(self) -> dict:
+        return {"q": self.q.tolist(), "given_as": "joints" if self.method is None else "pose",
+                "ik_method": self.method, "position_error_m": self.position_error,
+                "rotation_error_rad": self.rotation_error, "solutions": self.solutions}
+
+
+@dataclass(frozen=True, eq=False)
+class JobOutcome:
+    """What a job produced: the certified ``profile``, its ``limit_report``, the ``files`` written and
+    the ``report`` (the JSON report's content)."""
+
+    job: Job
+    profile: Profile
+    limit_report: LimitReport
+    files: tuple[Path, ...]
+    report: dict
+
+    def summary(self) -> str:
+        """A few lines: robot, method, duration, peak/limit ratios, files."""
+        ratios = ", ".join(f"{name} {self.limit_report.max_ratio(name):.4f}"
+                           for name in QUANTITIES if name in self.limit_report.ratios)
+        lines = [f"job {self.job.name}: robot {self.job.robot.name}, {len(self.job.waypoints)} waypoints, "
+                 f"timing {self.profile.method}, speed scale {self.job.speed_scale:g}",
+                 f"duration {self.profile.duration:.4f} s, {len(self.profile.t)} samples every {self.job.dt:g} s",
+                 f"peak/limit: {ratios} ({'PASS' if self.limit_report.passed else 'FAIL'})"]
+        lines += [f"wrote {path}" for path in self.files]
+        return "\n".join(lines)
+
+
+def solve_waypoints(job: Job) -> list[WaypointIk]:
+    """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
+    previous waypoint's joint values (the first: ``job.start`` or the middle of the limits), and of its
+    in-limit solutions the one nearest the previous joint values is kept. An unreachable pose raises a
+    JobFileError naming the waypoint and the IK reason."""
+    robot = job.robot
+    limits = robot.limits
+    previous = job.start if job.start is not None else (limits.q_min + limits.q_max) / 2.0
+    solved = []
+    for k, waypoint in enumerate(job.waypoints):
+        if isinstance(waypoint, JointWaypoint):
+            solved.append(WaypointIk(waypoint.q))
+        else:
+            result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik)
+            if not result.success:
+                raise JobFileError(f"{job.source}: waypoints[{k}]: pose is unreachable with IK method "
+                                   f"{job.ik!r} ({result.method}): {result.reason}")
+            candidates = [s.q for s in result.solutions] or [result.q]
+            q = min(candidates, key=lambda c: float(np.linalg.norm(c - previous)))
+            log.debug("waypoint %d: %d IK solution(s), kept the one %.4g from the previous", k, len(candidates),
+                      float(np.linalg.norm(q - previous)))
+            solved.append(WaypointIk(np.asarray(q, dtype=float), result.method, result.position_error,
+                                     result.rotation_error, len(candidates)))
+        previous = solved[-1].q
+    return solved
+
+
+def package_versions() -> dict[str, str | None]:
+    """Installed versions of this package and its numerical dependencies (None when absent)."""
+    versions = {}
+    for name in VERSIONED_PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = None
+    return versions
+
+
+def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile, limit_report: LimitReport) -> dict:
+    """The JSON report: inputs and their hash, methods, duration, peak/limit ratios, timing details."""
+    return {
+        "job": job.name,
+        "job_file": job.source,
+        "description": job.description,
+        "robot": {"name": job.robot.name, "file": job.robot.spec.source, "joints": list(job.robot.joint_names)},
+        "inputs_sha256": job.inputs_sha256,
+        "method": {"ik": job.ik, "timing": job.timing, "path": job.path},
+        "speed_scale": job.speed_scale,
+        "dt_s": job.dt,
+        "duration_s": profile.duration,
+        "samples": int(len(profile.t)),
+        "waypoints": [w.to_dict() for w in waypoints],
+        "limits": limit_report.to_dict(),
+        "timing_details": profile.details,
+        "versions": package_versions(),
+    }
+
+
+def _title(job: Job, profile: Profile) -> str:
+    return f"{job.robot.name}: {job.name}, {profile.method}, speed scale {job.speed_scale:g}, {profile.duration:.3f} s"
+
+
+def run_job(job: Job, out_dir: str | Path) -> JobOutcome:
+    """Run a validated job and write its outputs into ``out_dir`` (created; nothing written on failure)."""
+    waypoints = solve_waypoints(job)
+    try:
+        profile = retime(job.robot, np.array([w.q for w in waypoints]), method=job.timing,
+                         speed_scale=job.speed_scale, dt=job.dt, shape=job.path)
+    except (TimingError, ConfigurationError) as exc:
+        raise type(exc)(f"{job.source}: {exc}") from exc
+    limit_report = certify(profile)
+    if not limit_report.passed:
+        raise TimingError(f"{job.source}: the {profile.method} profile failed certification: {limit_report}")
+    report = build_report(job, waypoints, profile, limit_report)
+    revolute = [j.is_revolute for j in job.robot.spec.joints]
+    writers = {
+        "csv": lambda path: write_profile_csv(path, profile, revolute),
+        "npz": lambda path: write_profile_npz(path, profile),
+        "json": lambda path: write_json(path, report),
+        "png": lambda path: _plot(path, job, profile, revolute),
+    }
+    files = write_files_atomic(out_dir, {FILE_NAMES[kind]: writers[kind] for kind in job.outputs})
+    log.info("job %s: %s, %.4f s; wrote %d file(s) to %s", job.name, profile.method, profile.duration,
+             len(files), out_dir)
+    return JobOutcome(job, profile, limit_report, tuple(files), report)
+
+
+def _plot(path: Path, job: Job, profile: Profile, revolute: list[bool]) -> None:
+    from .plots import plot_profile   # matplotlib only when a plot is asked for
+
+    plot_profile(path, profile, revolute, _title(job, profile))
+
+
+def run_job_file(path: str | Path, out_dir: str | Path) -> JobOutcome:
+    """Load a job file and run it: ``run_job(load_job(path), out_dir)``."""
+    return run_job(load_job(path), out_dir)

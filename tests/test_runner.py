@@ -1,0 +1,156 @@
+"""The runner: every demo job against its golden profile, IK continuity, the outputs, and nothing
+written when a step fails. ``pytest --regen-golden`` rewrites tests/golden/ from the demo jobs."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import pipeline.plots
+from pipeline.__main__ import main
+from pipeline.errors import JobFileError
+from pipeline.io import profile_columns
+from pipeline.jobs import load_job, parse_job
+from pipeline.runner import FILE_NAMES, run_job, run_job_file, solve_waypoints
+
+ROOT = Path(__file__).resolve().parent.parent
+JOB_FILES = sorted((ROOT / "trajectories" / "jobs").glob("*.yaml"))
+GOLDEN_DIR = Path(__file__).resolve().parent / "golden"
+#: Golden files keep every GOLDEN_STRIDE-th sample (more when that would exceed GOLDEN_MAX_SAMPLES) and the last.
+GOLDEN_STRIDE = 10
+GOLDEN_MAX_SAMPLES = 500
+DURATION_RTOL = 1e-6
+#: Absolute tolerances after resampling to the golden's time grid [rad, rad/s, rad/s^2].
+TOLERANCE = {"q": 1e-6, "qd": 1e-6, "qdd": 1e-5}
+RATIO_LIMIT = 1.0 + 1e-6
+
+
+def golden_indices(count: int) -> np.ndarray:
+    stride = max(GOLDEN_STRIDE, math.ceil(count / (GOLDEN_MAX_SAMPLES - 1)))
+    return np.unique(np.append(np.arange(0, count, stride), count - 1))
+
+
+def write_golden(path: Path, profile) -> None:
+    keep = golden_indices(len(profile.t))
+    np.savez(path, duration=profile.duration, method=profile.method, t=profile.t[keep],
+             q=profile.q[keep], qd=profile.qd[keep], qdd=profile.qdd[keep])
+
+
+def resample(t_new: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(t_new, t, values[:, j]) for j in range(values.shape[1])])
+
+
+@pytest.mark.parametrize("job_file", JOB_FILES, ids=[p.stem for p in JOB_FILES])
+def test_demo_job_matches_its_golden_profile(job_file, tmp_path, regen_golden):
+    outcome = run_job_file(job_file, tmp_path / job_file.stem)
+    profile, report = outcome.profile, outcome.limit_report
+    assert report.passed and all(report.max_ratio(name) <= RATIO_LIMIT for name in report.ratios)
+    np.testing.assert_allclose(profile.qd[[0, -1]], 0.0, atol=1e-9)           # at rest at both ends
+    golden_path = GOLDEN_DIR / f"{job_file.stem}.npz"
+    if regen_golden:
+        GOLDEN_DIR.mkdir(exist_ok=True)
+        write_golden(golden_path, profile)
+    assert golden_path.is_file(), f"no golden profile for {job_file.name}: run pytest --regen-golden"
+    with np.load(golden_path) as golden:
+        assert str(golden["method"]) == profile.method
+        assert profile.duration == pytest.approx(float(golden["duration"]), rel=DURATION_RTOL)
+        for name, tolerance in TOLERANCE.items():
+            np.testing.assert_allclose(resample(golden["t"], profile.t, getattr(profile, name)), golden[name],
+                                       rtol=0, atol=tolerance, err_msg=f"{job_file.stem}: {name}")
+
+
+def test_golden_files_are_small():
+    for path in GOLDEN_DIR.glob("*.npz"):
+        with np.load(path) as golden:
+            assert golden["t"].size <= GOLDEN_MAX_SAMPLES and golden["q"].dtype == np.float64
+        assert path.stat().st_size < 100_000
+
+
+def test_outputs_hold_the_profile_and_the_report(tmp_path):
+    outcome = run_job_file(ROOT / "trajectories" / "jobs" / "arm5_joint_spline.yaml", tmp_path / "arm5")
+    profile = outcome.profile
+    assert [p.name for p in outcome.files] == [FILE_NAMES[k] for k in ("csv", "npz", "json", "png")]
+    assert sorted(p.name for p in (tmp_path / "arm5").iterdir()) == sorted(FILE_NAMES.values())
+    header = (tmp_path / "arm5" / "profile.csv").read_text().splitlines()[0]
+    assert header == ",".join(profile_columns([True] * 5)) and header.startswith("t_s,q1_rad,")
+    with np.load(tmp_path / "arm5" / "profile.npz") as data:
+        np.testing.assert_array_equal(data["qdd"], profile.qdd)
+        assert list(data["joint_names"]) == ["Q1", "Q2", "Q3", "Q4", "Q5"]
+    report = json.loads((tmp_path / "arm5" / "report.json").read_text())
+    assert report == json.loads(json.dumps(outcome.report))
+    assert report["robot"]["name"] == "arm5" and report["duration_s"] == pytest.approx(profile.duration)
+    assert report["limits"]["passed"] and report["method"]["timing"] == "toppra"
+    assert len(report["inputs_sha256"]) == 64 and report["versions"]["numpy"] == np.__version__
+    assert (tmp_path / "arm5" / "profile.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    summary = outcome.summary()
+    assert "arm5" in summary and "toppra" in summary and f"{profile.duration:.4f} s" in summary
+    assert str(tmp_path / "arm5" / "profile.png") in summary
+
+
+def test_pose_waypoints_are_solved_in_order_and_stay_near_each_other():
+    job = load_job(ROOT / "trajectories" / "jobs" / "gp7_pick_place.yaml")
+    solved = solve_waypoints(job)
+    for waypoint, result in zip(job.waypoints, solved):
+        np.testing.assert_allclose(job.robot.fk(result.q), waypoint.X_BE, atol=1e-9)
+    previous = job.start
+    for k, (waypoint, result) in enumerate(zip(job.waypoints, solved)):
+        every = job.robot.ik(waypoint.X_BE, q_seed=previous, method="analytic").solutions
+        nearest = min(np.linalg.norm(s.q - previous) for s in every)
+        assert np.linalg.norm(result.q - previous) == pytest.approx(nearest, abs=1e-12), f"waypoint {k}"
+        previous = result.q
+
+
+def unreachable_job(tmp_path: Path) -> Path:
+    doc = {"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "outputs": ["csv"],
+           "waypoints": [{"xyz": [560, 0, 600], "rpy": [180, 0, 0]}, {"xyz": [3000, 0, 600], "rpy": [180, 0, 0]}]}
+    path = tmp_path / "unreachable.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def test_unreachable_pose_names_the_waypoint_and_the_reason(tmp_path):
+    path = unreachable_job(tmp_path)
+    with pytest.raises(JobFileError) as error:
+        run_job_file(path, tmp_path / "out")
+    message = str(error.value)
+    assert message.startswith(f"{path}: waypoints[1]: pose is unreachable") and len(message) > len(str(path)) + 60
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_run_exits_2_on_a_bad_job_and_0_on_a_good_one(tmp_path, capsys):
+    assert main(["run", str(unreachable_job(tmp_path)), "--out", str(tmp_path / "bad")]) == 2
+    assert "waypoints[1]" in capsys.readouterr().err and not (tmp_path / "bad").exists()
+    job = tmp_path / "ok.yaml"
+    job.write_text(yaml.safe_dump({"robot": "arm5", "angle_unit": "deg", "outputs": ["json"],
+                                   "waypoints": [[0, 0, 0, 0, 0], [10, 20, 30, 40, 50]]}))
+    assert main(["run", str(job), "--out", str(tmp_path / "good")]) == 0
+    assert "report.json" in capsys.readouterr().out and (tmp_path / "good" / "report.json").is_file()
+
+
+def test_a_failing_plot_leaves_no_output_behind(tmp_path, monkeypatch):
+    def broken_plot(*args, **kwargs):
+        raise RuntimeError("plot failed")
+
+    monkeypatch.setattr(pipeline.plots, "plot_profile", broken_plot)
+    job = parse_job({"robot": "arm5", "angle_unit": "deg", "waypoints": [[0, 0, 0, 0, 0], [10, 20, 30, 40, 50]]})
+    with pytest.raises(RuntimeError, match="plot failed"):
+        run_job(job, tmp_path / "out" / "job")
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_torque_limited_robot_writes_torques(tmp_path):
+    job = tmp_path / "arm2.yaml"
+    job.write_text(yaml.safe_dump({"robot": str(ROOT / "tests" / "data" / "arm2_dynamics.yaml"), "angle_unit": "deg",
+                                   "waypoints": [[0, 0], [90, -60], [-30, 45]], "outputs": ["csv", "npz", "png"]}))
+    outcome = run_job_file(job, tmp_path / "out")
+    assert "tau" in outcome.limit_report.ratios and outcome.limit_report.max_ratio("tau") <= RATIO_LIMIT
+    header = (tmp_path / "out" / "profile.csv").read_text().splitlines()[0]
+    assert header.endswith("qddd2_rad_s3,tau1_N_m,tau2_N_m")
+    with np.load(tmp_path / "out" / "profile.npz") as data:
+        np.testing.assert_array_equal(data["tau"], outcome.profile.tau)
+    assert "tau" in outcome.summary()
