@@ -23,14 +23,20 @@ def strict_in_limits(robot, result, X_target, kind="pose"):
             and np.all(result.q >= limits.q_min) and np.all(result.q <= limits.q_max))
 
 
-@pytest.mark.parametrize("name", SIX_DOF)
-def test_analytic_round_trip_finds_the_original_configuration_every_time(name):
+def round_trip(name: str, seed: int, method: str, **options):
+    """ROUND_TRIPS targets from seeded random in-limit configurations, solved from random seeds:
+    (robot, original configurations, target poses, results)."""
     robot = load_robot(name)
-    rng = np.random.default_rng(10)
+    rng = np.random.default_rng(seed)
     Q = robot.random_configurations(rng, ROUND_TRIPS)
     seeds = robot.random_configurations(rng, ROUND_TRIPS)
     X = robot.fk_batch(Q)
-    results = robot.ik_batch(X, seeds, method="analytic")
+    return robot, Q, X, robot.ik_batch(X, seeds, method=method, **options)
+
+
+@pytest.mark.parametrize("name", SIX_DOF)
+def test_analytic_round_trip_finds_the_original_configuration_every_time(name):
+    robot, Q, X, results = round_trip(name, 10, "analytic")
     for q, x, result in zip(Q, X, results):
         assert result.success, result.reason
         assert strict_in_limits(robot, result, x)
@@ -44,12 +50,8 @@ def test_analytic_round_trip_finds_the_original_configuration_every_time(name):
 
 @pytest.mark.parametrize("name", SIX_DOF)
 def test_jacobian_round_trip(name):
-    robot = load_robot(name)
-    rng = np.random.default_rng(11)
-    Q = robot.random_configurations(rng, ROUND_TRIPS)
-    seeds = robot.random_configurations(rng, ROUND_TRIPS)
-    results = robot.ik_batch(robot.fk_batch(Q), seeds, method="jacobian", rng=np.random.default_rng(0))
-    successes = [strict_in_limits(robot, r, x) for r, x in zip(results, robot.fk_batch(Q))]
+    robot, _, X, results = round_trip(name, 11, "jacobian", rng=np.random.default_rng(0))
+    successes = [strict_in_limits(robot, r, x) for r, x in zip(results, X)]
     assert all(r.success == s for r, s in zip(results, successes))     # reported success is strict
     assert np.mean(successes) >= 0.998
 
@@ -229,12 +231,7 @@ def test_bad_seed_method_and_kind_are_typed_errors():
 @pytest.mark.parametrize("name", SIX_DOF)
 def test_drake_round_trip(name):
     """500 targets from random seeds: every reported success is strict, and >= 99 % succeed."""
-    robot = load_robot(name)
-    rng = np.random.default_rng(13)
-    Q = robot.random_configurations(rng, ROUND_TRIPS)
-    seeds = robot.random_configurations(rng, ROUND_TRIPS)
-    X = robot.fk_batch(Q)
-    results = robot.ik_batch(X, seeds, method="drake", rng=np.random.default_rng(0))
+    robot, _, X, results = round_trip(name, 13, "drake", rng=np.random.default_rng(0))
     strict = [strict_in_limits(robot, r, x) for r, x in zip(results, X)]
     assert all(s for r, s in zip(results, strict) if r.success)
     assert np.mean(strict) >= 0.99
