@@ -45,7 +45,7 @@ def assert_certified_from_to(profile, waypoints):
     assert np.all(np.diff(profile.t) > 0)
 
 
-CASES = [(case, method) for case in SUITE["cases"] for method in SUITE["methods"]]
+CASES = [(case, method) for case in SUITE["cases"] for method in case.get("methods", SUITE["methods"])]
 
 
 @pytest.mark.parametrize("case, method", CASES, ids=[f"{c['name']}-{m}" for c, m in CASES])

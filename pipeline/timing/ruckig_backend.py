@@ -3,7 +3,11 @@
 ``retime_ruckig``: one time-optimal, synchronised Ruckig trajectory per pair of consecutive
 waypoints, at rest at each waypoint or passing it with a given velocity. The community edition
 sends ``intermediate_positions`` to a cloud service, so we never set them: every segment is its own
-``Ruckig(dof).calculate(InputParameter, Trajectory)`` call.
+``Ruckig(dof).calculate(InputParameter, Trajectory)`` call. Offline Ruckig ignores position limits
+(``min_position``/``max_position`` are used only by the cloud; "ErrorPositionalLimits ... only in
+Ruckig Pro"), so every segment's exact position extrema (``Trajectory.position_extrema``) are checked
+against q_min/q_max instead; velocity, acceleration and jerk limits hold by construction, and the
+returned samples are certified.
 
 ``retime_toppra_ruckig``: jerk-limited AND within ``path_tolerance`` of the geometric path, which
 no open library does. toppra's time-optimal profile switches acceleration instantly, so Ruckig
@@ -14,14 +18,18 @@ leaves the path by radians). We therefore build a jerk-aware guide along the pat
    max(qdd_max / qddd_max) (a moving average of width w turns an acceleration step into a ramp of
    duration w), which starts and ends at rest;
 2. the guide q(t) = path(s(sigma(t))) (sigma: joint-space arc length) is checked against qd, qdd,
-   qddd on its samples; where it exceeds them, time is locally stretched by a smooth factor (a few
-   rounds), and any remainder by one uniform factor.
+   qddd (finite differences over the guide's step, set by the tolerance) on its samples; where it
+   exceeds them, time is locally stretched by a smooth factor (a few rounds), and any remainder by
+   one uniform factor.
 
 Ruckig is then given guide states (position on the path, velocity, acceleration) at waypoints
 along the path, one segment at a time. The deviation of every segment from the path (distance
-from dense Ruckig samples to a fine polyline of the path near that segment, plus the polyline's own
-chord error) is measured, and segments above the tolerance are split until all pass or the
-budget is spent.
+from DEVIATION_SAMPLES Ruckig samples to a fine polyline of the path near that segment, plus the
+polyline's own chord error) is measured, and segments above the tolerance are halved until all pass
+or the budget is spent; then the guide is slowed and the whole tried again. Measured on random
+paths: 1.0-1.3x toppra's duration on splines; on ``linear`` paths more (1.1-1.7x at 1e-3 rad,
+1.4-3.3x at 1e-5 rad), because d2q/ds2 jumps at every blend end, which a jerk limit can only follow
+by slowing down or cutting the corner within the tolerance.
 """
 
 from __future__ import annotations
@@ -35,7 +43,7 @@ from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
 from ..errors import TimingError
 from ..path import JointPath
-from ..profile import Profile
+from ..profile import CERTIFY_TOLERANCE, Profile
 from ..robot_spec import Limits
 from .toppra_backend import retime_toppra, sample_times
 
@@ -43,15 +51,23 @@ from .toppra_backend import retime_toppra, sample_times
 REST_TOLERANCE = 1e-12
 #: Target states are kept this far inside Ruckig's admissible set (round-off of its check) [1].
 ADMISSIBLE_MARGIN = 1e-6
-#: Sample step of the toppra reference and of the guide [s].
-GUIDE_STEP = 1e-3
+#: The guide's sample step h [s] is also the time over which its finite-difference jerk sees an
+#: acceleration jump (a linear path's blend ends): sqrt(GUIDE_STEP_GAIN tolerance / max qdd_max), so
+#: that Ruckig smoothing such a jump stays within the tolerance (measured on 10-waypoint linear paths:
+#: 8 ms keeps 1e-3 rad, fails 40 % at 1e-4; 4 ms keeps 1e-4, fails 40 % at 1e-5), within these bounds.
+GUIDE_STEP_GAIN = 2.0
+GUIDE_STEP_BOUNDS = (5e-4, 8e-3)
 #: Rounds of local time stretching of the guide before the uniform remainder.
 WARP_ROUNDS = 4
-#: Points of the polyline that stands for the path in the deviation check.
+#: The polyline that stands for the path in the deviation check: at least this many points, about
+#: this far apart [rad], and more when its chord error exceeds this fraction of the tolerance.
 PATH_TABLE_POINTS = 20001
+PATH_TABLE_SPACING = 1e-3
+CHORD_ERROR_SHARE = 0.1
+MAX_PATH_TABLE_POINTS = 2_000_001
 #: Guide time between the first waypoints [s]; segments above the tolerance are halved.
 INITIAL_SPACING = 0.1
-#: Refinement rounds, and uniform slow-downs of the guide after a Ruckig failure (x SLOWDOWN each).
+#: Refinement rounds, and uniform slow-downs of the guide (x SLOWDOWN each) when a pass fails.
 MAX_ROUNDS = 10
 MAX_SLOWDOWNS = 3
 SLOWDOWN = 1.1
@@ -62,12 +78,9 @@ DEFAULT_PATH_TOLERANCE = 1e-3   # [rad]
 
 # -- Ruckig segments --------------------------------------------------------------------------
 
-class RuckigSegmentError(TimingError):
-    """Ruckig rejected or failed one segment (the message names it)."""
-
-
 class SegmentSolver:
-    """One Ruckig instance with the joint limits; ``solve`` times one segment between two states."""
+    """One Ruckig instance with the joint limits; ``solve`` times one segment between two states
+    and checks its exact position extrema against the position limits."""
 
     def __init__(self, limits: Limits):
         import ruckig
@@ -79,8 +92,8 @@ class SegmentSolver:
         self.input.max_velocity = limits.qd_max.tolist()
         self.input.max_acceleration = limits.qdd_max.tolist()
         self.input.max_jerk = limits.qddd_max.tolist()
-        self.input.min_position = limits.q_min.tolist()
-        self.input.max_position = limits.q_max.tolist()
+        slack = CERTIFY_TOLERANCE * (limits.q_max - limits.q_min) / 2.0       # as certify() allows
+        self.q_min, self.q_max = limits.q_min - slack, limits.q_max + slack
         self.calls = 0
         self.compute_s = 0.0
 
@@ -89,39 +102,38 @@ class SegmentSolver:
         names the segment in the TimingError raised when Ruckig fails."""
         ruckig = self._ruckig
         inp = self.input
-        inp.current_position, inp.current_velocity, inp.current_acceleration = (np.asarray(x).tolist() for x in start)
-        inp.target_position, inp.target_velocity, inp.target_acceleration = (np.asarray(x).tolist() for x in target)
+        inp.current_position, inp.current_velocity, inp.current_acceleration = (list(x) for x in start)
+        inp.target_position, inp.target_velocity, inp.target_acceleration = (list(x) for x in target)
         trajectory = ruckig.Trajectory(self.dof)
         began = time.perf_counter()
         try:
             result = self.otg.calculate(inp, trajectory)
         except ruckig.RuckigError as error:
-            raise RuckigSegmentError(f"Ruckig rejected {where}: {str(error).strip()}") from error
+            raise TimingError(f"Ruckig rejected {where}: {str(error).strip()}") from error
         finally:
             self.calls += 1
             self.compute_s += time.perf_counter() - began
         if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-            raise RuckigSegmentError(f"Ruckig failed on {where}: {result.name}")
+            raise TimingError(f"Ruckig failed on {where}: {result.name}")
+        for joint, bound in enumerate(trajectory.position_extrema):
+            if bound.min < self.q_min[joint] or bound.max > self.q_max[joint]:
+                raise TimingError(
+                    f"Ruckig's trajectory for {where} leaves the limits of joint {joint + 1} (reaches "
+                    f"[{bound.min:.6g}, {bound.max:.6g}], limits [{self.q_min[joint]:.6g}, {self.q_max[joint]:.6g}])")
         return trajectory
 
 
 def segment_jerk(trajectory, tau: np.ndarray) -> np.ndarray:
     """Jerk (n, dof) [rad/s^3] at times tau [s] of a one-section trajectory, exactly: the constant
     jerk of the phase Ruckig's ``at_time`` integrates from (brake phases first, zero after the end)."""
-    jerk = np.zeros((tau.size, trajectory.degrees_of_freedom))
-    for dof, phases in enumerate(trajectory.profiles[0]):
-        t = tau.copy()
+    columns = []
+    for phases in trajectory.profiles[0]:
         brake = phases.brake
-        if brake.duration > 0.0:
-            in_brake = t < brake.duration
-            jerk[in_brake, dof] = np.where(t[in_brake] < brake.t[0], brake.j[0], brake.j[1])
-            t = t - brake.duration
-        else:
-            in_brake = np.zeros(t.size, dtype=bool)
-        index = np.searchsorted(np.cumsum(phases.t), t, side="right")
-        main = ~in_brake & (index < len(phases.j))
-        jerk[main, dof] = np.asarray(phases.j)[index[main]]
-    return jerk
+        durations, jerks = (phases.t, phases.j) if brake.duration <= 0.0 else (
+            [*brake.t, *phases.t], [*brake.j, *phases.j])
+        index = np.searchsorted(np.cumsum(durations), tau, side="right")
+        columns.append(np.append(jerks, 0.0)[index])
+    return np.stack(columns, axis=1)
 
 
 def sample_segment(trajectory, tau: np.ndarray):
@@ -138,11 +150,12 @@ def profile_from_segments(trajectories, dt: float, method: str, limits: Limits,
     t = np.unique(np.concatenate([sample_times(ends[-1], dt), ends]))
     segment = np.clip(np.searchsorted(ends, t, side="right") - 1, 0, len(trajectories) - 1)
     columns = [np.empty((t.size, limits.qd_max.size)) for _ in range(4)]
-    for k in np.unique(segment):
-        rows = segment == k
-        tau = np.clip(t[rows] - ends[k], 0.0, durations[k])
-        for column, values in zip(columns, sample_segment(trajectories[k], tau)):
-            column[rows] = values
+    bounds = np.searchsorted(segment, np.arange(len(trajectories) + 1))       # t is sorted
+    for k, (first, stop) in enumerate(zip(bounds[:-1], bounds[1:])):
+        if stop > first:
+            tau = np.clip(t[first:stop] - ends[k], 0.0, durations[k])
+            for column, values in zip(columns, sample_segment(trajectories[k], tau)):
+                column[first:stop] = values
     q, qd, qdd, qddd = columns
     return Profile(t=t, q=q, qd=qd, qdd=qdd, qddd=qddd, method=method, limits=limits,
                    joint_names=joint_names, details=details)
@@ -153,16 +166,19 @@ def require_jerk_limits(limits: Limits, method: str) -> None:
     missing = [name for name in ("qdd_max", "qddd_max") if getattr(limits, name) is None]
     if missing:
         raise TimingError(f"{method} needs {' and '.join(missing)} for every joint (jerk-limited timing); "
-                          "add them to the robot file or pass limits=... with them")
+                          "add the missing limits to the robot file or pass limits=... with them")
 
 
 # -- waypoint to waypoint -----------------------------------------------------------------------
 
 def _check_inputs(waypoints: np.ndarray, velocities: np.ndarray, limits: Limits) -> None:
-    if waypoints.ndim != 2 or waypoints.shape[1] != limits.qd_max.size or len(waypoints) < 2:
-        raise TimingError(f"ruckig needs waypoints of shape (K >= 2, {limits.qd_max.size}), got {waypoints.shape}")
+    if waypoints.ndim != 2 or waypoints.shape[1] != limits.qd_max.size:
+        raise TimingError(f"waypoints must have shape (K, {limits.qd_max.size}), got {waypoints.shape}")
+    if len(waypoints) < 2:
+        raise TimingError(f"a path needs at least 2 waypoints, got {len(waypoints)}")
     if velocities.shape != waypoints.shape:
-        raise TimingError(f"waypoint_velocities must have the waypoints' shape {waypoints.shape}, got {velocities.shape}")
+        raise TimingError(f"waypoint_velocities must have the waypoints' shape {waypoints.shape}, "
+                          f"got {velocities.shape}")
     for name, values in (("waypoint", waypoints), ("waypoint velocity", velocities)):
         bad = np.argwhere(~np.isfinite(values))
         if bad.size:
@@ -177,6 +193,8 @@ def _check_inputs(waypoints: np.ndarray, velocities: np.ndarray, limits: Limits)
         k, j = too_fast[0]
         raise TimingError(f"waypoint {k}: velocity of joint {j + 1} = {velocities[k, j]:.6g} exceeds "
                           f"qd_max {limits.qd_max[j]:.6g}")
+    if np.ptp(waypoints, axis=0).max() == 0.0 and np.abs(velocities).max() == 0.0:
+        raise TimingError("all waypoints are the same configuration: there is no motion to time")
     if np.abs(velocities[[0, -1]]).max() > REST_TOLERANCE:
         raise TimingError("waypoint_velocities must be zero at the first and last waypoint "
                           "(the profile starts and ends at rest)")
@@ -210,11 +228,22 @@ def retime_ruckig(waypoints: np.ndarray, limits: Limits, dt: float, joint_names:
 # -- along the path: the guide ------------------------------------------------------------------
 
 class PathTable:
-    """The path sampled at PATH_TABLE_POINTS values of s: arc length ``sigma`` [rad], points ``q``,
+    """The path sampled at ``points`` uniform values of s: arc length ``sigma`` [rad], points ``q``,
     the map sigma -> s, and ``chord_error``: the largest distance of the path from its polyline [rad]."""
 
-    def __init__(self, path: JointPath):
-        s = np.linspace(0.0, 1.0, PATH_TABLE_POINTS)
+    @classmethod
+    def for_tolerance(cls, path: JointPath, tolerance: float) -> "PathTable":
+        """A table about PATH_TABLE_SPACING fine, refined once (chord error ~ 1 / points^2) so that
+        its chord error is at most CHORD_ERROR_SHARE of ``tolerance`` [rad] where the cap allows."""
+        points = int(np.clip(path.length / PATH_TABLE_SPACING, PATH_TABLE_POINTS, MAX_PATH_TABLE_POINTS))
+        table = cls(path, points)
+        refine = np.sqrt(table.chord_error / (CHORD_ERROR_SHARE * tolerance))
+        if refine > 1.0 and points < MAX_PATH_TABLE_POINTS:
+            table = cls(path, int(min(np.ceil(points * refine * 1.1), MAX_PATH_TABLE_POINTS)))
+        return table
+
+    def __init__(self, path: JointPath, points: int):
+        s = np.linspace(0.0, 1.0, points)
         self.path = path
         self.q = path(s)
         self.sigma = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.q, axis=0), axis=1))])
@@ -275,14 +304,20 @@ def _derivatives(q: np.ndarray, step: float):
     return qd, qdd, np.gradient(qdd, step, axis=0)
 
 
-def _uniform(duration: float) -> np.ndarray:
-    """Uniform times from 0 to ``duration`` [s], about GUIDE_STEP apart."""
-    return np.linspace(0.0, duration, max(int(np.ceil(duration / GUIDE_STEP)), 2) + 1)
+def guide_step(limits: Limits, tolerance: float) -> float:
+    """The guide's sample step [s] for a path tolerance [rad] (see GUIDE_STEP_GAIN)."""
+    return float(np.clip(np.sqrt(GUIDE_STEP_GAIN * tolerance / np.max(limits.qdd_max)), *GUIDE_STEP_BOUNDS))
 
 
-def _smoothed_arc_length(reference: Profile, table: PathTable, window: float):
-    """Arc length [rad] at uniform times of toppra's speed averaged over ``window`` [s], and the step [s]."""
-    t = _uniform(reference.duration)
+def _uniform(duration: float, step: float) -> np.ndarray:
+    """Uniform times from 0 to ``duration`` [s], about ``step`` apart."""
+    return np.linspace(0.0, duration, max(int(np.ceil(duration / step)), 2) + 1)
+
+
+def _smoothed_arc_length(reference: Profile, table: PathTable, window: float, step: float):
+    """Arc length [rad] at uniform times about ``step`` apart of toppra's speed averaged over
+    ``window`` [s], and the exact step [s]."""
+    t = _uniform(reference.duration, step)
     step = float(t[1])
     samples = max(int(round(window / step)), 1)
     speed = np.interp(t, reference.t, np.linalg.norm(reference.qd, axis=1))
@@ -298,14 +333,15 @@ def _warp(sigma: np.ndarray, step: float, needed: np.ndarray, window: float):
     factor = maximum_filter1d(np.maximum(needed, 1.0), size=2 * samples + 1, mode="nearest")
     factor = uniform_filter1d(uniform_filter1d(factor, samples, mode="nearest"), samples, mode="nearest")
     tau = np.concatenate([[0.0], np.cumsum((factor[1:] + factor[:-1]) / 2.0 * step)])
-    t = _uniform(tau[-1])
+    t = _uniform(tau[-1], step)
     return CubicSpline(tau, sigma)(t), float(t[1])
 
 
-def build_guide(reference: Profile, table: PathTable, limits: Limits) -> Guide:
-    """A time-scaling of the path near toppra's, within qd, qdd and qddd on its samples (see module doc)."""
+def build_guide(reference: Profile, table: PathTable, limits: Limits, step: float) -> Guide:
+    """A time-scaling of the path near toppra's, within qd, qdd and qddd on its samples about ``step``
+    [s] apart (see the module doc)."""
     window = float(np.max(limits.qdd_max / limits.qddd_max))
-    sigma, step = _smoothed_arc_length(reference, table, window)
+    sigma, step = _smoothed_arc_length(reference, table, window, step)
     for rounds in range(WARP_ROUNDS + 1):
         q = table.at(sigma)
         qd, qdd, qddd = _derivatives(q, step)
@@ -364,7 +400,7 @@ def follow_guide(guide: Guide, table: PathTable, solver: SegmentSolver, limits: 
     """Ruckig between guide samples INITIAL_SPACING apart; every segment farther than ``tolerance``
     [rad] from the path is halved, for up to ``max_rounds`` rounds. Raises TimingError if that fails."""
     last = len(guide.t) - 1
-    spacing = max(int(round(INITIAL_SPACING / guide.t[1] * guide.stretch)), 1)
+    spacing = max(int(round(INITIAL_SPACING / guide.t[1])), 1)
     marks = np.unique(np.append(np.arange(0, last, spacing), last))
     solved = {}
     for rounds in range(1, max_rounds + 1):
@@ -375,7 +411,8 @@ def follow_guide(guide: Guide, table: PathTable, solver: SegmentSolver, limits: 
         deviations = np.array([solved[pair][1] for pair in pairs])
         if deviations.max() <= tolerance:
             return PathFollowing([solved[pair][0] for pair in pairs], float(deviations.max()), rounds, marks)
-        splits = [(a + b) // 2 for (a, b), deviation in zip(pairs, deviations) if deviation > tolerance and b - a > 1]
+        splits = [(a + b) // 2 for (a, b), deviation in zip(pairs, deviations)
+                  if deviation > tolerance and b - a > 1]
         if not splits:
             break
         marks = np.union1d(marks, splits)
@@ -393,9 +430,10 @@ def retime_toppra_ruckig(path: JointPath, limits: Limits, dt: float, joint_names
     if not np.isfinite(path_tolerance) or path_tolerance <= 0.0:
         raise TimingError(f"path_tolerance must be a positive number of radians, got {path_tolerance}")
     began = time.perf_counter()
-    reference = retime_toppra(path, limits, GUIDE_STEP, joint_names)
-    table = PathTable(path)
-    guide = build_guide(reference, table, limits)
+    step = guide_step(limits, path_tolerance)
+    reference = retime_toppra(path, limits, step, joint_names)
+    table = PathTable.for_tolerance(path, path_tolerance)
+    guide = build_guide(reference, table, limits, step)
     solver = SegmentSolver(limits)
     for slowdowns in range(MAX_SLOWDOWNS + 1):
         try:
@@ -414,8 +452,9 @@ def retime_toppra_ruckig(path: JointPath, limits: Limits, dt: float, joint_names
         "duration_ratio_to_toppra": duration / reference.duration,
         "rounds": following.rounds,
         "waypoints": int(len(following.waypoints)),
-        "guide": {"duration_s": float(guide.t[-1]), "smoothing_window_s": float(np.max(limits.qdd_max / limits.qddd_max)),
-                  "warp_rounds": guide.warp_rounds, "uniform_stretch": guide.stretch},
+        "guide": {"duration_s": float(guide.t[-1]), "step_s": step, "warp_rounds": guide.warp_rounds,
+                  "smoothing_window_s": float(np.max(limits.qdd_max / limits.qddd_max)),
+                  "uniform_stretch": guide.stretch},
         "slowdowns": slowdowns,
         "ruckig_segments_solved": solver.calls,
         "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
