@@ -37,6 +37,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigurationError
+from ..progress import Progress
 from ..ik import METHODS as IK_METHODS
 from ..ik.result import is_strict, make_target, pose_errors, within_limits
 from ..robot import Robot, load_robot
@@ -256,6 +257,26 @@ def _usable(name: str, solve: Solve, robot: Robot, Q_warmup: np.ndarray, seeds: 
     return ""
 
 
+def _solve_target(robot, solvers, t, q_target, q_seed, times, reported, strict, errors, first_error) -> None:
+    """Every solver on target t, interleaved in an order rotated per target; fills row t of the arrays."""
+    clock = time.perf_counter_ns
+    X = robot.fk(q_target)
+    target = make_target(X)
+    for k in np.roll(np.arange(len(solvers)), -t):
+        name, solve = solvers[k]
+        start = clock()
+        try:
+            ok, q = solve(X, q_seed)
+        except Exception as exc:  # noqa: BLE001 - counted as a failure and reported
+            times[k, t] = clock() - start
+            errors[k] += 1
+            first_error[k] = first_error[k] or f"{type(exc).__name__}: {exc}"
+            continue
+        times[k, t] = clock() - start
+        reported[k, t] = ok
+        strict[k, t] = _strict(robot, q, target)
+
+
 def benchmark_robot(robot: Robot, targets: int, seed: int, methods: tuple[str, ...]) -> IkRobotReport:
     """Run every available method and peer on ``targets`` seeded targets of one robot."""
     rng = np.random.default_rng(seed)
@@ -279,23 +300,10 @@ def benchmark_robot(robot: Robot, targets: int, seed: int, methods: tuple[str, .
     strict = np.zeros((count, targets), dtype=bool)
     errors = [0] * count
     first_error = [""] * count
-    clock = time.perf_counter_ns
-    for t in range(targets):
-        X = robot.fk(Q_target[t])
-        target = make_target(X)
-        for k in np.roll(np.arange(count), -t):     # interleaved, order rotated per target
-            name, solve = solvers[k]
-            start = clock()
-            try:
-                ok, q = solve(X, Q_seed[t])
-            except Exception as exc:  # noqa: BLE001 - counted as a failure and reported
-                times[k, t] = clock() - start
-                errors[k] += 1
-                first_error[k] = first_error[k] or f"{type(exc).__name__}: {exc}"
-                continue
-            times[k, t] = clock() - start
-            reported[k, t] = ok
-            strict[k, t] = _strict(robot, q, target)
+    with Progress(targets, f"bench ik {robot.name}") as tick:
+        for t in range(targets):
+            _solve_target(robot, solvers, t, Q_target[t], Q_seed[t], times, reported, strict, errors, first_error)
+            tick()
 
     rows = []
     for k, (name, _) in enumerate(solvers):

@@ -63,6 +63,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigurationError
+from ..progress import Progress
 from ..path import JointPath, PathError, make_path
 from ..profile import CERTIFY_TOLERANCE
 from ..robot import Robot, load_robot
@@ -471,21 +472,23 @@ def benchmark_robot(robot: Robot, paths: int, seed: int) -> TimingRobotReport:
 
     count = len(methods)
     outcomes: list[list[tuple[Evaluation | None, float, str]]] = [[None] * paths for _ in range(count)]
-    for p, (path, _) in enumerate(drawn):
-        for k in np.roll(np.arange(count), -p):             # interleaved, order rotated per path
-            method = methods[k]
-            result, compute_ms, failure = _run_once(method, path)
-            evaluation = None
-            if result is not None:
-                try:
-                    evaluation = method.evaluate(path, result)
-                except Exception as exc:  # noqa: BLE001 - a trajectory that cannot be evaluated is a failure
-                    evaluation = f"evaluating the result raised {type(exc).__name__}: {exc}"
-                if isinstance(evaluation, str):
-                    failure, evaluation = evaluation, None
-            if failure:
-                log.info("%s, path %d: %s failed: %s", robot.name, p, method.name, failure)
-            outcomes[k][p] = (evaluation, compute_ms, failure)
+    with Progress(paths, f"bench timing {robot.name}") as tick:
+        for p, (path, _) in enumerate(drawn):
+            tick()
+            for k in np.roll(np.arange(count), -p):             # interleaved, order rotated per path
+                method = methods[k]
+                result, compute_ms, failure = _run_once(method, path)
+                evaluation = None
+                if result is not None:
+                    try:
+                        evaluation = method.evaluate(path, result)
+                    except Exception as exc:  # noqa: BLE001 - a trajectory that cannot be evaluated is a failure
+                        evaluation = f"evaluating the result raised {type(exc).__name__}: {exc}"
+                    if isinstance(evaluation, str):
+                        failure, evaluation = evaluation, None
+                if failure:
+                    log.info("%s, path %d: %s failed: %s", robot.name, p, method.name, failure)
+                outcomes[k][p] = (evaluation, compute_ms, failure)
 
     reference = outcomes[-1]
     records, runs_by_method = [], {m.name: [] for m in methods}

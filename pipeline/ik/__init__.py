@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigurationError
+from ..progress import Progress
 from .result import FULL_POSE, IkResult, IkTarget, Solution, make_target
 
 METHODS = ("auto", "analytic", "jacobian", "drake")
@@ -73,7 +74,12 @@ def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_
         from .analytic import solve_analytic_batch
 
         return solve_analytic_batch(robot, X_targets, seeds, target_kind)
-    return [solve_ik(robot, t.X_BE, s, method, target_kind, **options) for t, s in zip(targets, seeds)]
+    results = []
+    with Progress(len(targets), f"IK {method} {robot.name}") as tick:
+        for target, seed in zip(targets, seeds):
+            results.append(solve_ik(robot, target.X_BE, seed, method, target_kind, **options))
+            tick()
+    return results
 
 
 __all__ = ["IkResult", "IkTarget", "METHODS", "Solution", "make_target", "solve_ik", "solve_ik_batch"]
