@@ -187,3 +187,13 @@ def test_a_segment_ruckig_cannot_keep_inside_the_limits_is_named():
     velocities[1, 0] = 0.5 * robot.limits.qd_max[0]
     with pytest.raises(TimingError, match=r"segment 1 \(waypoint 1 to 2\) leaves the limits of joint 1"):
         retime(robot, waypoints, method="ruckig", waypoint_velocities=velocities)
+
+
+def test_exact_boundary_case_is_retried_and_certified():
+    """Ruckig 0.19.4 itself fails on this IRB 1600 move (limits that are exact multiples of each
+    other): the segment is retried with limits smaller by 1e-9 and the profile still certifies."""
+    robot = load_robot("irb1600")
+    waypoints = np.radians([[-30, 30, -40, -20, 60, -30], [0, 0, 0, 0, 30, 0]])
+    profile = retime(robot, waypoints, method="ruckig")
+    assert profile.details["ruckig_boundary_retries"] == 1
+    assert certify(profile).passed

@@ -74,6 +74,8 @@ SLOWDOWN = 1.1
 #: Ruckig samples per segment in the deviation check.
 DEVIATION_SAMPLES = 24
 DEFAULT_PATH_TOLERANCE = 1e-3   # [rad]
+#: Relative shrink of the kinematic limits for the one retry of a segment Ruckig fails on [1].
+BOUNDARY_SHRINK = 1e-9
 
 
 # -- Ruckig segments --------------------------------------------------------------------------
@@ -89,32 +91,55 @@ class SegmentSolver:
         self.dof = limits.qd_max.size
         self.otg = ruckig.Ruckig(self.dof)
         self.input = ruckig.InputParameter(self.dof)
-        self.input.max_velocity = limits.qd_max.tolist()
-        self.input.max_acceleration = limits.qdd_max.tolist()
-        self.input.max_jerk = limits.qddd_max.tolist()
+        self._limits = limits
+        self._set_kinematic_limits(1.0)
         slack = CERTIFY_TOLERANCE * (limits.q_max - limits.q_min) / 2.0       # as certify() allows
         self.q_min, self.q_max = limits.q_min - slack, limits.q_max + slack
         self.calls = 0
+        self.boundary_retries = 0
         self.compute_s = 0.0
 
-    def solve(self, start, target, where: str):
-        """Time-optimal trajectory from state ``start`` to ``target`` (each (q, qd, qdd)); ``where``
-        names the segment in the TimingError raised when Ruckig fails."""
+    def _set_kinematic_limits(self, scale: float) -> None:
+        limits = self._limits
+        self.input.max_velocity = (limits.qd_max * scale).tolist()
+        self.input.max_acceleration = (limits.qdd_max * scale).tolist()
+        self.input.max_jerk = (limits.qddd_max * scale).tolist()
+
+    def _calculate(self, trajectory) -> str:
+        """One Ruckig call into ``trajectory``: "" on success, else why not."""
         ruckig = self._ruckig
-        inp = self.input
-        inp.current_position, inp.current_velocity, inp.current_acceleration = (list(x) for x in start)
-        inp.target_position, inp.target_velocity, inp.target_acceleration = (list(x) for x in target)
-        trajectory = ruckig.Trajectory(self.dof)
         began = time.perf_counter()
         try:
-            result = self.otg.calculate(inp, trajectory)
+            result = self.otg.calculate(self.input, trajectory)
         except ruckig.RuckigError as error:
-            raise TimingError(f"Ruckig rejected {where}: {str(error).strip()}") from error
+            return f"Ruckig rejected it: {str(error).strip()}"
         finally:
             self.calls += 1
             self.compute_s += time.perf_counter() - began
-        if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-            raise TimingError(f"Ruckig failed on {where}: {result.name}")
+        return "" if result in (ruckig.Result.Working, ruckig.Result.Finished) else f"Ruckig failed: {result.name}"
+
+    def solve(self, start, target, where: str):
+        """Time-optimal trajectory from state ``start`` to ``target`` (each (q, qd, qdd)); ``where``
+        names the segment in the TimingError raised when Ruckig fails.
+
+        Ruckig 0.19 can fail on exact boundary cases (limits that are exact multiples of each other,
+        a duration landing exactly on a profile switch): such a segment is retried once with limits
+        smaller by BOUNDARY_SHRINK, counted in ``boundary_retries``.
+        """
+        inp = self.input
+        inp.current_position, inp.current_velocity, inp.current_acceleration = (list(x) for x in start)
+        inp.target_position, inp.target_velocity, inp.target_acceleration = (list(x) for x in target)
+        trajectory = self._ruckig.Trajectory(self.dof)
+        failure = self._calculate(trajectory)
+        if failure:
+            self.boundary_retries += 1
+            self._set_kinematic_limits(1.0 - BOUNDARY_SHRINK)
+            try:
+                failure = self._calculate(trajectory)
+            finally:
+                self._set_kinematic_limits(1.0)
+        if failure:
+            raise TimingError(f"{failure} on {where}")
         for joint, bound in enumerate(trajectory.position_extrema):
             if bound.min < self.q_min[joint] or bound.max > self.q_max[joint]:
                 raise TimingError(
@@ -219,6 +244,7 @@ def retime_ruckig(waypoints: np.ndarray, limits: Limits, dt: float, joint_names:
         "mode": "rest at every waypoint" if waypoint_velocities is None else "through waypoints with velocities",
         "segment_durations_s": [trajectory.duration for trajectory in trajectories],
         "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
+        "ruckig_boundary_retries": solver.boundary_retries,
         "jerk": "exact: the constant jerk of each Ruckig phase",
         "cloud": "never used",
     }
@@ -458,6 +484,7 @@ def retime_toppra_ruckig(path: JointPath, limits: Limits, dt: float, joint_names
         "slowdowns": slowdowns,
         "ruckig_segments_solved": solver.calls,
         "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
+        "ruckig_boundary_retries": solver.boundary_retries,
         "compute_s": time.perf_counter() - began,
         "jerk": "exact: the constant jerk of each Ruckig phase",
         "cloud": "never used",
