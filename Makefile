@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: run test check bench clean
+.PHONY: run test test-slow bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -28,9 +28,16 @@ run: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -m "not slow"
 
+# The long runs (e.g. 1000 random paths through toppra+Ruckig): CI runs them after `make test`.
+test-slow: $(STAMP)
+	$(PY) -m pytest -m slow
+
+# Benchmarks beside the peers (installs the optional `bench` extra: Robotics Toolbox, Pinocchio).
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"
-	$(PY) -m pipeline bench kinematics
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench kinematics
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench ik
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench timing
 
 clean:
 	rm -rf $(VENV) $(OUT)
