@@ -3,24 +3,31 @@
 Each DH row is split as ``A_i(q) = pre_i * M(sign_i * q_i) * post_i``, where M is a rotation about
 (or translation along) z: the joint frame on the parent is ``frame_{i-1} * pre_i`` and the link body
 frame is DH frame i. This is the only module that turns Drake's ``[w; v]`` rows into our ``[v; w]``.
+
+``build_plant`` makes the bare plant (no SceneGraph); ``build_visual_diagram`` makes a Diagram with
+the same chain (the same ``add_robot``), simple visual shapes per link and, optionally, Meshcat.
 """
 
 from __future__ import annotations
 
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
+from pydrake.geometry import Cylinder, Meshcat, MeshcatVisualizer, MeshcatVisualizerParams, SceneGraph, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
     JacobianWrtVariable,
     MultibodyForces,
     PrismaticJoint,
     RevoluteJoint,
+    RigidBody,
     RotationalInertia,
     SpatialInertia,
 )
+from pydrake.systems.framework import Diagram, DiagramBuilder
 
 from .robot_spec import DhJoint, RobotSpec
 
@@ -72,11 +79,13 @@ def _as_rigid_transform(X: np.ndarray) -> RigidTransform:
     return RigidTransform(RotationMatrix(X[:3, :3]), X[:3, 3])
 
 
-def build_plant(spec: RobotSpec) -> MultibodyPlant:
-    """A finalised MultibodyPlant: bodies ``link1..n``, joints named as in the file, frames base/end."""
-    plant = MultibodyPlant(time_step=0.0)
+def add_robot(plant: MultibodyPlant, spec: RobotSpec) -> list[RigidBody]:
+    """Add the chain of a RobotSpec to an unfinalised plant: bodies ``link1..n``, joints named as in the
+    file (limits set), frames ``base``, ``dh0``, ``<joint>_parent``, ``<joint>_child`` and ``end``.
+    Returns the link bodies in order. The one place the DH kinematics become Drake joints."""
     base = plant.AddFrame(FixedOffsetFrame(BASE_FRAME, plant.world_frame(), RigidTransform()))
     parent = plant.AddFrame(FixedOffsetFrame("dh0", base, _as_rigid_transform(spec.X_BaseD0)))
+    bodies = []
     for i, joint in enumerate(spec.joints, start=1):
         body = plant.AddRigidBody(f"link{i}", link_inertia(joint))
         pre, post = joint_split(joint, spec.convention)
@@ -88,10 +97,127 @@ def build_plant(spec: RobotSpec) -> MultibodyPlant:
         drake_joint.set_velocity_limits([-joint.qd_max], [joint.qd_max])
         if joint.qdd_max is not None:
             drake_joint.set_acceleration_limits([-joint.qdd_max], [joint.qdd_max])
+        bodies.append(body)
         parent = body.body_frame()
     plant.AddFrame(FixedOffsetFrame(END_FRAME, parent, _as_rigid_transform(spec.X_DnE)))
+    return bodies
+
+
+def build_plant(spec: RobotSpec) -> MultibodyPlant:
+    """A finalised MultibodyPlant: bodies ``link1..n``, joints named as in the file, frames base/end
+    (no geometry; ``build_visual_diagram`` makes the same plant with visual geometry)."""
+    plant = MultibodyPlant(time_step=0.0)
+    add_robot(plant, spec)
     plant.Finalize()
     return plant
+
+
+# -- visual geometry ------------------------------------------------------------------------------
+#: Link radius as a fraction of the robot's size (the farthest drawn point from the base origin at
+#: q = 0), clipped to VISUAL_RADIUS_RANGE [m]. Joints, base and flange are sized from it.
+VISUAL_RADIUS_FRACTION = 0.04
+VISUAL_RADIUS_RANGE = (0.004, 0.05)
+#: Segments shorter than this are not drawn [m].
+MIN_SEGMENT_M = 1e-6
+LINK_COLOURS = ((0.93, 0.55, 0.13, 1.0), (0.75, 0.75, 0.78, 1.0))   # alternate: orange, light grey
+JOINT_COLOUR = (0.25, 0.25, 0.28, 1.0)
+BASE_COLOUR = (0.35, 0.35, 0.38, 1.0)
+FLANGE_COLOUR = (0.20, 0.45, 0.85, 1.0)
+
+
+def visual_radius(robot) -> float:
+    """The link radius [m] used for a robot's visual geometry (see VISUAL_RADIUS_FRACTION)."""
+    from .views import robot_size
+
+    return float(np.clip(VISUAL_RADIUS_FRACTION * robot_size(robot), *VISUAL_RADIUS_RANGE))
+
+
+def _cylinder_between(p: np.ndarray, r: np.ndarray) -> RigidTransform:
+    """Pose of a Cylinder (centred, along its z) spanning the segment p -> r."""
+    axis = r - p
+    return RigidTransform(RotationMatrix.MakeFromOneVector(axis, 2), (p + r) / 2.0)
+
+
+def _on_z(X: np.ndarray, offset: float = 0.0) -> RigidTransform:
+    """Pose X (4, 4) shifted by ``offset`` along its own z."""
+    return _as_rigid_transform(X) @ _shift(z=offset)
+
+
+def register_visual_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: list[RigidBody]) -> int:
+    """Register simple shapes on an unfinalised plant that has a SceneGraph: per link, cylinders along
+    the segments between its joint frame and the next (DH offsets drawn as separate legs, zero-length
+    segments skipped, a sphere at each corner); per joint, a short cylinder along its axis on the parent
+    body; a base disc (and pedestal) on the world body; a flange disc at the end frame. Placed from the
+    NumPy FK at q = 0 expressed in each body's frame (the body frame is DH frame i). Returns the count."""
+    from .kinematics import DhKinematics
+    from .views import compute_link_polylines
+
+    robot = DhKinematics(spec)
+    q0 = np.zeros(robot.dof)
+    radius = visual_radius(robot)
+    X_BD = robot.fk_all(q0)                   # DH frames 0..dof, then the end frame
+    joint_frames, X_BE = robot.joint_frames(q0)
+    polylines = compute_link_polylines(robot, q0)
+    owners = [plant.world_body(), *bodies]
+    X_owner = [np.eye(4), *X_BD[1:-1]]        # body frames in the base frame at q = 0
+    count = 0
+
+    def add(body, X_BG: RigidTransform, shape, name: str, colour) -> None:
+        nonlocal count
+        plant.RegisterVisualGeometry(body, X_BG, shape, name, np.array(colour))
+        count += 1
+
+    add(plant.world_body(), RigidTransform(np.array([0.0, 0.0, -radius / 2.0])), Cylinder(3.0 * radius, radius),
+        "base_disc", BASE_COLOUR)
+    for i, (body, X, points) in enumerate(zip(owners, X_owner, polylines)):
+        X_inv = np.linalg.inv(X)
+        local = points @ X_inv[:3, :3].T + X_inv[:3, 3]
+        colour = BASE_COLOUR if i == 0 else LINK_COLOURS[(i - 1) % len(LINK_COLOURS)]
+        name = "pedestal" if i == 0 else f"link{i}"
+        for k, (p, r) in enumerate(zip(local[:-1], local[1:])):
+            length = float(np.linalg.norm(r - p))
+            if length < MIN_SEGMENT_M:
+                continue
+            add(body, _cylinder_between(p, r), Cylinder(radius, length), f"{name}_segment{k}", colour)
+        for k, p in enumerate(local[1:-1]):                     # round the corners
+            add(body, RigidTransform(p), Sphere(radius), f"{name}_corner{k}", colour)
+    for i, joint in enumerate(spec.joints):
+        X_parent = np.linalg.inv(X_owner[i]) @ joint_frames[i]
+        add(owners[i], _as_rigid_transform(X_parent), Cylinder(1.5 * radius, 4.0 * radius),
+            f"{joint.name}_axis", JOINT_COLOUR)
+    X_DnE = np.linalg.inv(X_owner[-1]) @ X_BE
+    add(bodies[-1], _on_z(X_DnE, -radius / 4.0), Cylinder(1.6 * radius, radius / 2.0), "flange", FLANGE_COLOUR)
+    return count
+
+
+@dataclass(frozen=True, eq=False)
+class VisualModel:
+    """A diagram of the robot's plant (same kinematics as ``build_plant``) with visual geometry in a
+    SceneGraph, and a MeshcatVisualizer when built with a Meshcat (else ``visualizer`` is None)."""
+
+    diagram: Diagram
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
+    visualizer: MeshcatVisualizer | None
+    geometry_count: int
+
+
+def build_visual_diagram(spec: RobotSpec, meshcat: Meshcat | None = None,
+                         params: MeshcatVisualizerParams | None = None) -> VisualModel:
+    """The robot in a Diagram: ``AddMultibodyPlantSceneGraph``, the chain of ``add_robot``, the shapes
+    of ``register_visual_geometry``, and a MeshcatVisualizer (with ``params``, if given) publishing to
+    ``meshcat`` if given."""
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
+    bodies = add_robot(plant, spec)
+    count = register_visual_geometry(plant, spec, bodies)
+    plant.Finalize()
+    visualizer = None
+    if meshcat is not None:
+        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
+                                                    params if params is not None else MeshcatVisualizerParams())
+    diagram = builder.Build()
+    return VisualModel(diagram, plant, scene_graph, visualizer, count)
 
 
 def angular_first_to_linear_first(J_wv: np.ndarray) -> np.ndarray:

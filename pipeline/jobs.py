@@ -25,7 +25,9 @@ from .robot import Robot, load_robot
 from .robot_spec import ANGLE_UNITS, LENGTH_UNITS, preset_names, rpy_to_rotation
 from .timing import DEFAULT_DT, METHODS as TIMING_METHODS
 
-OUTPUTS = ("csv", "npz", "json", "png")
+OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png")
+#: Written when a job lists no outputs (the 3-D views, html and arm_png, only when asked for).
+DEFAULT_OUTPUTS = ("csv", "npz", "json", "png")
 #: Allowed sample times [s].
 DT_RANGE = (1e-4, 0.1)
 #: A quaternion this close to unit length is normalised; further away it is an error [1].
@@ -57,8 +59,8 @@ class Job:
     ``name``: the file's stem; ``source``: the job file (or ``<dict>``); ``waypoints``: JointWaypoint or
     PoseWaypoint values in order; ``start`` (dof,) [rad or m] or None: the IK seed of the first pose
     waypoint; ``ik``, ``timing``, ``path``: method names; ``speed_scale`` in (0, 1]; ``dt`` [s];
-    ``outputs``: which of csv, npz, json, png to write; ``inputs_sha256``: hash of the job file bytes
-    followed by the robot file bytes.
+    ``outputs``: which of csv, npz, json, png, html, arm_png to write; ``inputs_sha256``: hash of the
+    job file bytes followed by the robot file bytes.
     """
 
     name: str
@@ -241,7 +243,7 @@ class _Reader:
             path=self.choice(doc, "path", SHAPES, "spline"),
             speed_scale=self.bounded(doc, "speed_scale", 1.0, 0.0, 1.0, low_open=True),
             dt=self.bounded(doc, "dt", DEFAULT_DT, *DT_RANGE, low_open=False),
-            outputs=self.outputs(doc.get("outputs", list(OUTPUTS))),
+            outputs=self.outputs(doc.get("outputs", list(DEFAULT_OUTPUTS))),
             inputs_sha256=hashlib.sha256(job_bytes + robot_path.read_bytes()).hexdigest(),
             description=description,
         )

@@ -2,7 +2,9 @@
 
 Steps: IK for pose waypoints (each seeded with the previous solution), the joint path, timing,
 certification (a profile that fails is an error, never an output), then every requested output
-written all or nothing. Used by the CLI (``python -m pipeline run``), the tests and the notebooks.
+written all or nothing (profile CSV/NPZ, JSON report, profile plot, and the 3-D views: a standalone
+Meshcat HTML animation and a PNG drawing of the arm). Used by the CLI (``python -m pipeline run``),
+the tests and the notebooks.
 """
 
 from __future__ import annotations
@@ -23,7 +25,8 @@ from .timing import retime
 log = logging.getLogger(__name__)
 
 #: Output kind -> file name inside the output directory.
-FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png"}
+FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png",
+              "html": "view.html", "arm_png": "arm.png"}
 VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "numpy", "scipy")
 
 
@@ -147,6 +150,8 @@ def run_job(job: Job, out_dir: str | Path) -> JobOutcome:
         "npz": lambda path: write_profile_npz(path, profile),
         "json": lambda path: write_json(path, report),
         "png": lambda path: _plot(path, job, profile, revolute),
+        "html": lambda path: _view_html(path, job, profile),
+        "arm_png": lambda path: _plot_arm(path, job, profile),
     }
     files = write_files_atomic(out_dir, {FILE_NAMES[kind]: writers[kind] for kind in job.outputs})
     log.info("job %s: %s, %.4f s; wrote %d file(s) to %s", job.name, profile.method, profile.duration,
@@ -158,6 +163,18 @@ def _plot(path: Path, job: Job, profile: Profile, revolute: list[bool]) -> None:
     from .plots import plot_profile   # matplotlib only when a plot is asked for
 
     plot_profile(path, profile, revolute, _title(job, profile))
+
+
+def _view_html(path: Path, job: Job, profile: Profile) -> None:
+    from .views import profile_html   # Drake's Meshcat only when a view is asked for
+
+    Path(path).write_text(profile_html(job.robot, profile), encoding="utf-8")
+
+
+def _plot_arm(path: Path, job: Job, profile: Profile) -> None:
+    from .views import plot_arm_motion
+
+    plot_arm_motion(path, job.robot, profile, _title(job, profile))
 
 
 def run_job_file(path: str | Path, out_dir: str | Path) -> JobOutcome:

@@ -1,0 +1,279 @@
+"""3-D views of the arm: static matplotlib drawings (no Drake, no browser) and Meshcat playback of a
+profile, live in a notebook or saved as one standalone HTML file.
+
+The drawings and the visual geometry of the Drake model share one stick figure,
+``compute_link_polylines``: per link, the points fixed on it from its joint frame to the next joint
+frame, with the DH offset ``d`` and ``a`` drawn as separate legs. Matplotlib is imported only when a
+figure is drawn, and it is used through ``matplotlib.figure.Figure`` (no pyplot, no global backend,
+so a notebook's inline backend is untouched); Drake only when Meshcat is used.
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from .profile import Profile
+
+log = logging.getLogger(__name__)
+
+#: Points closer than this are merged in a polyline [m].
+MERGE_TOLERANCE_M = 1e-9
+#: Frames per second of the Meshcat animation [1/s].
+DEFAULT_FPS = 30.0
+#: Arm poses drawn along a profile by ``motion_figure``.
+DEFAULT_POSES = 6
+#: Joint-axis arrows and frame triads, as fractions of the robot's size at q = 0.
+AXIS_ARROW_FRACTION = 0.12
+TRIAD_FRACTION = 0.15
+TRIAD_COLOURS = ("tab:red", "tab:green", "tab:blue")
+
+
+# -- the stick figure (NumPy only) ------------------------------------------------------------------
+def _merge(points) -> np.ndarray:
+    """Points (k, 3) with consecutive duplicates (within MERGE_TOLERANCE_M) removed."""
+    points = np.asarray(points, dtype=float)
+    keep = np.ones(len(points), dtype=bool)
+    keep[1:] = np.linalg.norm(np.diff(points, axis=0), axis=1) > MERGE_TOLERANCE_M
+    return points[keep]
+
+
+def compute_link_polylines(robot, q) -> list[np.ndarray]:
+    """The arm as polylines in the base frame [m] at q: ``dof + 1`` arrays (k, 3), k >= 1.
+
+    Entry 0 is fixed on the base: base origin, DH frame 0, joint 1's frame. Entry i (1..dof) is fixed
+    on link i: joint i's frame origin (after its motion: a prismatic joint's slide is part of the
+    link), the corner where the DH ``d`` offset ends (standard revolute rows), DH frame i, and joint
+    i+1's frame origin (the end frame for the last link). ``robot``: a Robot (or DhKinematics).
+    Successive polylines meet, so concatenated they run from the base origin to the end frame.
+    """
+    q = robot.as_configuration(q)
+    spec = robot.spec
+    X_BD = robot.fk_all(q)                       # DH frames 0..dof, then the end frame
+    J, X_BE = robot.joint_frames(q)              # joint frames (z = axis, before the motion)
+    ends = [J[i, :3, 3] for i in range(1, robot.dof)] + [X_BE[:3, 3]]
+    polylines = [_merge([np.zeros(3), X_BD[0, :3, 3], J[0, :3, 3]])]
+    for i, joint in enumerate(spec.joints):
+        p, z = J[i, :3, 3], J[i, :3, 2]
+        if not joint.is_revolute:
+            step = joint.sign * q[i]             # the slide
+        elif spec.convention == "standard":
+            step = joint.d                       # Tz(d) before Tx(a)
+        else:
+            step = 0.0                           # modified: DH frame i is the end of the d leg
+        polylines.append(_merge([p, p + step * z, X_BD[i + 1, :3, 3], ends[i]]))
+    return polylines
+
+
+def compute_arm_path(robot, q) -> np.ndarray:
+    """The stick figure as one polyline (k, 3) [m] from the base origin to the end-frame origin."""
+    return _merge(np.vstack(compute_link_polylines(robot, q)))
+
+
+def robot_size(robot) -> float:
+    """The farthest stick-figure point from the base origin at q = 0 [m] (at least 1 mm)."""
+    points = compute_arm_path(robot, np.zeros(robot.dof))
+    return max(float(np.linalg.norm(points, axis=1).max()), 1e-3)
+
+
+# -- matplotlib -------------------------------------------------------------------------------------
+def _new_axes(ax, figsize=(7.0, 6.0)):
+    """(figure, 3-D axes): the given axes and its figure, or a new Figure (not pyplot) with one."""
+    if ax is not None:
+        return ax.figure, ax
+    from matplotlib.figure import Figure
+    import mpl_toolkits.mplot3d  # noqa: F401  (registers the 3-D projection)
+
+    figure = Figure(figsize=figsize)
+    return figure, figure.add_subplot(projection="3d")
+
+
+def _triad(ax, X: np.ndarray, length: float, label: str | None = None) -> np.ndarray:
+    """Draw the x, y, z axes of pose X (4, 4) in red, green, blue; returns their tips (3, 3)."""
+    origin = X[:3, 3]
+    tips = origin + length * X[:3, :3].T
+    for tip, colour in zip(tips, TRIAD_COLOURS):
+        ax.plot(*np.column_stack([origin, tip]), color=colour, linewidth=1.5)
+    if label:
+        ax.text(*origin, f" {label}", fontsize=8)
+    return tips
+
+
+def _draw_arm(ax, robot, q, colour="tab:orange", linewidth=4.0, alpha=1.0, details=True,
+              label: str | None = "links") -> np.ndarray:
+    """Draw the arm at q: the stick figure (one line, labelled ``label``), and with ``details`` the joint
+    axes as arrows and the base and end frames as triads. Returns every drawn point (k, 3) [m]."""
+    path = compute_arm_path(robot, q)
+    ax.plot(path[:, 0], path[:, 1], path[:, 2], color=colour, linewidth=linewidth, alpha=alpha,
+            marker="o", markersize=linewidth, solid_capstyle="round", label=label)
+    drawn = [path]
+    if details:
+        size = robot_size(robot)
+        J, X_BE = robot.joint_frames(robot.as_configuration(q))
+        axes = J[:, :3, 2] * np.array([j.sign for j in robot.spec.joints])[:, None]
+        length = AXIS_ARROW_FRACTION * size
+        origins = J[:, :3, 3]
+        ax.quiver(origins[:, 0], origins[:, 1], origins[:, 2], axes[:, 0], axes[:, 1], axes[:, 2],
+                  length=length, normalize=True, color="0.2", linewidth=1.2, arrow_length_ratio=0.25)
+        for k, p in enumerate(origins, start=1):
+            ax.text(*p, f" {k}", fontsize=8, color="0.2")
+        drawn += [origins + length * axes / np.linalg.norm(axes, axis=1)[:, None]]
+        drawn += [_triad(ax, np.eye(4), TRIAD_FRACTION * size, "base"),
+                  _triad(ax, X_BE, TRIAD_FRACTION * size, "end")]
+    return np.vstack(drawn)
+
+
+def _finish_axes(ax, points: np.ndarray, title: str) -> None:
+    """Equal aspect (a cube around ``points`` and the base origin), axis labels in m, the title."""
+    points = np.vstack([points, np.zeros(3)])
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre, half = (low + high) / 2.0, 0.55 * float((high - low).max())
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(title, fontsize=10)
+
+
+def _format_q(robot, q) -> str:
+    revolute = np.array([j.is_revolute for j in robot.spec.joints])
+    if revolute.all():
+        return "q = (" + ", ".join(f"{v:.1f}" for v in np.degrees(q)) + ") deg"
+    return "q = (" + ", ".join(f"{v:.3f}" for v in q) + ") rad or m"
+
+
+def arm_figure(robot, q, ax=None, title: str | None = None):
+    """A static 3-D line drawing of the arm at q [rad or m] -> matplotlib Figure.
+
+    Links between successive frame origins (the line labelled ``links`` ends at ``fk(q)``'s
+    position), joint axes as short arrows (numbered), base and end frames as red/green/blue triads,
+    equal aspect, axes in m. Draws into ``ax`` (a 3-D axes) when given, else into a new Figure.
+    """
+    q = robot.as_configuration(q)
+    figure, ax = _new_axes(ax)
+    points = _draw_arm(ax, robot, q)
+    _finish_axes(ax, points, title if title is not None else f"{robot.spec.name}: {_format_q(robot, q)}")
+    return figure
+
+
+def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, title: str | None = None):
+    """The arm along a profile -> matplotlib Figure: ``poses`` configurations evenly spaced in time,
+    coloured by time (the first with its joint axes and frames), and the end frame's path dashed."""
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    figure, ax = _new_axes(ax)
+    indices = np.unique(np.linspace(0, len(profile.t) - 1, max(poses, 1)).round().astype(int))
+    norm = Normalize(float(profile.t[0]), float(profile.t[-1]) if profile.duration > 0 else float(profile.t[0]) + 1)
+    cmap = colormaps["viridis"]
+    drawn = []
+    for k in (*indices[1:], indices[0]):        # the first pose last, on top (a motion often ends there)
+        first = k == indices[0]
+        drawn.append(_draw_arm(ax, robot, profile.q[k], colour=cmap(norm(profile.t[k])),
+                               linewidth=4.0 if first else 2.5, alpha=1.0 if first else 0.75, details=first,
+                               label=f"t = {profile.t[k]:.2f} s"))
+    flange = robot.fk_batch(profile.q)[:, :3, 3]
+    ax.plot(flange[:, 0], flange[:, 1], flange[:, 2], "k--", linewidth=1.0, label="end-frame path")
+    drawn.append(flange)
+    handles, labels = ax.get_legend_handles_labels()
+    order = [len(indices) - 1, *range(len(indices) - 1), *range(len(indices), len(handles))]   # by time
+    ax.legend([handles[i] for i in order], [labels[i] for i in order], loc="upper left", fontsize=7)
+    figure.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.6, pad=0.1, label="t [s]")
+    _finish_axes(ax, np.vstack(drawn), title if title is not None else
+                 f"{robot.spec.name}: {len(indices)} poses over {profile.duration:.2f} s")
+    return figure
+
+
+def plot_arm_motion(path: str | Path, robot, profile: Profile, title: str | None = None) -> None:
+    """Write ``motion_figure(robot, profile)`` as a PNG at ``path``."""
+    motion_figure(robot, profile, title=title).savefig(path, dpi=100, format="png")
+
+
+# -- Meshcat ----------------------------------------------------------------------------------------
+def sample_profile(profile: Profile, fps: float = DEFAULT_FPS) -> tuple[np.ndarray, np.ndarray]:
+    """Times from the profile's start (N,) [s] every 1/fps and the last sample, with q (N, dof)
+    interpolated linearly between the profile's samples."""
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps!r}")
+    t = np.arange(0.0, profile.duration, 1.0 / fps)
+    t = np.append(t, profile.duration) if len(t) == 0 or profile.duration - t[-1] > 1e-9 else t
+    t_profile = profile.t - profile.t[0]
+    q = np.column_stack([np.interp(t, t_profile, profile.q[:, j]) for j in range(profile.dof)])
+    return t, q
+
+
+def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS):
+    """Play a profile in a running Meshcat (e.g. ``pydrake.geometry.StartMeshcat()`` in a notebook): the
+    arm (replacing one shown before under the visualizer's path) is drawn at the first sample and the
+    motion published as an animation sampled at ``fps`` [1/s] (play, pause, scrub in Meshcat's
+    Animations controls). Returns the VisualModel (diagram, plant, scene graph, visualizer)."""
+    from pydrake.geometry import MeshcatVisualizerParams
+
+    from .drake_model import build_visual_diagram
+
+    params = MeshcatVisualizerParams()
+    params.publish_period = 1.0 / fps          # the visualizer records at 1 / publish_period frames/s
+    params.delete_on_initialization_event = False
+    model = build_visual_diagram(robot.spec, meshcat, params)
+    times, Q = sample_profile(profile, fps)
+    context = model.diagram.CreateDefaultContext()
+    plant_context = model.plant.GetMyMutableContextFromRoot(context)
+    model.visualizer.Delete()                   # a robot shown before in this Meshcat
+    model.plant.SetPositions(plant_context, Q[0])
+    model.diagram.ForcedPublish(context)        # geometry, and the arm at rest at the start
+    model.visualizer.StartRecording(set_transforms_while_recording=False)
+    for t, q in zip(times, Q):
+        context.SetTime(float(t))
+        model.plant.SetPositions(plant_context, q)
+        model.diagram.ForcedPublish(context)
+    model.visualizer.StopRecording()
+    model.visualizer.PublishRecording()
+    log.debug("published a %d-frame Meshcat animation of %s (%.3f s at %g frames/s)", len(times),
+              robot.spec.name, profile.duration, fps)
+    return model
+
+
+@contextmanager
+def _drake_log_level(level: str):
+    """Drake's C++ log threshold set to ``level`` inside the block (Meshcat announces its URL at info)."""
+    from pydrake.common import _set_log_level
+
+    previous = _set_log_level(level)
+    try:
+        yield
+    finally:
+        _set_log_level(previous or "unchanged")
+
+
+def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS) -> str:
+    """A standalone HTML page (its JavaScript inlined, no server needed) of a Meshcat animation of the
+    profile: the arm with its visual geometry, ``fps`` frames per second, played once on opening (replay
+    it from the Animations controls).
+
+    A Meshcat server is started on an ephemeral localhost port only to build the page and is shut
+    down before this returns.
+    """
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    params = MeshcatParams()
+    params.host = "localhost"
+    params.port = 0
+    with _drake_log_level("warn"):
+        meshcat = Meshcat(params)
+    try:
+        show_profile(robot, profile, meshcat, fps)       # the VisualModel it returns is not kept
+        html = meshcat.StaticHtml()
+    finally:
+        # The diagram's Python objects hold the Meshcat (through the visualizer) in reference cycles:
+        # drop ours and collect them, so the server thread stops and the port closes now.
+        del meshcat
+        gc.collect()
+    return html

@@ -1,0 +1,202 @@
+"""3-D views: the visual Drake model (same kinematics, geometry on every link, placed on the stick
+figure), the matplotlib drawings, the standalone Meshcat HTML, and the runner's html/arm_png outputs."""
+
+from __future__ import annotations
+
+import base64
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from pydrake.geometry import Cylinder, Role
+
+from pipeline.drake_model import BASE_FRAME, END_FRAME, build_visual_diagram
+from pipeline.jobs import load_job, parse_job
+from pipeline.robot import Robot, load_robot
+from pipeline.robot_spec import parse_robot_spec
+from pipeline.runner import FILE_NAMES, run_job
+from pipeline.timing import retime
+from pipeline.views import (
+    arm_figure,
+    compute_arm_path,
+    compute_link_polylines,
+    motion_figure,
+    profile_html,
+    sample_profile,
+)
+
+ROOT = Path(__file__).resolve().parent.parent
+JOB_FILES = sorted((ROOT / "trajectories" / "jobs").glob("*.yaml"))
+EXACT = 1e-12
+#: Geometry placed from FK at q = 0, moved by Drake to q [m].
+PLACEMENT = 1e-9
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def mixed_robot(convention: str) -> Robot:
+    """Revolute and prismatic rows with every offset, a base and a tool (as in test_drake_model)."""
+    joints = [
+        {"a": 50, "alpha": -90, "d": 300, "theta_offset": 30, "sign": -1, "q_min": -170, "q_max": 170, "qd_max": 90},
+        {"type": "prismatic", "a": 20, "alpha": 90, "d": 100, "theta_offset": -45, "sign": -1,
+         "q_min": -200, "q_max": 200, "qd_max": 500},
+        {"a": 200, "alpha": 0, "d": 40, "theta_offset": 90, "q_min": -170, "q_max": 170, "qd_max": 90},
+    ]
+    return Robot(parse_robot_spec({
+        "name": f"mixed_{convention}", "convention": convention, "length_unit": "mm", "angle_unit": "deg",
+        "joints": joints, "base": {"xyz": [10, -20, 30], "rpy": [5, -10, 15]},
+        "tool": {"xyz": [0, 15, 120], "rpy": [90, 0, -30]}}))
+
+
+@pytest.fixture(params=["standard", "modified"])
+def mixed(request) -> Robot:
+    return mixed_robot(request.param)
+
+
+def check_visual_model(robot: Robot, rng, samples: int = 20) -> None:
+    """Same FK as NumPy (end frame and every link body); geometry on every link; every link cylinder
+    lies on that link's stick-figure polyline at random q."""
+    model = build_visual_diagram(robot.spec)
+    plant = model.plant
+    context = plant.CreateDefaultContext()
+    inspector = model.scene_graph.model_inspector()
+    base, end = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(END_FRAME)
+    bodies = [plant.GetBodyByName(f"link{i}") for i in range(1, robot.dof + 1)]
+    geometry = {i: inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body.index()), Role.kIllustration)
+                for i, body in enumerate([plant.world_body(), *bodies])}
+    assert all(len(ids) >= 1 for ids in geometry.values()), {i: len(ids) for i, ids in geometry.items()}
+    assert sum(map(len, geometry.values())) == model.geometry_count == inspector.NumGeometriesWithRole(
+        Role.kIllustration)
+    for q in robot.random_configurations(rng, samples):
+        plant.SetPositions(context, q)
+        np.testing.assert_allclose(plant.CalcRelativeTransform(context, base, end).GetAsMatrix4(), robot.fk(q),
+                                   atol=EXACT, rtol=0)
+        X_BD = robot.fk_all(q)
+        polylines = compute_link_polylines(robot, q)
+        for i, body in enumerate([plant.world_body(), *bodies]):
+            X_WB = plant.EvalBodyPoseInWorld(context, body).GetAsMatrix4()
+            if i:
+                np.testing.assert_allclose(X_WB, X_BD[i], atol=EXACT, rtol=0)
+            for gid in geometry[i]:
+                shape = inspector.GetShape(gid)
+                if not (isinstance(shape, Cylinder) and "segment" in inspector.GetName(gid)):
+                    continue
+                X_WG = X_WB @ inspector.GetPoseInFrame(gid).GetAsMatrix4()
+                ends = X_WG[:3, 3] + np.outer([-0.5, 0.5], X_WG[:3, 2] * shape.length())
+                distances = np.linalg.norm(ends[:, None, :] - polylines[i][None, :, :], axis=2).min(axis=1)
+                assert distances.max() < PLACEMENT, f"{robot.name} link {i} {inspector.GetName(gid)}"
+
+
+def test_visual_plant_matches_numpy_and_has_geometry_on_every_link(robot, rng):
+    check_visual_model(robot, rng)
+
+
+def test_visual_plant_with_prismatic_joints_base_and_tool(mixed, rng):
+    check_visual_model(mixed, rng)
+
+
+def test_link_polylines_run_from_the_base_to_the_end_frame(robot, rng):
+    for q in robot.random_configurations(rng, 5):
+        polylines = compute_link_polylines(robot, q)
+        assert len(polylines) == robot.dof + 1
+        for before, after in zip(polylines[:-1], polylines[1:]):
+            np.testing.assert_allclose(before[-1], after[0], atol=EXACT)
+        path = compute_arm_path(robot, q)
+        np.testing.assert_allclose(path[0], 0.0, atol=EXACT)
+        np.testing.assert_allclose(path[-1], robot.fk(q)[:3, 3], atol=EXACT)
+
+
+def test_standard_offsets_are_drawn_as_two_legs():
+    robot = load_robot("gp7")                  # row 1: d = 0.33 m, a = 0.04 m
+    link1 = compute_link_polylines(robot, np.zeros(robot.dof))[1]
+    np.testing.assert_allclose(link1, [[0, 0, 0], [0, 0, 0.33], [0.04, 0, 0.33]], atol=EXACT)
+
+
+def test_arm_figure_draws_the_arm_to_the_end_frame(robot, rng):
+    q = robot.random_configurations(rng, 1)[0]
+    figure = arm_figure(robot, q)
+    (ax,) = figure.axes
+    assert ax.name == "3d" and ax.get_xlabel() == "x [m]" and robot.name in ax.get_title()
+    (links,) = [line for line in ax.lines if line.get_label() == "links"]
+    xyz = np.array(links.get_data_3d()).T
+    np.testing.assert_allclose(xyz[-1], robot.fk(q)[:3, 3], atol=EXACT)
+    np.testing.assert_allclose(xyz[0], 0.0, atol=EXACT)
+    spans = [np.diff(limits)[0] for limits in (ax.get_xlim(), ax.get_ylim(), ax.get_zlim())]
+    np.testing.assert_allclose(spans, spans[0], rtol=1e-9)            # equal aspect
+
+
+def short_profile(name: str = "arm5"):
+    robot = load_robot(name)
+    lo, hi = robot.limits.q_min, robot.limits.q_max
+    waypoints = np.array([lo + 0.4 * (hi - lo), lo + 0.6 * (hi - lo)])
+    return robot, retime(robot, waypoints, method="toppra")
+
+
+def test_motion_figure_draws_poses_and_the_end_frame_path():
+    robot, profile = short_profile()
+    figure = motion_figure(robot, profile, poses=4)
+    ax = figure.axes[0]
+    labels = [line.get_label() for line in ax.lines]
+    assert sum(label.startswith("t = ") for label in labels) == 4 and "end-frame path" in labels
+    (path,) = [line for line in ax.lines if line.get_label() == "end-frame path"]
+    np.testing.assert_allclose(np.array(path.get_data_3d()).T[-1], robot.fk(profile.q[-1])[:3, 3], atol=EXACT)
+
+
+def test_sample_profile_covers_the_whole_profile():
+    _, profile = short_profile()
+    t, q = sample_profile(profile, fps=30)
+    assert t[0] == 0.0 and t[-1] == pytest.approx(profile.duration) and np.all(np.diff(t) <= 1 / 30 + 1e-12)
+    np.testing.assert_allclose(q[[0, -1]], profile.q[[0, -1]], atol=EXACT)
+
+
+def listening_ports() -> set[int]:
+    """TCP ports in LISTEN state on this machine (Linux /proc)."""
+    ports = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            if fields[3] == "0A":
+                ports.add(int(fields[1].rsplit(":", 1)[1], 16))
+    return ports
+
+
+def test_profile_html_is_standalone_and_holds_the_animation():
+    robot, profile = short_profile()
+    before = listening_ports()
+    html = profile_html(robot, profile, fps=20)
+    if Path("/proc/net/tcp").exists():
+        assert listening_ports() <= before, "the Meshcat server is still listening"
+    assert html.lstrip().startswith("<!DOCTYPE html>") and "<html" in html and html.rstrip().endswith("</html>")
+    # Standalone: the JavaScript is inlined (no external scripts), no server address is baked in.
+    assert "<script src" not in html and "http://localhost" not in html and "127.0.0.1" not in html
+    assert "Meshcat listening" not in html
+    payloads = b"".join(base64.b64decode(data) for data in
+                        re.findall(r'data:application/octet-[a-z]+;base64,([A-Za-z0-9+/=\s]*)"', html))
+    assert b"set_animation" in payloads
+    for i in range(1, robot.dof + 1):
+        assert f"/drake/visualizer/link{i}".encode() in payloads
+
+
+def test_every_demo_job_asks_for_the_views():
+    for path in JOB_FILES:
+        assert {"html", "arm_png"} <= set(load_job(path).outputs), path.name
+
+
+def test_a_job_with_html_and_arm_png_writes_view_html_and_arm_png(tmp_path):
+    job = parse_job(yaml.safe_load("""
+        robot: arm6
+        angle_unit: deg
+        waypoints: [[0, 30, 30, 0, 30, 0], [20, 40, 10, 20, -20, 40]]
+        outputs: [html, arm_png]
+    """))
+    outcome = run_job(job, tmp_path / "out")
+    assert [p.name for p in outcome.files] == [FILE_NAMES["html"], FILE_NAMES["arm_png"]] == ["view.html", "arm.png"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["arm.png", "view.html"]
+    assert (tmp_path / "out" / "arm.png").read_bytes()[:8] == PNG_MAGIC
+    html = (tmp_path / "out" / "view.html").read_text(encoding="utf-8")
+    assert "<html" in html and len(html) > 100_000
