@@ -22,8 +22,8 @@ run: $(STAMP)
 		echo "== $$job"; \
 		$(PY) -m pipeline run $$job --out $(OUT)/$$name; \
 	done
-	@echo "Jacobian check reports in $(OUT)/check/; the plots:"
-	@for job in trajectories/jobs/*.yaml; do echo "  $(OUT)/$$(basename $$job .yaml)/profile.png"; done
+	@echo "Jacobian check reports in $(OUT)/check/; the plots and 3-D views (open view.html in a browser):"
+	@for job in trajectories/jobs/*.yaml; do n=$$(basename $$job .yaml); echo "  $(OUT)/$$n/profile.png  $(OUT)/$$n/arm.png  $(OUT)/$$n/view.html"; done
 
 test: $(STAMP)
 	$(PY) -m pytest -m "not slow"
