@@ -18,7 +18,6 @@ from .robot_spec import Limits
 #: A peak/limit ratio up to 1 + this passes (round-off of the samples) [1].
 CERTIFY_TOLERANCE = 1e-6
 QUANTITIES = ("q", "qd", "qdd", "qddd", "tau")
-UNITS = {"q": "rad", "qd": "rad/s", "qdd": "rad/s^2", "qddd": "rad/s^3", "tau": "N m"}
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,7 +17,6 @@ possible way, verified by our FK, and labelled.
 
 from __future__ import annotations
 
-import itertools
 import math
 import weakref
 from dataclasses import dataclass

@@ -7,7 +7,6 @@ joint inside its limits.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
