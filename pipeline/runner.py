@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from .io import write_files_atomic, write_json, write_profile_csv, write_profile
 from .jobs import Job, JointWaypoint, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify
 from .timing import retime
+from .versions import installed_version
 
 log = logging.getLogger(__name__)
 
@@ -99,13 +99,7 @@ def solve_waypoints(job: Job) -> list[WaypointIk]:
 
 def package_versions() -> dict[str, str | None]:
     """Installed versions of this package and its numerical dependencies (None when absent)."""
-    versions = {}
-    for name in VERSIONED_PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = None
-    return versions
+    return {name: installed_version(name) for name in VERSIONED_PACKAGES}
 
 
 def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile, limit_report: LimitReport) -> dict:

@@ -28,8 +28,6 @@ missing):
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
-import platform
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -40,6 +38,7 @@ from ..errors import ConfigurationError
 from ..progress import Progress
 from ..ik import METHODS as IK_METHODS
 from ..ik.result import is_strict, make_target, pose_errors, within_limits
+from ..versions import version_table
 from ..robot import Robot, load_robot
 
 METHODS = ("analytic", "jacobian", "drake")
@@ -348,13 +347,6 @@ def analytic_batch_row(robot: Robot, Q_target: np.ndarray, Q_seed: np.ndarray) -
                  median_us=per_target_us, p95_us=per_target_us)
 
 
-def _version(distribution: str) -> str:
-    try:
-        return importlib.metadata.version(distribution)
-    except importlib.metadata.PackageNotFoundError:
-        return "not installed"
-
-
 def run_ik_benchmark(robots=ROBOTS, targets: int = 1000, seed: int = 0, methods=METHODS) -> "IkBenchReport":
     """Our IK methods beside Robotics Toolbox ``ik_LM`` and raw Drake IK on each robot, same targets.
 
@@ -371,6 +363,5 @@ def run_ik_benchmark(robots=ROBOTS, targets: int = 1000, seed: int = 0, methods=
     if unknown:
         raise ConfigurationError(f"unknown IK method(s) {', '.join(unknown)}; choose from {', '.join(IK_METHODS)}")
     reports = tuple(benchmark_robot(load_robot(name), targets, seed, methods) for name in robots)
-    versions = {"python": platform.python_version(), "numpy": np.__version__, "drake": _version("drake"),
-                "roboticstoolbox-python": _version("roboticstoolbox-python")}
+    versions = version_table("numpy", "drake", "roboticstoolbox-python")
     return IkBenchReport(targets=targets, seed=seed, methods=methods, robots=reports, versions=versions)

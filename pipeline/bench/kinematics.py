@@ -16,8 +16,6 @@ machine's speed biases no ratio.
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
-import platform
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -31,6 +29,7 @@ from ..drake_model import (
     build_drake_robot,
     joint_split,
 )
+from ..versions import version_table
 from ..robot import Robot, load_robot
 
 OURS = "ours (NumPy)"
@@ -334,13 +333,6 @@ def time_ratios(ours: TimingRow, peer: TimingRow) -> dict[str, float]:
     }
 
 
-def _version(distribution: str) -> str:
-    try:
-        return importlib.metadata.version(distribution)
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
-
-
 # -- the benchmark --------------------------------------------------------------------------------
 def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, single_calls: int = 2000,
                              seed: int = 0) -> KinematicsBenchReport:
@@ -356,7 +348,7 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
     Q_verify = robot.random_configurations(rng, VERIFY_CONFIGURATIONS)
     Q_single = robot.random_configurations(rng, single_calls)
     Q_batch = robot.random_configurations(rng, batch)
-    versions = {"python": platform.python_version(), "numpy": np.__version__, "drake": _version("drake")}
+    versions = version_table("numpy", "drake")
     implementations, unavailable = [ours_implementation(robot), drake_implementation(robot)], {}
     for name, build, distribution in _OPTIONAL_PEERS:
         try:
@@ -364,7 +356,7 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
         except ImportError as exc:
             unavailable[name] = f"{exc} (install the 'bench' extra)"
         else:
-            versions[distribution] = _version(distribution)
+            versions.update(version_table(distribution))
     max_error = {impl.name: verify_implementation(robot, impl, Q_verify) for impl in implementations[1:]}
     rows = time_implementations(implementations, Q_single, Q_batch)
     return KinematicsBenchReport(

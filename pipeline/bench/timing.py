@@ -53,9 +53,7 @@ toppra at 1000 grid points (median over all paths of the per-path ratio ours / r
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
 import logging
-import platform
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -66,6 +64,7 @@ from ..errors import ConfigurationError
 from ..progress import Progress
 from ..path import JointPath, PathError, make_path
 from ..profile import CERTIFY_TOLERANCE
+from ..versions import version_table
 from ..robot import Robot, load_robot
 from ..robot_spec import Limits
 from ..timing import retime
@@ -542,13 +541,6 @@ def evaluate_goals(robots: tuple[TimingRobotReport, ...]) -> tuple[Goal, ...]:
     )
 
 
-def _version(distribution: str) -> str:
-    try:
-        return importlib.metadata.version(distribution)
-    except importlib.metadata.PackageNotFoundError:
-        return "not installed"
-
-
 def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0) -> TimingBenchReport:
     """Ours beside raw toppra (100, 1000 grid points) and Drake's Toppra (100, 1000) on each robot.
 
@@ -561,7 +553,6 @@ def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0) -> Timing
     if not robots:
         raise ValueError("no robots to benchmark")
     reports = tuple(benchmark_robot(load_robot(name), paths, seed) for name in robots)
-    versions = {"python": platform.python_version(), "numpy": np.__version__, "scipy": _version("scipy"),
-                "toppra": _version("toppra"), "drake": _version("drake")}
+    versions = version_table("numpy", "scipy", "toppra", "drake")
     return TimingBenchReport(paths=paths, seed=seed, waypoints=WAYPOINTS, samples=SAMPLES, robots=reports,
                              goals=evaluate_goals(reports), versions=versions)
