@@ -34,6 +34,7 @@ from .result import (
     distinct_order_batch,
     limit_variants,
     pose_errors,
+    rotation_angle,
 )
 
 #: Axes closer than this [m] meet; directions closer than this [1] are parallel.
@@ -299,7 +300,7 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
     X_branches = robot.fk_batch(branches.Q.reshape(-1, 6)).reshape(n, BRANCHES, 4, 4)
     position_error = np.linalg.norm(X_branches[..., :3, 3] - X_targets[:, None, :3, 3], axis=-1)
     R_error = np.swapaxes(X_branches[..., :3, :3], -1, -2) @ X_targets[:, None, :3, :3]
-    rotation_error = _rotation_angles(R_error)
+    rotation_error = rotation_angle(R_error)
     strict = (position_error <= POSITION_TOLERANCE) & (rotation_error <= ROTATION_TOLERANCE)
     candidates, valid = limit_variants(branches.Q, np.ones(6, dtype=bool), limits.q_min, limits.q_max)
     variants = candidates.shape[2]
@@ -323,12 +324,6 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
                                 details={"branch": best.branch,
                                          "branches_reachable": int(branches.reachable[i].sum())}))
     return results
-
-
-def _rotation_angles(R: np.ndarray) -> np.ndarray:
-    """Angles [rad] of rotation matrices (..., 3, 3), accurate near zero."""
-    skew = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
-    return np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
 
 
 def _failure_for_target(robot, branches, i, position_error, rotation_error, strict) -> IkResult:

@@ -86,18 +86,17 @@ class IkResult:
                 f"{len(self.solutions)} solution(s)")
 
 
-def rotation_angle(R: np.ndarray) -> float:
-    """Angle [rad] of a rotation matrix, accurate near 0 (uses the skew part, not only the trace)."""
-    sin_part = 0.5 * math.sqrt((R[2, 1] - R[1, 2]) ** 2 + (R[0, 2] - R[2, 0]) ** 2 + (R[1, 0] - R[0, 1]) ** 2)
-    cos_part = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    return math.atan2(sin_part, cos_part)
+def rotation_angle(R: np.ndarray) -> np.ndarray:
+    """Angles [rad] of rotation matrices (..., 3, 3), accurate near 0 (the skew part, not only the trace)."""
+    skew = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    return np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
 
 
 def pose_errors(X: np.ndarray, target: IkTarget) -> tuple[float, float]:
     """(position error [m], rotation error [rad]) of pose X against the target, for its kind."""
     position_error = float(np.linalg.norm(X[:3, 3] - target.X_BE[:3, 3]))
     if target.kind == FULL_POSE:
-        rotation_error = rotation_angle(X[:3, :3].T @ target.X_BE[:3, :3])
+        rotation_error = float(rotation_angle(X[:3, :3].T @ target.X_BE[:3, :3]))
     elif target.kind == POSITION_AND_AXIS:
         z, z_target = X[:3, 2], target.X_BE[:3, 2]
         rotation_error = math.atan2(float(np.linalg.norm(np.cross(z, z_target))), float(z @ z_target))
