@@ -66,7 +66,9 @@ def merge_duplicates(waypoints: np.ndarray) -> np.ndarray:
     return waypoints[keep]
 
 
-def _check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndarray:
+def check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndarray:
+    """Validate joint waypoints (K >= 2, dof) [rad or m]: finite and inside the limits; PathError names
+    the waypoint and joint."""
     waypoints = np.asarray(waypoints, dtype=float)
     if waypoints.ndim != 2 or waypoints.shape[1] != q_min.size:
         raise PathError(f"waypoints must have shape (K, {q_min.size}), got {waypoints.shape}")
@@ -137,7 +139,7 @@ def make_path(waypoints, q_min: np.ndarray, q_max: np.ndarray, shape: str = "spl
         raise PathError(f"path shape must be one of {', '.join(SHAPES)}, got {shape!r}")
     if not 0.0 <= blend <= 0.5:
         raise PathError(f"blend must be in [0, 0.5], got {blend}")
-    waypoints = merge_duplicates(_check_waypoints(waypoints, q_min, q_max))
+    waypoints = merge_duplicates(check_waypoints(waypoints, q_min, q_max))
     if len(waypoints) < 2:
         raise PathError("all waypoints are the same configuration: there is no motion to time")
     chords = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)

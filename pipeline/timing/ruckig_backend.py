@@ -42,7 +42,7 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
 from ..errors import TimingError
-from ..path import JointPath
+from ..path import JointPath, check_waypoints
 from ..profile import CERTIFY_TOLERANCE, Profile
 from ..robot_spec import Limits
 from .toppra_backend import retime_toppra, sample_times
@@ -196,23 +196,14 @@ def require_jerk_limits(limits: Limits, method: str) -> None:
 
 # -- waypoint to waypoint -----------------------------------------------------------------------
 
-def _check_inputs(waypoints: np.ndarray, velocities: np.ndarray, limits: Limits) -> None:
-    if waypoints.ndim != 2 or waypoints.shape[1] != limits.qd_max.size:
-        raise TimingError(f"waypoints must have shape (K, {limits.qd_max.size}), got {waypoints.shape}")
-    if len(waypoints) < 2:
-        raise TimingError(f"a path needs at least 2 waypoints, got {len(waypoints)}")
+def _check_velocities(waypoints: np.ndarray, velocities: np.ndarray, limits: Limits) -> None:
+    """Waypoint velocities (K, dof) [rad/s]: the waypoints' shape, finite, within qd_max, zero at the ends."""
     if velocities.shape != waypoints.shape:
         raise TimingError(f"waypoint_velocities must have the waypoints' shape {waypoints.shape}, "
                           f"got {velocities.shape}")
-    for name, values in (("waypoint", waypoints), ("waypoint velocity", velocities)):
-        bad = np.argwhere(~np.isfinite(values))
-        if bad.size:
-            raise TimingError(f"{name} {bad[0][0]} has a non-finite value for joint {bad[0][1] + 1}")
-    outside = np.argwhere((waypoints < limits.q_min) | (waypoints > limits.q_max))
-    if outside.size:
-        k, j = outside[0]
-        raise TimingError(f"waypoint {k}: joint {j + 1} = {waypoints[k, j]:.6g} is outside its limits "
-                          f"[{limits.q_min[j]:.6g}, {limits.q_max[j]:.6g}]")
+    bad = np.argwhere(~np.isfinite(velocities))
+    if bad.size:
+        raise TimingError(f"waypoint velocity {bad[0][0]} has a non-finite value for joint {bad[0][1] + 1}")
     too_fast = np.argwhere(np.abs(velocities) > limits.qd_max)
     if too_fast.size:
         k, j = too_fast[0]
@@ -233,8 +224,9 @@ def retime_ruckig(waypoints: np.ndarray, limits: Limits, dt: float, joint_names:
     acceleration there; the first and last rows must be zero). Raises TimingError naming the segment.
     """
     require_jerk_limits(limits, "ruckig")
+    waypoints = check_waypoints(waypoints, limits.q_min, limits.q_max)
     velocities = np.zeros_like(waypoints) if waypoint_velocities is None else np.asarray(waypoint_velocities, float)
-    _check_inputs(waypoints, velocities, limits)
+    _check_velocities(waypoints, velocities, limits)
     solver = SegmentSolver(limits)
     zero = np.zeros(waypoints.shape[1])
     states = [(q, v, zero) for q, v in zip(waypoints, velocities)]
