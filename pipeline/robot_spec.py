@@ -6,6 +6,7 @@ this module converts them once, and everything after it is metres, radians and s
 
 from __future__ import annotations
 
+import importlib.resources
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -23,7 +24,8 @@ from .errors import (
     UnknownFieldError,
 )
 
-MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+#: The preset robot files, installed with the package (the checkout's models/ folder).
+PRESETS = importlib.resources.files("pipeline.models")
 
 LENGTH_UNITS = {"mm": 1e-3, "m": 1.0}
 ANGLE_UNITS = {"deg": math.pi / 180.0, "rad": 1.0}
@@ -333,17 +335,16 @@ def resolve_robot_path(name_or_path: str | Path) -> Path:
     candidate = Path(name_or_path)
     if candidate.suffix in (".yaml", ".yml") and candidate.is_file():
         return candidate
-    preset = MODELS_DIR / f"{name_or_path}.yaml"
-    if preset.is_file():
-        return preset
+    if str(name_or_path) in preset_names():
+        return Path(str(PRESETS / f"{name_or_path}.yaml"))
     raise RobotNotFoundError(
         f"{name_or_path!r} is neither a robot file nor a preset; presets: {', '.join(preset_names())}"
     )
 
 
 def preset_names() -> list[str]:
-    """Names of the robot files in ``models/``."""
-    return sorted(p.stem for p in MODELS_DIR.glob("*.yaml"))
+    """Names of the preset robot files (``models/*.yaml``, installed as ``pipeline.models``)."""
+    return sorted(entry.name[: -len(".yaml")] for entry in PRESETS.iterdir() if entry.name.endswith(".yaml"))
 
 
 def load_robot_spec(name_or_path: str | Path) -> RobotSpec:
