@@ -1,43 +1,87 @@
 """One error hierarchy for the whole pipeline.
 
-Every message names where the problem is (file, field, joint) and what was allowed, so a user
-can fix the input without reading code.
+Every message names where the problem is (file, line, field, joint) and what was allowed, so a user
+can fix the input without reading code. The CLI turns every ``PipelineError`` into one line and exit
+status 2; anything else is an internal error (exit 1).
+
+Input-file errors say two things at once: which file kind (``RobotFileError``, ``JobFileError``) and
+what is wrong (``UnknownFieldError``, ``MissingFieldError``, ``InvalidValueError``); the reader raises
+a class deriving from both (``file_error``), so either can be caught.
 """
 
 from __future__ import annotations
+
+import functools
+import reprlib
+
+#: Messages show an excerpt of an offending value, never all of it (a value may be huge or deep).
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlevel, _SHOWN.maxlist, _SHOWN.maxtuple, _SHOWN.maxdict = 2, 6, 6, 4
+_SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlong = 60, 60, 40
+
+
+def shown(value) -> str:
+    """A short ``repr`` of ``value`` (at most ~60 characters per item, 6 items, 2 levels deep)."""
+    try:
+        return _SHOWN.repr(value)
+    except ValueError:                      # an int too long to print
+        return f"<{type(value).__name__} too long to show>"
 
 
 class PipelineError(Exception):
     """Base class of every error this package raises on purpose."""
 
 
-class RobotFileError(PipelineError):
-    """A robot file (or robot dict) is not valid.
+class FileFormatError(PipelineError):
+    """An input file (or the mapping parsed from one) is not valid.
 
-    Attributes: ``source`` (file path or ``<dict>``), ``field`` (dotted key), ``joint`` (0-based
-    index or None), ``value`` (the offending value, or None).
+    Attributes: ``source`` (file path or ``<dict>``), ``line`` (1-based, or None where the reader does
+    not know it), ``field`` (dotted path such as ``joints[2].alpha``), ``problem`` (what is wrong and
+    what is allowed), ``joint`` (0-based index or None), ``value`` (the offending value, or None).
     """
 
-    def __init__(self, source: str, field: str, problem: str, joint: int | None = None, value=None):
-        self.source = source
+    def __init__(self, source: str, field: str, problem: str, joint: int | None = None, value=None,
+                 line: int | None = None):
+        self.source = str(source)
         self.field = field
+        self.problem = problem
         self.joint = joint
         self.value = value
-        where = f"joints[{joint}].{field}" if joint is not None else field
-        shown = f" (got {value!r})" if value is not None else ""
-        super().__init__(f"{source}: {where}: {problem}{shown}")
+        self.line = line
+        where = f"{self.source}:{line}" if line is not None else self.source
+        got = f" (got {shown(value)})" if value is not None else ""
+        super().__init__(f"{where}: {field}: {problem}{got}")
 
 
-class UnknownFieldError(RobotFileError):
-    """A key the robot file format does not define (often a typo)."""
+class RobotFileError(FileFormatError):
+    """A robot file (or robot dict) is not valid."""
 
 
-class MissingFieldError(RobotFileError):
+class JobFileError(FileFormatError):
+    """A job file is not valid, or one of its waypoints cannot be reached."""
+
+
+class UnknownFieldError(FileFormatError):
+    """A key the file format does not define (often a typo)."""
+
+
+class MissingFieldError(FileFormatError):
     """A required key is absent."""
 
 
-class InvalidValueError(RobotFileError):
-    """A key has a value of the wrong type, out of range, or inconsistent with another key."""
+class InvalidValueError(FileFormatError):
+    """A key has a value of the wrong type, out of range, implausible for its unit, or inconsistent
+    with another key; also a file that cannot be read or parsed (field ``document``)."""
+
+
+@functools.cache
+def file_error(problem: type[FileFormatError], file_kind: type[FileFormatError]) -> type[FileFormatError]:
+    """The error class that is both ``problem`` (e.g. InvalidValueError) and ``file_kind`` (e.g.
+    RobotFileError), so callers may catch either."""
+    if issubclass(problem, file_kind):
+        return problem
+    return type(problem.__name__, (problem, file_kind), {"__doc__": problem.__doc__,
+                                                        "__module__": __name__})
 
 
 class RobotNotFoundError(PipelineError):
@@ -45,12 +89,18 @@ class RobotNotFoundError(PipelineError):
 
 
 class ConfigurationError(PipelineError):
-    """A joint vector or batch has the wrong shape or non-finite values."""
+    """An argument of the Python API is not valid: a joint vector, pose or batch of the wrong shape or
+    with non-finite values, or an option out of its range."""
 
 
 class TimingError(PipelineError):
     """A path could not be timed within the limits (names the waypoint or segment where it can)."""
 
 
-class JobFileError(PipelineError):
-    """A job file is not valid: names the file, the field and, for waypoints, the waypoint index."""
+class ProfileSizeError(TimingError):
+    """A profile would have more samples than allowed (names its duration, dt and the limit)."""
+
+
+class OutputError(PipelineError):
+    """An output folder or file cannot be written: it is a file, is not writable, or holds files this
+    package did not write."""
