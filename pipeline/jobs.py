@@ -1,8 +1,10 @@
 """Job files (YAML) -> validated, SI-unit ``Job`` values.
 
 The format is documented in ``trajectories/README.md``. Degrees and millimetres exist only in the
-file: waypoints, poses and the start configuration are converted here once. Every error is a
-``JobFileError`` naming the file, the field and, for waypoints, the waypoint index.
+file: waypoints, poses and the start configuration are converted here once. Reading is two steps: the
+job's own fields (the schema reader, no robot needed), then its waypoints against the robot it names
+(lengths, limits, and pose targets within the arm's reach, which catches unit mistakes). Every error is
+a ``JobFileError`` naming the file, the line, the field and, for waypoints, the waypoint index.
 """
 
 from __future__ import annotations
@@ -15,23 +17,23 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from .errors import JobFileError, PipelineError, RobotNotFoundError
-from .ik import METHODS as IK_METHODS
-from .path import SHAPES
-from .poses import quaternion_position_to_pose
+from .choices import DEFAULT_DT, IK_METHODS, PATH_SHAPES, TIMING_METHODS
+from .errors import JobFileError, RobotNotFoundError
 from .robot import Robot, load_robot
-from .robot_spec import ANGLE_UNITS, LENGTH_UNITS, preset_names, rpy_to_rotation
-from .timing import DEFAULT_DT, METHODS as TIMING_METHODS
+from .robot_spec import preset_names
+from .schema import Document, Reader, document_from_data, load_document
+from .units import ANGLE_UNITS, LENGTH_UNITS
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png")
 #: Written when a job lists no outputs (the 3-D views, html and arm_png, only when asked for).
 DEFAULT_OUTPUTS = ("csv", "npz", "json", "png")
 #: Allowed sample times [s].
 DT_RANGE = (1e-4, 0.1)
-#: A quaternion this close to unit length is normalised; further away it is an error [1].
-QUATERNION_NORM_TOLERANCE = 1e-3
+#: A pose target closer to the base origin than this fraction of the closest end-frame position among
+#: REACH_SAMPLES random configurations is refused as a unit mistake (metres written under mm).
+INNER_REACH_FRACTION = 0.5
+REACH_SAMPLES = 4096
 
 _REQUIRED = ("robot", "waypoints")
 _OPTIONAL = ("description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
@@ -58,7 +60,8 @@ class Job:
 
     ``name``: the file's stem; ``source``: the job file (or ``<dict>``); ``waypoints``: JointWaypoint or
     PoseWaypoint values in order; ``start`` (dof,) [rad or m] or None: the IK seed of the first pose
-    waypoint; ``ik``, ``timing``, ``path``: method names; ``speed_scale`` in (0, 1]; ``dt`` [s];
+    waypoint; ``ik``, ``timing``: method names; ``path``: the path shape (None with ``ruckig``, which
+    times waypoint to waypoint); ``speed_scale`` in (0, 1]; ``dt`` [s];
     ``outputs``: which of csv, npz, json, png, html, arm_png to write; ``inputs_sha256``: hash of the
     job file bytes followed by the robot file bytes.
     """
@@ -70,7 +73,7 @@ class Job:
     start: np.ndarray | None
     ik: str
     timing: str
-    path: str
+    path: str | None
     speed_scale: float
     dt: float
     outputs: tuple[str, ...]
@@ -84,169 +87,137 @@ class Job:
     def __str__(self) -> str:
         kinds = "pose" if self.has_poses else "joint"
         return (f"Job {self.name!r} ({self.source}): {self.robot.name}, {len(self.waypoints)} {kinds} waypoints, "
-                f"ik {self.ik}, timing {self.timing}, path {self.path}, speed scale {self.speed_scale:g}, "
+                f"ik {self.ik}, timing {self.timing}, path {self.path or '-'}, speed scale {self.speed_scale:g}, "
                 f"dt {self.dt:g} s")
 
 
-class _Reader:
-    """Validates one job document, raising JobFileError naming the source and the field."""
+class _JobReader(Reader):
+    """Validates one job document: its own fields first, then its waypoints against the robot."""
 
-    def __init__(self, source: str, base_dir: Path):
-        self.source = source
+    def __init__(self, document: Document, base_dir: Path):
+        super().__init__(document, JobFileError)
         self.base_dir = base_dir
 
-    def fail(self, field: str, problem: str, value: Any = None):
-        shown = f" (got {value!r})" if value is not None else ""
-        raise JobFileError(f"{self.source}: {field}: {problem}{shown}")
-
-    def check_keys(self, mapping, required, optional, field: str):
-        if not isinstance(mapping, dict):
-            self.fail(field, "must be a mapping of keys to values", mapping)
-        prefix = f"{field}." if field != "document" else ""
-        for key in mapping:
-            if key not in required and key not in optional:
-                self.fail(f"{prefix}{key}", f"unknown key; allowed: {', '.join((*required, *optional))}")
-        for key in required:
-            if key not in mapping:
-                self.fail(f"{prefix}{key}", "required key is missing")
-
-    def choice(self, doc, key, allowed, default):
-        value = doc.get(key, default)
-        if not isinstance(value, str) or value not in allowed:
-            self.fail(key, f"must be one of {', '.join(allowed)}", value)
-        return value
-
-    def number(self, value, field: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(field, "must be a number", value)
-        if not math.isfinite(value):
-            self.fail(field, "must be finite", value)
-        return float(value)
-
-    def vector(self, value, size: int, field: str, what: str) -> np.ndarray:
-        if not isinstance(value, (list, tuple)):
-            self.fail(field, f"must be a list of {size} numbers ({what})", value)
-        if len(value) != size:
-            self.fail(field, f"must have {size} values ({what}), got {len(value)}")
-        return np.array([self.number(v, f"{field}[{i}]") for i, v in enumerate(value)])
-
-    def unit(self, doc, key, units, needed_by: str | None):
-        if key not in doc:
-            if needed_by:
-                self.fail(key, f"required because {needed_by}; one of {', '.join(units)}")
-            return None
-        value = doc[key]
-        if not isinstance(value, str) or value not in units:
-            self.fail(key, f"must be one of {', '.join(units)}", value)
-        return units[value]
-
-    def robot(self, value) -> tuple[Robot, Path]:
-        if not isinstance(value, str) or not value:
-            self.fail("robot", "must be a preset name or a robot file path", value)
+    def robot_reference(self) -> str | Path:
+        """The ``robot`` field: a preset name, or a robot file path (relative to the job file)."""
+        self.mapping((), _REQUIRED, _OPTIONAL)
+        value = self.text(("robot",), max_chars=4096)
         candidate = Path(value)
-        if candidate.suffix in (".yaml", ".yml") and not candidate.is_absolute():
-            candidate = self.base_dir / candidate
-        try:
-            robot = load_robot(candidate if candidate.suffix in (".yaml", ".yml") else value)
-        except RobotNotFoundError:
-            self.fail("robot", f"unknown robot: neither a robot file nor a preset ({', '.join(preset_names())})",
-                      value)
-        except PipelineError as exc:
-            raise JobFileError(f"{self.source}: robot: {exc}") from exc
-        return robot, Path(robot.spec.source)
+        if candidate.suffix not in (".yaml", ".yml"):
+            return value
+        return candidate if candidate.is_absolute() else self.base_dir / candidate
 
-    def joint_values(self, value, robot: Robot, scales: np.ndarray, field: str) -> np.ndarray:
+    def load_robot(self) -> Robot:
+        """The robot the job names (a robot file's own errors name that file)."""
+        reference = self.robot_reference()
+        try:
+            return load_robot(reference)
+        except RobotNotFoundError:
+            self.fail(("robot",), f"unknown robot: neither a robot file nor a preset ({', '.join(preset_names())})",
+                      self.get(("robot",)))
+
+    def units(self, robot: Robot) -> tuple[float | None, float | None]:
+        """(angle, length) SI factors; each required when the waypoints use it."""
+        raw = self.sequence(("waypoints",), min_items=2, what="waypoints (joint lists or pose mappings)")
+        poses = [w for w in raw if isinstance(w, dict)]
+        joints_given = len(poses) < len(raw) or self.has(("start",))
+        revolute = np.array([j.is_revolute for j in robot.spec.joints])
+        angle_reason = ("joint values are given" if joints_given and revolute.any()
+                        else "pose waypoints use rpy" if any("rpy" in w for w in poses) else None)
+        length_reason = ("pose waypoints are given" if poses
+                         else "prismatic joint values are given" if joints_given and not revolute.all() else None)
+        return (self.unit(("angle_unit",), ANGLE_UNITS, angle_reason),
+                self.unit(("length_unit",), LENGTH_UNITS, length_reason))
+
+    def joint_values(self, path, robot: Robot, scales: np.ndarray) -> np.ndarray:
         """Joint values in file units -> SI, checked for length, finiteness and the limits."""
-        q = self.vector(value, robot.dof, field, f"one per joint of {robot.name}") * scales
+        q = self.vector(path, robot.dof, f"one per joint of {robot.name}") * scales
         limits = robot.limits
         for j in np.flatnonzero((q < limits.q_min) | (q > limits.q_max)):
-            self.fail(f"{field}[{j}]", f"joint {robot.joint_names[j]} = {value[j]} is outside its limits "
-                      f"[{limits.q_min[j] / scales[j]:.6g}, {limits.q_max[j] / scales[j]:.6g}] (file units)")
+            value = self.get((*path, int(j)))
+            hint = ""
+            if self.get(("angle_unit",)) == "rad" and robot.spec.joints[j].is_revolute and \
+                    limits.q_min[j] <= math.radians(value) <= limits.q_max[j]:
+                hint = "; are these degrees? (angle_unit: rad)"
+            self.fail((*path, int(j)), f"joint {robot.joint_names[j]} = {value:g} is outside its limits "
+                      f"[{limits.q_min[j] / scales[j]:.6g}, {limits.q_max[j] / scales[j]:.6g}] (file units){hint}")
         return q
 
-    def pose(self, value, length_scale: float, angle_scale: float, field: str) -> np.ndarray:
-        """``{xyz, rpy}`` or ``{xyz, quaternion}`` -> X_BE (4, 4) [m]."""
-        self.check_keys(value, ("xyz",), ("rpy", "quaternion"), field)
-        if ("rpy" in value) == ("quaternion" in value):
-            self.fail(field, "give exactly one of rpy or quaternion")
-        p = self.vector(value["xyz"], 3, f"{field}.xyz", "position") * length_scale
-        if "rpy" in value:
-            rpy = self.vector(value["rpy"], 3, f"{field}.rpy", "roll, pitch, yaw") * angle_scale
-            return self._transform(rpy_to_rotation(*rpy), p)
-        quat = self.vector(value["quaternion"], 4, f"{field}.quaternion", "w, x, y, z")
-        norm = float(np.linalg.norm(quat))
-        if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
-            self.fail(f"{field}.quaternion", f"must be unit length within {QUATERNION_NORM_TOLERANCE:g}, "
-                      f"|q| = {norm:.6g}")
-        return quaternion_position_to_pose(quat / norm, p)
-
-    @staticmethod
-    def _transform(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-        X = np.eye(4)
-        X[:3, :3], X[:3, 3] = R, p
+    def pose_target(self, path, robot: Robot, length_scale: float, angle_scale: float | None,
+                    reach: tuple[float, float]) -> np.ndarray:
+        """A pose waypoint -> X_BE (4, 4) [m], its position within the arm's reach."""
+        X = self.pose(path, length_scale, angle_scale)
+        distance = float(np.linalg.norm(X[:3, 3]))
+        inner, outer = reach
+        unit = self.get(("length_unit",))
+        if distance > outer:
+            self.fail((*path, "xyz"), f"is {distance:.4g} m from the base origin, beyond the reach of {robot.name} "
+                      f"({outer:.4g} m): is length_unit: {unit} right?", self.get((*path, "xyz")))
+        if distance < inner:
+            self.fail((*path, "xyz"), f"is {distance * 1e3:.4g} mm from the base origin, closer than the end "
+                      f"frame of {robot.name} comes ({inner * 1e3:.4g} mm): is length_unit: {unit} right?",
+                      self.get((*path, "xyz")))
         return X
 
-    def bounded(self, doc, key, default, low, high, low_open: bool) -> float:
-        value = self.number(doc.get(key, default), key)
-        below = value <= low if low_open else value < low
-        if below or value > high:
-            self.fail(key, f"must be in {'(' if low_open else '['}{low:g}, {high:g}]", value)
-        return value
+    def waypoints(self, robot: Robot) -> tuple[tuple[JointWaypoint | PoseWaypoint, ...], np.ndarray | None]:
+        """(waypoints, start) in SI units."""
+        angle_scale, length_scale = self.units(robot)
+        revolute = np.array([j.is_revolute for j in robot.spec.joints])
+        scales = np.where(revolute, angle_scale or 1.0, length_scale or 1.0)
+        raw = self.get(("waypoints",))
+        reach = _reach_interval(robot) if any(isinstance(w, dict) for w in raw) else (0.0, math.inf)
+        waypoints = tuple(
+            PoseWaypoint(self.pose_target(("waypoints", k), robot, length_scale, angle_scale, reach))
+            if isinstance(w, dict) else JointWaypoint(self.joint_values(("waypoints", k), robot, scales))
+            for k, w in enumerate(raw))
+        start = self.joint_values(("start",), robot, scales) if self.has(("start",)) else None
+        return waypoints, start
 
-    def outputs(self, value) -> tuple[str, ...]:
-        if not isinstance(value, list) or not value:
-            self.fail("outputs", f"must be a non-empty list of {', '.join(OUTPUTS)}", value)
+    def outputs(self) -> tuple[str, ...]:
+        path = ("outputs",)
+        if not self.has(path):
+            return DEFAULT_OUTPUTS
+        value = self.sequence(path, min_items=1, what=f"outputs ({', '.join(OUTPUTS)})")
         for i, item in enumerate(value):
-            if item not in OUTPUTS:
-                self.fail(f"outputs[{i}]", f"must be one of {', '.join(OUTPUTS)}", item)
+            self.choice((*path, i), OUTPUTS)
             if value.index(item) != i:
-                self.fail(f"outputs[{i}]", "listed twice", item)
+                self.fail((*path, i), "listed twice", item)
         return tuple(value)
 
-    def job(self, doc, name: str, job_bytes: bytes) -> Job:
-        self.check_keys(doc, _REQUIRED, _OPTIONAL, "document")
-        robot, robot_path = self.robot(doc["robot"])
-        raw = doc["waypoints"]
-        if not isinstance(raw, list) or len(raw) < 2:
-            self.fail("waypoints", "must be a list of at least 2 waypoints (joint lists or pose mappings)",
-                      raw if not isinstance(raw, list) else None)
-        given_joints = any(not isinstance(w, dict) for w in raw) or "start" in doc
-        revolute = np.array([j.is_revolute for j in robot.spec.joints])
-        angle_reason = ("joint values are given" if given_joints and revolute.any()
-                        else "pose waypoints use rpy" if any(isinstance(w, dict) and "rpy" in w for w in raw)
-                        else None)
-        length_reason = ("pose waypoints are given" if any(isinstance(w, dict) for w in raw)
-                         else "prismatic joint values are given" if given_joints and not revolute.all()
-                         else None)
-        angle_scale = self.unit(doc, "angle_unit", ANGLE_UNITS, angle_reason)
-        length_scale = self.unit(doc, "length_unit", LENGTH_UNITS, length_reason)
-        scales = np.where(revolute, angle_scale or 1.0, length_scale or 1.0)
-        waypoints = tuple(
-            PoseWaypoint(self.pose(w, length_scale, angle_scale, f"waypoints[{k}]")) if isinstance(w, dict)
-            else JointWaypoint(self.joint_values(w, robot, scales, f"waypoints[{k}]"))
-            for k, w in enumerate(raw))
-        start = self.joint_values(doc["start"], robot, scales, "start") if "start" in doc else None
-        timing = self.choice(doc, "timing", TIMING_METHODS, "toppra")
-        if timing == "ruckig" and "path" in doc:
-            self.fail("path", "has no effect with timing ruckig, which times waypoint to waypoint; remove it")
-        description = doc.get("description", "")
-        if not isinstance(description, str):
-            self.fail("description", "must be text", description)
+    def job(self, robot: Robot, name: str, inputs_sha256: str) -> Job:
+        waypoints, start = self.waypoints(robot)
+        timing = self.choice(("timing",), TIMING_METHODS, "toppra")
+        if timing == "ruckig" and self.has(("path",)):
+            self.fail(("path",), "has no effect with timing ruckig, which times waypoint to waypoint; remove it")
         return Job(
             name=name,
             source=self.source,
             robot=robot,
             waypoints=waypoints,
             start=start,
-            ik=self.choice(doc, "ik", IK_METHODS, "auto"),
+            ik=self.choice(("ik",), IK_METHODS, "auto"),
             timing=timing,
-            path=self.choice(doc, "path", SHAPES, "spline"),
-            speed_scale=self.bounded(doc, "speed_scale", 1.0, 0.0, 1.0, low_open=True),
-            dt=self.bounded(doc, "dt", DEFAULT_DT, *DT_RANGE, low_open=False),
-            outputs=self.outputs(doc.get("outputs", list(DEFAULT_OUTPUTS))),
-            inputs_sha256=hashlib.sha256(job_bytes + robot_path.read_bytes()).hexdigest(),
-            description=description,
+            path=None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, "spline"),
+            speed_scale=self.number(("speed_scale",), 1.0, low=0.0, high=1.0, low_open=True),
+            dt=self.number(("dt",), DEFAULT_DT, *DT_RANGE, unit="s"),
+            outputs=self.outputs(),
+            inputs_sha256=inputs_sha256,
+            description=self.text(("description",), max_chars=10_000) if self.has(("description",)) else "",
         )
+
+
+def _reach_interval(robot: Robot) -> tuple[float, float]:
+    """(inner, outer) distances of the end frame from the base origin [m] that a pose target may have:
+    outer is the spec's reach bound; inner INNER_REACH_FRACTION of the closest of REACH_SAMPLES seeded
+    random configurations."""
+    Q = robot.random_configurations(np.random.default_rng(0), REACH_SAMPLES)
+    closest = float(np.linalg.norm(robot.fk_batch(Q)[:, :3, 3], axis=1).min())
+    return INNER_REACH_FRACTION * closest, robot.spec.reach_bound * (1.0 + 1e-9)
+
+
+def _sha256(job_bytes: bytes, robot: Robot) -> str:
+    """Hash of the job file's bytes followed by the robot file's bytes (a preset's or a path's)."""
+    return hashlib.sha256(job_bytes + Path(robot.spec.source).read_bytes()).hexdigest()
 
 
 def parse_job(doc: Any, source: str = "<dict>", name: str = "job", base_dir: str | Path = ".",
@@ -258,18 +229,17 @@ def parse_job(doc: Any, source: str = "<dict>", name: str = "job", base_dir: str
     """
     if job_bytes is None:
         job_bytes = json.dumps(doc, sort_keys=True, default=str).encode()
-    return _Reader(source, Path(base_dir)).job(doc, name, job_bytes)
+    return _read_job(document_from_data(doc, source), Path(base_dir), name, job_bytes)
 
 
 def load_job(path: str | Path) -> Job:
     """Read and validate a job file; relative robot paths in it are relative to the file."""
     path = Path(path)
-    try:
-        job_bytes = path.read_bytes()
-    except OSError as exc:
-        raise JobFileError(f"{path}: cannot read the job file: {exc.strerror}") from exc
-    try:
-        doc = yaml.safe_load(job_bytes)
-    except yaml.YAMLError as exc:
-        raise JobFileError(f"{path}: document: is not valid YAML: {exc}") from exc
-    return parse_job(doc, source=str(path), name=path.stem, base_dir=path.parent, job_bytes=job_bytes)
+    document = load_document(path, JobFileError)
+    return _read_job(document, path.parent, path.stem, path.read_bytes())
+
+
+def _read_job(document: Document, base_dir: Path, name: str, job_bytes: bytes) -> Job:
+    reader = _JobReader(document, base_dir)
+    robot = reader.load_robot()
+    return reader.job(robot, name, _sha256(job_bytes, robot))

@@ -18,9 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from .choices import PATH_SHAPES
 from .errors import TimingError
 
-SHAPES = ("spline", "linear")
+SHAPES = PATH_SHAPES
 #: Fraction of the shorter neighbouring segment used by each corner blend of a linear path.
 DEFAULT_BLEND = 0.2
 #: Samples per segment when checking that a spline stays inside the joint limits.

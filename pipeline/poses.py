@@ -38,6 +38,24 @@ def pose_to_quaternion_position(X) -> tuple[np.ndarray, np.ndarray]:
     return quat, X[:3, 3].copy()
 
 
+def make_pose(R, p) -> np.ndarray:
+    """Rotation (3, 3) and position (3,) [m] -> homogeneous pose (4, 4). The one place poses are assembled."""
+    X = np.eye(4)
+    X[:3, :3] = R
+    X[:3, 3] = p
+    return X
+
+
+def rpy_to_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll): roll, pitch, yaw [rad] about the fixed X, Y, Z axes."""
+    return Rotation.from_euler("xyz", [roll, pitch, yaw]).as_matrix()
+
+
+def rpy_position_to_pose(rpy, p) -> np.ndarray:
+    """(roll, pitch, yaw [rad] about fixed X, Y, Z; position [m]) -> pose (4, 4)."""
+    return make_pose(rpy_to_rotation(*np.asarray(rpy, dtype=float)), np.asarray(p, dtype=float))
+
+
 def quaternion_position_to_pose(quat_wxyz, p) -> np.ndarray:
     """(quaternion [w, x, y, z], position [m]) -> pose (4, 4). The quaternion must be unit length."""
     quat = np.asarray(quat_wxyz, dtype=float)
@@ -48,7 +66,4 @@ def quaternion_position_to_pose(quat_wxyz, p) -> np.ndarray:
         raise ConfigurationError("quaternion or position has non-finite values")
     if abs(np.linalg.norm(quat) - 1.0) > ROTATION_TOLERANCE:
         raise ConfigurationError(f"quaternion must be unit length, |q| = {np.linalg.norm(quat):.9f}")
-    X = np.eye(4)
-    X[:3, :3] = Rotation.from_quat(quat, scalar_first=True).as_matrix()
-    X[:3, 3] = p
-    return X
+    return make_pose(Rotation.from_quat(quat, scalar_first=True).as_matrix(), p)

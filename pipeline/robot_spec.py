@@ -14,32 +14,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from .errors import (
-    InvalidValueError,
-    MissingFieldError,
-    RobotFileError,
-    RobotNotFoundError,
-    UnknownFieldError,
-)
+from .errors import MissingFieldError, RobotFileError, RobotNotFoundError
+from .schema import Document, Reader, document_from_data, load_document
+from .units import ANGLE_UNITS, LENGTH_UNITS
 
 #: The preset robot files, installed with the package (the checkout's models/ folder).
 PRESETS = importlib.resources.files("pipeline.models")
 
-LENGTH_UNITS = {"mm": 1e-3, "m": 1.0}
-ANGLE_UNITS = {"deg": math.pi / 180.0, "rad": 1.0}
 CONVENTIONS = ("standard", "modified")
 JOINT_TYPES = ("revolute", "prismatic")
-
-_TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
-_TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
-_JOINT_REQUIRED = ("a", "alpha", "d", "q_min", "q_max", "qd_max")
-_JOINT_OPTIONAL = ("theta_offset", "sign", "type", "name", "qdd_max", "qddd_max", "tau_max", "inertia", "note")
-_FRAME_KEYS = ("xyz", "rpy")
-_INERTIA_REQUIRED = ("mass",)
-_INERTIA_OPTIONAL = ("com", "I")
-
 
 @dataclass(frozen=True, eq=False)
 class LinkInertia:
@@ -136,6 +120,14 @@ class RobotSpec:
             tau_max=column("tau_max"),
         )
 
+    @cached_property
+    def reach_bound(self) -> float:
+        """An upper bound of the end frame's distance from the base origin [m]: every length added up
+        (|a| + |d| per row, the longest slide of each prismatic joint, base and tool offsets)."""
+        slides = sum(max(abs(j.q_min), abs(j.q_max)) for j in self.joints if not j.is_revolute)
+        return float(sum(abs(j.a) + abs(j.d) for j in self.joints) + slides
+                     + np.linalg.norm(self.X_BaseD0[:3, 3]) + np.linalg.norm(self.X_DnE[:3, 3]))
+
     def dh_table(self) -> str:
         """The DH table in the file's units, with headers matching the convention."""
         lu, au = self.length_unit, self.angle_unit
@@ -162,172 +154,184 @@ class RobotSpec:
         return self.dh_table()
 
 
-def rpy_to_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """R = Rz(yaw) Ry(pitch) Rx(roll): roll, pitch, yaw about fixed X, Y, Z [rad]."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+#: Plausibility bounds that catch unit mistakes before any work (SI units).
+MAX_LENGTH_M = 100.0          # any a, d, xyz, com or prismatic limit: farther is mm written under m
+MIN_REACH_M = 0.01            # the sum of all lengths: shorter is metres written under mm
+MAX_ANGLE_RAD = 2.0 * math.pi  # alpha, theta_offset, rpy: more than a turn is degrees written under rad
+MAX_RANGE_RAD = 6.0 * math.pi  # a revolute range wider than three turns needs ``continuous: true``
+                               # (real wrists reach +-450 deg, 2.5 turns; degrees under rad give ~50)
+MAX_TURNS = 1000              # even a continuous joint stays within this many turns of zero
+MAX_SPEED_RAD_S = 100.0       # a revolute qd_max above ~5700 deg/s is a unit mistake
+MIN_RATE = 1e-9               # qd_max, qdd_max, qddd_max [unit/s^k]: smaller cannot move
+MAX_RATE = 1e9                # qdd_max, qddd_max, tau_max: beyond any drive
+MAX_MASS_KG = 1e6
+
+_TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
+_TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
+_JOINT_REQUIRED = ("a", "alpha", "d", "q_min", "q_max", "qd_max")
+_JOINT_OPTIONAL = ("theta_offset", "sign", "type", "name", "continuous", "qdd_max", "qddd_max", "tau_max",
+                   "inertia", "note")
 
 
-class _Reader:
-    """Validates one robot document, raising errors that name the source, joint and field."""
+class _RobotReader(Reader):
+    """Validates one robot document into a RobotSpec (SI units), with the plausibility checks."""
 
-    def __init__(self, source: str):
-        self.source = source
+    def __init__(self, document: Document):
+        super().__init__(document, RobotFileError)
+        self.length_unit = self.angle_unit = ""
+        self.ls = self.as_ = 1.0
 
-    def fail(self, cls, field, problem, joint=None, value=None):
-        raise cls(self.source, field, problem, joint=joint, value=value)
-
-    def check_keys(self, mapping, required, optional, prefix="", joint=None):
-        if not isinstance(mapping, dict):
-            where = prefix.rstrip(".") or "document"
-            self.fail(InvalidValueError, where, "must be a mapping of keys to values", joint, mapping)
-        for key in mapping:
-            if key not in required and key not in optional:
-                allowed = ", ".join((*required, *optional))
-                self.fail(UnknownFieldError, f"{prefix}{key}", f"unknown key; allowed: {allowed}", joint)
-        for key in required:
-            if key not in mapping:
-                self.fail(MissingFieldError, f"{prefix}{key}", "required key is missing", joint)
-
-    def number(self, mapping, key, joint=None, prefix="", default=None):
-        field = f"{prefix}{key}"
-        value = mapping.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(InvalidValueError, field, "must be a number", joint, value)
-        if not math.isfinite(value):
-            self.fail(InvalidValueError, field, "must be finite", joint, value)
-        return float(value)
-
-    def positive(self, mapping, key, joint=None):
-        value = self.number(mapping, key, joint)
-        if value <= 0.0:
-            self.fail(InvalidValueError, key, "must be > 0", joint, value)
+    def length(self, path, default=None) -> float:
+        """A length in the file's unit -> [m], within MAX_LENGTH_M."""
+        value = self.number(path, default) * self.ls
+        if abs(value) > MAX_LENGTH_M:
+            self.fail(path, f"is {abs(value):.4g} m, longer than any arm ({MAX_LENGTH_M:g} m): "
+                      f"is length_unit: {self.length_unit} right?", self.get(path))
         return value
 
-    def choice(self, mapping, key, allowed, joint=None, default=None):
-        value = mapping.get(key, default)
-        if value not in allowed:
-            self.fail(InvalidValueError, key, f"must be one of {', '.join(allowed)}", joint, value)
+    def angle(self, path, default=None) -> float:
+        """An angle in the file's unit -> [rad], at most a turn."""
+        value = self.number(path, default) * self.as_
+        if abs(value) > MAX_ANGLE_RAD + 1e-9:
+            hint = "are these degrees? (angle_unit: rad)" if self.angle_unit == "rad" else "at most 360 deg"
+            self.fail(path, f"is more than a full turn: {hint}", self.get(path))
         return value
 
-    def vector3(self, mapping, key, prefix, joint=None):
-        value = mapping.get(key, [0.0, 0.0, 0.0])
-        if not isinstance(value, (list, tuple)) or len(value) != 3:
-            self.fail(InvalidValueError, f"{prefix}{key}", "must be a list of 3 numbers", joint, value)
-        return np.array([self.number({key: v}, key, joint, prefix) for v in value])
+    def rate(self, path, q_scale: float, high: float, hint: str) -> float:
+        """A limit > 0 in q units per second^k -> SI, in [MIN_RATE, high]."""
+        value = self.positive(path) * q_scale
+        if value < MIN_RATE:
+            self.fail(path, f"is too small to move by (below {MIN_RATE:g} in SI units)", self.get(path))
+        if value > high:
+            self.fail(path, f"is implausibly large ({value:.4g} in SI units, above {high:g}): {hint}", self.get(path))
+        return value
 
-    def frame(self, doc, key, length_scale, angle_scale) -> np.ndarray:
-        X = np.eye(4)
-        if key not in doc or doc[key] is None:
-            return X
-        self.check_keys(doc[key], (), _FRAME_KEYS, prefix=f"{key}.")
-        X[:3, 3] = self.vector3(doc[key], "xyz", f"{key}.") * length_scale
-        X[:3, :3] = rpy_to_rotation(*(self.vector3(doc[key], "rpy", f"{key}.") * angle_scale))
-        return X
+    def joint_range(self, path, kind: str, q_scale: float) -> tuple[float, float]:
+        """(q_min, q_max) in SI, q_min < q_max, revolute ranges within three turns unless continuous."""
+        q_min = self.number((*path, "q_min")) * q_scale
+        q_max = self.number((*path, "q_max")) * q_scale
+        if q_min >= q_max:
+            self.fail((*path, "q_min"), f"must be < q_max ({self.get((*path, 'q_max'))!r})", self.get((*path, "q_min")))
+        if kind == "prismatic":
+            for key, value in (("q_min", q_min), ("q_max", q_max)):
+                if abs(value) > MAX_LENGTH_M:
+                    self.fail((*path, key), f"is {abs(value):.4g} m, longer than any axis ({MAX_LENGTH_M:g} m): "
+                              f"is length_unit: {self.length_unit} right?", self.get((*path, key)))
+            return q_min, q_max
+        continuous = self.get((*path, "continuous"), False)
+        if not isinstance(continuous, bool):
+            self.fail((*path, "continuous"), "must be true or false", continuous)
+        if max(abs(q_min), abs(q_max)) > MAX_TURNS * 2.0 * math.pi:
+            self.fail((*path, "q_max"), f"is more than {MAX_TURNS} turns from zero", self.get((*path, "q_max")))
+        if q_max - q_min > MAX_RANGE_RAD + 1e-9 and not continuous:
+            hint = ("are these degrees? (angle_unit: rad)" if self.angle_unit == "rad"
+                    else "a joint that turns without end says continuous: true")
+            self.fail((*path, "q_max"), f"the range q_min..q_max is wider than three turns (1080 deg): {hint}",
+                      self.get((*path, "q_max")))
+        return q_min, q_max
 
-    def inertia(self, raw, joint, length_scale) -> LinkInertia:
-        self.check_keys(raw, _INERTIA_REQUIRED, _INERTIA_OPTIONAL, prefix="inertia.", joint=joint)
-        mass = self.number(raw, "mass", joint, "inertia.")
-        if mass <= 0.0:
-            self.fail(InvalidValueError, "inertia.mass", "must be > 0 [kg]", joint, mass)
-        com = self.vector3(raw, "com", "inertia.", joint) * length_scale
-        moments = raw.get("I", [0.0] * 6)
-        if not isinstance(moments, (list, tuple)) or len(moments) != 6:
-            self.fail(InvalidValueError, "inertia.I", "must be [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] [kg m^2]",
-                      joint, moments)
-        ixx, iyy, izz, ixy, ixz, iyz = (self.number({"I": v}, "I", joint, "inertia.") for v in moments)
+    def inertia(self, path) -> LinkInertia:
+        self.mapping(path, ("mass",), ("com", "I"))
+        mass = self.number((*path, "mass"), low=0.0, low_open=True, high=MAX_MASS_KG, unit="kg")
+        com = np.zeros(3)
+        if self.has((*path, "com")):
+            self.vector((*path, "com"), 3, "x, y, z")
+            com = np.array([self.length((*path, "com", i)) for i in range(3)])
+        moments = self.vector((*path, "I"), 6, "Ixx, Iyy, Izz, Ixy, Ixz, Iyz [kg m^2]", default=[0.0] * 6)
+        if np.abs(moments).max() > MAX_RATE:
+            self.fail((*path, "I"), f"is implausibly large (above {MAX_RATE:g} kg m^2)", self.get((*path, "I")))
+        ixx, iyy, izz, ixy, ixz, iyz = moments
         I_Lcm = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
         principal = np.linalg.eigvalsh(I_Lcm)
         if principal[0] < 0.0 or principal[0] + principal[1] < principal[2] * (1.0 - 1e-12):
-            self.fail(InvalidValueError, "inertia.I",
-                      "is not a physical inertia (principal moments must be >= 0 and obey the triangle inequality)",
-                      joint, moments)
+            self.fail((*path, "I"), "is not a physical inertia (principal moments must be >= 0 and obey the "
+                      "triangle inequality)", self.get((*path, "I")))
         return LinkInertia(mass=mass, p_LoLcm=com, I_Lcm=I_Lcm)
 
-    def joint(self, raw, index, length_scale, angle_scale) -> DhJoint:
-        self.check_keys(raw, _JOINT_REQUIRED, _JOINT_OPTIONAL, joint=index)
-        kind = self.choice(raw, "type", JOINT_TYPES, index, default="revolute")
-        sign = self.number(raw, "sign", index, default=1)
+    def joint(self, index: int) -> DhJoint:
+        path = ("joints", index)
+        raw = self.mapping(path, _JOINT_REQUIRED, _JOINT_OPTIONAL)
+        kind = self.choice((*path, "type"), JOINT_TYPES, default="revolute")
+        sign = self.number((*path, "sign"), default=1)
         if sign not in (1.0, -1.0):
-            self.fail(InvalidValueError, "sign", "must be 1 or -1", index, raw.get("sign"))
-        q_scale = angle_scale if kind == "revolute" else length_scale
-        q_min = self.number(raw, "q_min", index) * q_scale
-        q_max = self.number(raw, "q_max", index) * q_scale
-        if q_min >= q_max:
-            self.fail(InvalidValueError, "q_min", f"must be < q_max ({raw['q_max']!r})", index, raw["q_min"])
-        optional = {}
-        for key in ("qdd_max", "qddd_max"):
-            optional[key] = self.positive(raw, key, index) * q_scale if key in raw else None
-        tau_max = self.positive(raw, "tau_max", index) if "tau_max" in raw else None
+            self.fail((*path, "sign"), "must be 1 or -1", raw.get("sign"))
+        q_scale = self.as_ if kind == "revolute" else self.ls
+        q_min, q_max = self.joint_range(path, kind, q_scale)
+        speed_high = MAX_SPEED_RAD_S if kind == "revolute" else MAX_LENGTH_M
+        unit_hint = f"is angle_unit: {self.angle_unit} right?" if kind == "revolute" else \
+            f"is length_unit: {self.length_unit} right?"
+        optional = {key: self.rate((*path, key), q_scale, MAX_RATE, unit_hint) if key in raw else None
+                    for key in ("qdd_max", "qddd_max")}
+        tau_max = self.rate((*path, "tau_max"), 1.0, MAX_RATE, "N m or N") if "tau_max" in raw else None
         if tau_max is not None and "inertia" not in raw:
-            self.fail(MissingFieldError, "inertia", "tau_max needs the link's inertia (torques come from its dynamics)",
-                      index)
-        name = raw.get("name", f"joint{index + 1}")
-        if not isinstance(name, str) or not name:
-            self.fail(InvalidValueError, "name", "must be a non-empty string", index, name)
+            self.fail((*path, "inertia"), "tau_max needs the link's inertia (torques come from its dynamics)",
+                      kind=MissingFieldError)
+        name = self.text((*path, "name"), default=f"joint{index + 1}", max_chars=64)
         return DhJoint(
             name=name,
             kind=kind,
-            a=self.number(raw, "a", index) * length_scale,
-            alpha=self.number(raw, "alpha", index) * angle_scale,
-            d=self.number(raw, "d", index) * length_scale,
-            theta_offset=self.number(raw, "theta_offset", index, default=0) * angle_scale,
+            a=self.length((*path, "a")),
+            alpha=self.angle((*path, "alpha")),
+            d=self.length((*path, "d")),
+            theta_offset=self.angle((*path, "theta_offset"), default=0),
             sign=sign,
             q_min=q_min,
             q_max=q_max,
-            qd_max=self.positive(raw, "qd_max", index) * q_scale,
+            qd_max=self.rate((*path, "qd_max"), q_scale, speed_high, unit_hint),
             qdd_max=optional["qdd_max"],
             qddd_max=optional["qddd_max"],
-            inertia=self.inertia(raw["inertia"], index, length_scale) if "inertia" in raw else None,
+            inertia=self.inertia((*path, "inertia")) if "inertia" in raw else None,
             tau_max=tau_max,
         )
 
-    def spec(self, doc) -> RobotSpec:
-        self.check_keys(doc, _TOP_REQUIRED, _TOP_OPTIONAL)
-        name = doc["name"]
-        if not isinstance(name, str) or not name:
-            self.fail(InvalidValueError, "name", "must be a non-empty string", value=name)
-        convention = self.choice(doc, "convention", CONVENTIONS)
-        length_unit = self.choice(doc, "length_unit", tuple(LENGTH_UNITS))
-        angle_unit = self.choice(doc, "angle_unit", tuple(ANGLE_UNITS))
-        ls, as_ = LENGTH_UNITS[length_unit], ANGLE_UNITS[angle_unit]
-        raw_joints = doc["joints"]
-        if not isinstance(raw_joints, list) or not raw_joints:
-            self.fail(InvalidValueError, "joints", "must be a non-empty list of joint rows", value=raw_joints)
-        joints = tuple(self.joint(raw, i, ls, as_) for i, raw in enumerate(raw_joints))
+    def frame(self, key: str) -> np.ndarray:
+        """The optional ``base`` or ``tool`` transform -> (4, 4) [m] (identity when absent)."""
+        if not self.has((key,)):
+            return np.eye(4)
+        X = self.pose((key,), self.ls, self.as_, complete=False, max_length_m=MAX_LENGTH_M)
+        if self.has((key, "rpy")):
+            for i in range(3):
+                self.angle((key, "rpy", i))
+        return X
+
+    def spec(self) -> RobotSpec:
+        self.mapping((), _TOP_REQUIRED, _TOP_OPTIONAL)
+        name = self.text(("name",), max_chars=64)
+        convention = self.choice(("convention",), CONVENTIONS)
+        self.length_unit = self.choice(("length_unit",), tuple(LENGTH_UNITS))
+        self.angle_unit = self.choice(("angle_unit",), tuple(ANGLE_UNITS))
+        self.ls, self.as_ = LENGTH_UNITS[self.length_unit], ANGLE_UNITS[self.angle_unit]
+        count = len(self.sequence(("joints",), min_items=1, what="joint rows"))
+        joints = tuple(self.joint(i) for i in range(count))
         names = [j.name for j in joints]
         for i, n in enumerate(names):
             if names.index(n) != i:
-                self.fail(InvalidValueError, "name", "joint names must be unique", i, n)
-        for field in ("qdd_max", "qddd_max", "tau_max"):
-            given = [getattr(j, field) is not None for j in joints]
+                self.fail(("joints", i, "name"), "joint names must be unique", n)
+        for key in ("qdd_max", "qddd_max", "tau_max"):
+            given = [getattr(j, key) is not None for j in joints]
             if any(given) and not all(given):
-                self.fail(MissingFieldError, field, "given for some joints, so required for all",
-                          given.index(False))
-        return RobotSpec(
+                self.fail(("joints", given.index(False), key), "given for some joints, so required for all",
+                          kind=MissingFieldError)
+        spec = RobotSpec(
             name=name,
             convention=convention,
             joints=joints,
-            X_BaseD0=self.frame(doc, "base", ls, as_),
-            X_DnE=self.frame(doc, "tool", ls, as_),
+            X_BaseD0=self.frame("base"),
+            X_DnE=self.frame("tool"),
             source=self.source,
-            length_unit=length_unit,
-            angle_unit=angle_unit,
-            provenance=doc.get("provenance"),
+            length_unit=self.length_unit,
+            angle_unit=self.angle_unit,
+            provenance=self.get(("provenance",)),
         )
+        if spec.reach_bound < MIN_REACH_M:
+            self.fail(("joints",), f"the arm reaches at most {spec.reach_bound * 1e3:.3g} mm from its base: "
+                      f"are the lengths in metres under length_unit: {self.length_unit}?")
+        return spec
 
 
 def parse_robot_spec(doc: Any, source: str = "<dict>") -> RobotSpec:
     """Validate a robot document (the parsed YAML mapping) into a RobotSpec."""
-    return _Reader(source).spec(doc)
+    return _RobotReader(document_from_data(doc, source)).spec()
 
 
 def resolve_robot_path(name_or_path: str | Path) -> Path:
@@ -349,9 +353,4 @@ def preset_names() -> list[str]:
 
 def load_robot_spec(name_or_path: str | Path) -> RobotSpec:
     """Read and validate a robot file (a preset name or a path)."""
-    path = resolve_robot_path(name_or_path)
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise RobotFileError(str(path), "document", f"is not valid YAML: {exc}") from exc
-    return parse_robot_spec(doc, source=str(path))
+    return _RobotReader(load_document(resolve_robot_path(name_or_path), RobotFileError)).spec()

@@ -7,17 +7,14 @@ the forearm's attitude: ``J3_pendant = q3 - q2`` (shared/robot_facts.md). The ot
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .errors import ConfigurationError
-
-ANGLE_UNITS = {"deg": math.pi / 180.0, "rad": 1.0}
+from .units import ANGLE_UNITS
 
 
 def _unit_scale(unit: str) -> float:
-    if unit not in ANGLE_UNITS:
+    if not isinstance(unit, str) or unit not in ANGLE_UNITS:
         raise ConfigurationError(f"angle unit must be one of {', '.join(ANGLE_UNITS)}, got {unit!r}")
     return ANGLE_UNITS[unit]
 

@@ -131,7 +131,8 @@ def test_bad_job_file_names_file_and_field_and_writes_nothing(tmp_path, case):
     with pytest.raises(JobFileError) as error:
         run_job_file(path, out_dir)
     message = str(error.value)
-    assert message.startswith(f"{path}: {field}:") and problem in message
+    assert message.startswith(f"{path}:{error.value.line}: {field}:") and problem in message
+    assert error.value.field == field and error.value.line >= 1
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 

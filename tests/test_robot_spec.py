@@ -17,7 +17,8 @@ from pipeline.errors import (
     RobotNotFoundError,
     UnknownFieldError,
 )
-from pipeline.robot_spec import load_robot_spec, parse_robot_spec, rpy_to_rotation
+from pipeline.poses import rpy_to_rotation
+from pipeline.robot_spec import load_robot_spec, parse_robot_spec
 
 CORE_EXAMPLE = """
 name: my_arm
@@ -157,11 +158,9 @@ def test_bad_input_is_a_typed_error_naming_file_joint_and_field(tmp_path, what, 
         load_robot_spec(source)
     exc = info.value
     assert isinstance(exc, RobotFileError)
-    assert exc.source == source and exc.field == field and exc.joint == joint
-    message = str(exc)
-    assert source in message and field in message
-    if joint is not None:
-        assert f"joints[{joint}]" in message
+    full_field = field if joint is None else f"joints[{joint}].{field}"
+    assert exc.source == source and exc.field == full_field and exc.joint == joint
+    assert str(exc).startswith(f"{source}:{exc.line}: {full_field}: ") and exc.line >= 1
 
 
 def test_acceleration_limits_all_or_none():

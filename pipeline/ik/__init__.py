@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..choices import IK_METHODS
 from ..errors import ConfigurationError
 from ..progress import Progress
 from .result import FULL_POSE, IkResult, IkTarget, Solution, make_target
 
-METHODS = ("auto", "analytic", "jacobian", "drake")
+METHODS = IK_METHODS
 
 
 def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: str = FULL_POSE, **options) -> IkResult:

@@ -1,0 +1,13 @@
+"""The names (and defaults) a job file or an API call chooses from, in one light module: readers
+validate a name here without importing the algorithms behind it."""
+
+from __future__ import annotations
+
+#: Inverse kinematics methods (``pipeline.ik``).
+IK_METHODS = ("auto", "analytic", "jacobian", "drake")
+#: Time parameterisation methods (``pipeline.timing``).
+TIMING_METHODS = ("toppra", "ruckig", "toppra+ruckig")
+#: Geometric joint path shapes through waypoints (``pipeline.path``).
+PATH_SHAPES = ("spline", "linear")
+#: Sample time of a timed profile unless a job or call says otherwise [s].
+DEFAULT_DT = 0.004
