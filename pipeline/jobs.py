@@ -147,7 +147,7 @@ class _JobReader(Reader):
                     reach: tuple[float, float]) -> np.ndarray:
         """A pose waypoint -> X_BE (4, 4) [m], its position within the arm's reach."""
         X = self.pose(path, length_scale, angle_scale)
-        distance = float(np.linalg.norm(X[:3, 3]))
+        distance = math.hypot(*X[:3, 3])
         inner, outer = reach
         unit = self.get(("length_unit",))
         if distance > outer:

@@ -266,7 +266,7 @@ class _RobotReader(Reader):
         if tau_max is not None and "inertia" not in raw:
             self.fail((*path, "inertia"), "tau_max needs the link's inertia (torques come from its dynamics)",
                       kind=MissingFieldError)
-        name = self.text((*path, "name"), default=f"joint{index + 1}", max_chars=64)
+        name = self.name((*path, "name"), default=f"joint{index + 1}")
         return DhJoint(
             name=name,
             kind=kind,
@@ -296,7 +296,7 @@ class _RobotReader(Reader):
 
     def spec(self) -> RobotSpec:
         self.mapping((), _TOP_REQUIRED, _TOP_OPTIONAL)
-        name = self.text(("name",), max_chars=64)
+        name = self.name(("name",))
         convention = self.choice(("convention",), CONVENTIONS)
         self.length_unit = self.choice(("length_unit",), tuple(LENGTH_UNITS))
         self.angle_unit = self.choice(("angle_unit",), tuple(ANGLE_UNITS))

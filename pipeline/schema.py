@@ -49,6 +49,7 @@ _INT = re.compile(r"^[-+]?[0-9]+$")
 _FLOAT = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$")
 _INF = re.compile(r"^[-+]?\.(?:inf|Inf|INF)$")
 _NAN = re.compile(r"^\.(?:nan|NaN|NAN)$")
+_UNSAFE_NAME = re.compile(r"[/\\\x00-\x1f\x7f]")
 _PLAIN = "tag:dh-pipeline:plain"
 _STR, _SEQ, _MAP = "tag:yaml.org,2002:str", "tag:yaml.org,2002:seq", "tag:yaml.org,2002:map"
 
@@ -277,6 +278,14 @@ class Reader:
             self.fail(path, f"must be at most {max_chars} characters long", value)
         return value
 
+    def name(self, path: Path_, default: str | None = None) -> str:
+        """A name that is also safe in a file name: at most 64 characters, no slashes or control
+        characters, not ``.`` or ``..``."""
+        value = self.text(path, default, max_chars=64)
+        if _UNSAFE_NAME.search(value) or value.strip(".") == "":
+            self.fail(path, "must not contain slashes or control characters (it names output files)", value)
+        return value
+
     def sequence(self, path: Path_, min_items: int = 0, what: str = "values") -> list:
         """The list at ``path`` with at least ``min_items`` items."""
         value = self.get(path)
@@ -316,8 +325,8 @@ class Reader:
                                                            and "quaternion" not in value):
             self.fail(path, "give exactly one of rpy or quaternion")
         p = self.vector((*path, "xyz"), 3, "x, y, z", default=[0.0, 0.0, 0.0]) * length_scale
-        if np.linalg.norm(p) > max_length_m:
-            self.fail((*path, "xyz"), f"is {np.linalg.norm(p):.4g} m from the origin, farther than "
+        if np.abs(p).max() > max_length_m:
+            self.fail((*path, "xyz"), f"has a coordinate of {np.abs(p).max():.4g} m, farther than "
                       f"{max_length_m:g} m: is the length unit right?", self.get((*path, "xyz")))
         if "quaternion" in value:
             quat = self.vector((*path, "quaternion"), 4, "w, x, y, z")

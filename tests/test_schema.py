@@ -245,3 +245,11 @@ def test_broken_robot_file_named_by_a_job_reports_the_robot_file(tmp_path):
     job = write(tmp_path, "robot: arm.yaml\nangle_unit: deg\nwaypoints: [[0], [1]]\n", "job.yaml")
     with pytest.raises(RobotFileError, match=r"arm.yaml: document: is not UTF-8"):
         load_job(job)
+
+
+@pytest.mark.parametrize("name", ["../../etc/x", "a/b", "..", "tab\there", "x" * 300])
+def test_robot_names_are_safe_in_file_names(tmp_path, name):
+    text = TWO_LINK.replace("name: two_link", f"name: {yaml.safe_dump(name).splitlines()[0]}")
+    with pytest.raises(InvalidValueError) as error:
+        load_robot_spec(write(tmp_path, text))
+    assert error.value.field == "name" and error.value.line == 1
