@@ -15,6 +15,7 @@ Units (``pipeline.units``) are converted by the readers once: everything after a
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 import re
@@ -161,12 +162,16 @@ def _read_text(path: Path, fail) -> str:
         fail((), f"is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); is it the right file?")
 
 
+def _raise(file_kind: type[FileFormatError], source: str, path: Path_, problem: str, line: int | None = None):
+    """Raise the document-level error of a file (unreadable, not YAML, too big or too deep)."""
+    raise file_error(InvalidValueError, file_kind)(source, field_name(path), problem, line=line)
+
+
 def parse_document(text: str, source: str, file_kind: type[FileFormatError]) -> Document:
     """YAML text -> Document; every problem is ``file_kind`` naming ``source`` and the line."""
 
     def fail(path, problem, line=None):
-        raise file_error(InvalidValueError, file_kind)(source, field_name(path), problem,
-                                                       line=line if line is not None else converter.lines.get(path))
+        _raise(file_kind, source, path, problem, line if line is not None else converter.lines.get(path))
 
     converter = _Converter(fail)
     try:
@@ -185,11 +190,8 @@ def parse_document(text: str, source: str, file_kind: type[FileFormatError]) -> 
 def load_document(path: str | Path, file_kind: type[FileFormatError]) -> Document:
     """Read a YAML file into a Document; any problem is a ``file_kind`` error naming the file."""
     source = str(path)
-
-    def fail(path_, problem):
-        raise file_error(InvalidValueError, file_kind)(source, field_name(path_), problem)
-
-    return parse_document(_read_text(Path(path), fail), source, file_kind)
+    text = _read_text(Path(path), functools.partial(_raise, file_kind, source))
+    return parse_document(text, source, file_kind)
 
 
 class Reader:
@@ -217,9 +219,9 @@ class Reader:
         """The value at ``path`` (``default`` where a key on the way is absent)."""
         value = self.document.data
         for part in path:
-            if isinstance(part, int):
+            if isinstance(part, int) and isinstance(value, (list, tuple)) and -len(value) <= part < len(value):
                 value = value[part]
-            elif isinstance(value, dict) and part in value:
+            elif isinstance(part, str) and isinstance(value, dict) and part in value:
                 value = value[part]
             else:
                 return default
