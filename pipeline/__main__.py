@@ -1,19 +1,28 @@
-"""Command line: ``python -m pipeline {show,check,bench} ...``. The only place that configures logging."""
+"""Command line: ``python -m pipeline {run,show,check,bench} ...``. The only place that configures logging.
+
+Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
+cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
+prints its traceback), exit status 130 when interrupted.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import logging
+import re
 import sys
+import traceback
+from contextlib import nullcontext
 
 import numpy as np
 
 from .errors import PipelineError
-from .io import write_text_atomic
+from .io import prepare_file_target, staged_output, write_text_atomic
 from .robot import load_robot
 from .robot_spec import preset_names
 from .singularity import compute_singularity
+from .timing import DEFAULT_MAX_SAMPLES
 
 
 def _robots(name: str):
@@ -34,16 +43,18 @@ def cmd_show(args) -> int:
 
 
 def cmd_check(args) -> int:
-    """Jacobian check (analytic vs Drake vs finite differences); non-zero exit above tolerance."""
+    """Jacobian check (analytic vs Drake vs finite differences); non-zero exit above tolerance. With
+    ``--out`` the JSON reports of the whole run replace that folder together."""
     from .jacobian_check import check_robot
 
     passed = True
-    for robot in _robots(args.robot):
-        report = check_robot(robot, samples=args.samples, seed=args.seed)
-        print(report.format(), end="\n\n")
-        passed &= report.passed
-        if args.out:
-            write_text_atomic(f"{args.out}/{robot.name}_jacobian_check.json", json.dumps(report.to_dict(), indent=2))
+    with staged_output(args.out) if args.out else nullcontext() as staging:
+        for robot in _robots(args.robot):
+            report = check_robot(robot, samples=args.samples, seed=args.seed)
+            print(report.format(), end="\n\n")
+            passed &= report.passed
+            if staging is not None:
+                (staging / f"{robot.name}_jacobian_check.json").write_text(json.dumps(report.to_dict(), indent=2))
     print("all checks passed" if passed else "CHECK FAILED: errors above tolerance")
     return 0 if passed else 1
 
@@ -57,13 +68,15 @@ def cmd_run(args) -> int:
     """Run a job file: IK for pose waypoints, path, timing, certification, output files."""
     from .runner import run_job_file
 
-    outcome = run_job_file(args.job, args.out)
+    outcome = run_job_file(args.job, args.out, max_samples=args.max_samples)
     print(outcome.summary())
     return 0
 
 
 def cmd_bench(args) -> int:
     """Benchmarks beside the peers measured in the same run."""
+    if args.out:
+        prepare_file_target(args.out)
     if args.suite == "timing":
         from .bench.timing import ROBOTS, run_timing_benchmark
 
@@ -83,10 +96,43 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def _count(minimum: int):
+    """An argparse type: an integer of at least ``minimum``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
+
+
+POSITIVE, NON_NEGATIVE = _count(1), _count(0)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse reporting a usage mistake as one line and exit status 2, like every other bad input."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m pipeline", description=__doc__)
-    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    parser = _Parser(prog="python -m pipeline", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="log debug messages; print the traceback of an internal error")
     sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run a job file (IK, path, timing, certification) and write its outputs")
+    run.add_argument("job", help="job file, e.g. trajectories/jobs/gp7_pick_place.yaml")
+    run.add_argument("--out", required=True, help="output folder, replaced whole (profile CSV/NPZ, JSON report, "
+                                                   "plots, 3-D view); only a new, empty or earlier output folder")
+    run.add_argument("--max-samples", type=POSITIVE, default=DEFAULT_MAX_SAMPLES, metavar="N",
+                     help=f"refuse profiles of more samples (default {DEFAULT_MAX_SAMPLES:,})")
+    run.set_defaults(func=cmd_run)
 
     show = sub.add_parser("show", help="print a robot's DH table, FK and Jacobian at q = 0")
     show.add_argument("robot", help="preset name or robot file path")
@@ -94,29 +140,29 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="check Drake's FK/Jacobian against the analytic one and finite differences")
     check.add_argument("robot", help="preset name, robot file path, or 'all'")
-    check.add_argument("--samples", type=int, default=200, help="random in-limit configurations (default 200)")
-    check.add_argument("--seed", type=int, default=0)
-    check.add_argument("--out", help="directory for JSON reports")
+    check.add_argument("--samples", type=POSITIVE, default=200, help="random in-limit configurations (default 200)")
+    check.add_argument("--seed", type=NON_NEGATIVE, default=0)
+    check.add_argument("--out", help="folder for the JSON reports, replaced whole")
     check.set_defaults(func=cmd_check)
-
-    run = sub.add_parser("run", help="run a job file (IK, path, timing, certification) and write its outputs")
-    run.add_argument("job", help="job file, e.g. trajectories/jobs/gp7_demo.yaml")
-    run.add_argument("--out", required=True, help="output directory (profile CSV/NPZ, JSON report, PNG plot)")
-    run.set_defaults(func=cmd_run)
 
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
     bench.add_argument("suite", choices=["kinematics", "ik", "timing"])
     bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6)")
-    bench.add_argument("--paths", type=int, default=5, help="timing: seeded random 10-waypoint paths per robot")
+    bench.add_argument("--paths", type=POSITIVE, default=5, help="timing: seeded random 10-waypoint paths per robot")
     bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake)")
-    bench.add_argument("--targets", type=int, default=1000, help="ik: targets per robot (default 1000)")
-    bench.add_argument("--batch", type=int, default=100_000, help="kinematics: configurations in the batch timing")
-    bench.add_argument("--calls", type=int, default=2000, help="kinematics: single calls timed per implementation")
-    bench.add_argument("--seed", type=int, default=0)
+    bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")
+    bench.add_argument("--batch", type=POSITIVE, default=100_000, help="kinematics: configurations in the batch timing")
+    bench.add_argument("--calls", type=POSITIVE, default=2000, help="kinematics: single calls timed per implementation")
+    bench.add_argument("--seed", type=NON_NEGATIVE, default=0)
     bench.add_argument("--out", help="JSON file for the results")
     bench.set_defaults(func=cmd_bench)
     return parser
+
+
+def _one_line(text: str) -> str:
+    """``text`` with its line breaks (and the spaces around them) turned into single spaces."""
+    return re.sub(r"\s*\n\s*", " ", text.strip())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -125,8 +171,17 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except PipelineError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted: no output written", file=sys.stderr)
+        return 130
+    except Exception as exc:            # a bug: one line, the traceback only when asked for
+        if args.verbose:
+            traceback.print_exc()
+        print(f"internal error: {type(exc).__name__}: {_one_line(str(exc))} (run with -v for the traceback)",
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

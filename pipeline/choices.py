@@ -11,3 +11,6 @@ TIMING_METHODS = ("toppra", "ruckig", "toppra+ruckig")
 PATH_SHAPES = ("spline", "linear")
 #: Sample time of a timed profile unless a job or call says otherwise [s].
 DEFAULT_DT = 0.004
+#: Most samples a profile may have unless the caller allows more (500,000 x 6 joints x 4 quantities
+#: is about 100 MB of arrays) [1].
+DEFAULT_MAX_SAMPLES = 500_000

@@ -8,7 +8,8 @@ A position ratio is the peak distance from the middle of the range over half the
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,6 +21,16 @@ CERTIFY_TOLERANCE = 1e-6
 QUANTITIES = ("q", "qd", "qdd", "qddd", "tau")
 
 
+@dataclass(frozen=True)
+class TimingDetails:
+    """Base of what a timing back end reports it did: named numbers and flags only (no prose), each
+    back end's subclass documenting its fields and their units."""
+
+    def to_dict(self) -> dict:
+        """The fields as a JSON-ready dict."""
+        return dataclasses.asdict(self)
+
+
 @dataclass(frozen=True, eq=False)
 class Profile:
     """Samples of a timed joint trajectory, time-major: ``t`` (N,) [s], ``q``, ``qd``, ``qdd``,
@@ -27,7 +38,8 @@ class Profile:
 
     ``method``: what timed it; ``limits``: the limits it was timed against (after any speed scale;
     ``qddd_max`` None when jerk was not limited); ``details``: what the back end did and changed;
-    ``tau`` (N, dof) [N m or N]: joint torques from Drake's inverse dynamics, when torques are limited.
+    ``tau`` (N, dof) [N m or N]: joint torques from Drake's inverse dynamics, when torques are limited;
+    ``certificate``: the ``certify`` verdict ``retime`` attached (None on a profile made otherwise).
     """
 
     t: np.ndarray
@@ -38,8 +50,9 @@ class Profile:
     method: str
     limits: Limits
     joint_names: tuple[str, ...]
-    details: dict = field(default_factory=dict)
+    details: TimingDetails | None = None
     tau: np.ndarray | None = None
+    certificate: LimitReport | None = None
 
     @property
     def duration(self) -> float:

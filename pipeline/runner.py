@@ -1,10 +1,12 @@
 """``run_job(job, out_dir)``: the one path from a job to certified output files.
 
-Steps: IK for pose waypoints (each seeded with the previous solution), the joint path, timing,
-certification (a profile that fails is an error, never an output), then every requested output
-written all or nothing (profile CSV/NPZ, JSON report, profile plot, and the 3-D views: a standalone
-Meshcat HTML animation and a PNG drawing of the arm). Used by the CLI (``python -m pipeline run``),
-the tests and the notebooks.
+Steps: the output folder is checked first (``staged_output``: nothing is computed for a folder that
+cannot be written), then IK for pose waypoints (each seeded with the previous solution), the joint
+path, timing and its certification (by ``retime``: a profile that fails is an error, never an
+output), then every requested output (profile CSV/NPZ, JSON report, profile plot, and the 3-D views:
+a standalone Meshcat HTML animation and a PNG drawing of the arm) written into a staging folder that
+replaces the output folder whole. Used by the CLI (``python -m pipeline run``), the tests and the
+notebooks.
 """
 
 from __future__ import annotations
@@ -16,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigurationError, JobFileError, TimingError
-from .io import write_files_atomic, write_json, write_profile_csv, write_profile_npz
+from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, JointWaypoint, load_job
-from .profile import QUANTITIES, LimitReport, Profile, certify
-from .timing import retime
+from .profile import QUANTITIES, LimitReport, Profile
+from .timing import DEFAULT_MAX_SAMPLES, retime
 from .versions import installed_version
 
 log = logging.getLogger(__name__)
@@ -49,14 +51,18 @@ class WaypointIk:
 
 @dataclass(frozen=True, eq=False)
 class JobOutcome:
-    """What a job produced: the certified ``profile``, its ``limit_report``, the ``files`` written and
-    the ``report`` (the JSON report's content)."""
+    """What a job produced: the certified ``profile``, the ``files`` written and the ``report`` (the
+    JSON report's content)."""
 
     job: Job
     profile: Profile
-    limit_report: LimitReport
     files: tuple[Path, ...]
     report: dict
+
+    @property
+    def limit_report(self) -> LimitReport:
+        """The profile's certificate (peak/limit ratios), from ``retime``."""
+        return self.profile.certificate
 
     def summary(self) -> str:
         """A few lines: robot, method, duration, peak/limit ratios, files."""
@@ -85,7 +91,7 @@ def solve_waypoints(job: Job) -> list[WaypointIk]:
         else:
             result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik)
             if not result.success:
-                raise JobFileError(f"{job.source}: waypoints[{k}]: pose is unreachable with IK method "
+                raise JobFileError(job.source, f"waypoints[{k}]", f"pose is unreachable with IK method "
                                    f"{job.ik!r} ({result.method}): {result.reason}")
             candidates = [s.q for s in result.solutions] or [result.q]
             q = min(candidates, key=lambda c: float(np.linalg.norm(c - previous)))
@@ -102,8 +108,9 @@ def package_versions() -> dict[str, str | None]:
     return {name: installed_version(name) for name in VERSIONED_PACKAGES}
 
 
-def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile, limit_report: LimitReport) -> dict:
-    """The JSON report: inputs and their hash, methods, duration, peak/limit ratios, timing details."""
+def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile) -> dict:
+    """The JSON report: inputs and their hash, methods (``path`` null for ruckig, which times waypoint
+    to waypoint), duration, peak/limit ratios from the profile's certificate, timing details."""
     return {
         "job": job.name,
         "job_file": job.source,
@@ -116,8 +123,8 @@ def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile, limit_
         "duration_s": profile.duration,
         "samples": int(len(profile.t)),
         "waypoints": [w.to_dict() for w in waypoints],
-        "limits": limit_report.to_dict(),
-        "timing_details": profile.details,
+        "limits": profile.certificate.to_dict(),
+        "timing_details": profile.details.to_dict(),
         "versions": package_versions(),
     }
 
@@ -126,20 +133,36 @@ def _title(job: Job, profile: Profile) -> str:
     return f"{job.robot.name}: {job.name}, {profile.method}, speed scale {job.speed_scale:g}, {profile.duration:.3f} s"
 
 
-def run_job(job: Job, out_dir: str | Path) -> JobOutcome:
-    """Run a validated job and write its outputs into ``out_dir`` (created; nothing written on failure)."""
-    waypoints = solve_waypoints(job)
+def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobOutcome:
+    """Run a validated job and write its outputs into ``out_dir``, which is replaced whole on success
+    and left as it was on any failure (``staged_output``; checked before any work). A profile of more
+    than ``max_samples`` samples is refused (ProfileSizeError) before it is made."""
+    with staged_output(out_dir) as staging:
+        waypoints = solve_waypoints(job)
+        profile = _timed(job, waypoints, max_samples)
+        report = build_report(job, waypoints, profile)
+        writers = _writers(job, profile, report)
+        for kind in job.outputs:
+            writers[kind](staging / FILE_NAMES[kind])
+    files = tuple(Path(out_dir) / FILE_NAMES[kind] for kind in job.outputs)
+    log.info("job %s: %s, %.4f s; wrote %d file(s) to %s", job.name, profile.method, profile.duration,
+             len(files), out_dir)
+    return JobOutcome(job, profile, files, report)
+
+
+def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int) -> Profile:
+    """The certified profile through the solved waypoints; timing errors name the job file."""
     try:
-        profile = retime(job.robot, np.array([w.q for w in waypoints]), method=job.timing,
-                         speed_scale=job.speed_scale, dt=job.dt, shape=job.path)
+        return retime(job.robot, np.array([w.q for w in waypoints]), method=job.timing, speed_scale=job.speed_scale,
+                      dt=job.dt, shape=job.path, max_samples=max_samples)
     except (TimingError, ConfigurationError) as exc:
         raise type(exc)(f"{job.source}: {exc}") from exc
-    limit_report = certify(profile)
-    if not limit_report.passed:
-        raise TimingError(f"{job.source}: the {profile.method} profile failed certification: {limit_report}")
-    report = build_report(job, waypoints, profile, limit_report)
+
+
+def _writers(job: Job, profile: Profile, report: dict) -> dict:
+    """Output kind -> function writing that output at the path it is given."""
     revolute = [j.is_revolute for j in job.robot.spec.joints]
-    writers = {
+    return {
         "csv": lambda path: write_profile_csv(path, profile, revolute),
         "npz": lambda path: write_profile_npz(path, profile),
         "json": lambda path: write_json(path, report),
@@ -147,10 +170,6 @@ def run_job(job: Job, out_dir: str | Path) -> JobOutcome:
         "html": lambda path: _view_html(path, job, profile),
         "arm_png": lambda path: _plot_arm(path, job, profile),
     }
-    files = write_files_atomic(out_dir, {FILE_NAMES[kind]: writers[kind] for kind in job.outputs})
-    log.info("job %s: %s, %.4f s; wrote %d file(s) to %s", job.name, profile.method, profile.duration,
-             len(files), out_dir)
-    return JobOutcome(job, profile, limit_report, tuple(files), report)
 
 
 def _plot(path: Path, job: Job, profile: Profile, revolute: list[bool]) -> None:
@@ -171,6 +190,6 @@ def _plot_arm(path: Path, job: Job, profile: Profile) -> None:
     plot_arm_motion(path, job.robot, profile, _title(job, profile))
 
 
-def run_job_file(path: str | Path, out_dir: str | Path) -> JobOutcome:
-    """Load a job file and run it: ``run_job(load_job(path), out_dir)``."""
-    return run_job(load_job(path), out_dir)
+def run_job_file(path: str | Path, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobOutcome:
+    """Load a job file and run it: ``run_job(load_job(path), out_dir, max_samples)``."""
+    return run_job(load_job(path), out_dir, max_samples)

@@ -1,10 +1,20 @@
-"""The command line: show, check (exit codes, JSON reports), clear errors for bad input."""
+"""The command line: show, check (exit codes, JSON reports), one-line errors for bad input (exit 2) and
+for internal errors (exit 1), interrupts (exit 130), help texts."""
 
 from __future__ import annotations
 
 import json
+import re
+from pathlib import Path
 
-from pipeline.__main__ import main
+import pytest
+
+import pipeline.__main__
+import pipeline.runner
+from pipeline.__main__ import build_parser, main
+from pipeline.io import OWNER_MARKER
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_show_prints_dh_table_and_pose(capsys):
@@ -32,3 +42,72 @@ def test_bad_robot_file_exits_2_naming_the_field(tmp_path, capsys):
     assert main(["show", str(path)]) == 2
     err = capsys.readouterr().err
     assert str(path) in err and "joints[0].q_min" in err
+
+
+def test_check_out_replaces_the_report_folder_whole(tmp_path):
+    out = tmp_path / "check"
+    assert main(["check", "arm5", "--samples", "5", "--out", str(out)]) == 0
+    assert main(["check", "arm6", "--samples", "5", "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [OWNER_MARKER, "arm6_jacobian_check.json"]
+    assert [p.name for p in tmp_path.iterdir()] == ["check"]
+
+
+@pytest.mark.parametrize("args, option", [
+    (["check", "gp7", "--samples", "0"], "--samples"),
+    (["check", "gp7", "--samples", "-3"], "--samples"),
+    (["check", "gp7", "--seed", "-1"], "--seed"),
+    (["bench", "ik", "--targets", "0"], "--targets"),
+    (["bench", "timing", "--paths", "-1"], "--paths"),
+    (["bench", "kinematics", "--batch", "0"], "--batch"),
+    (["bench", "kinematics", "--calls", "x"], "--calls"),
+    (["run", "job.yaml", "--out", "o", "--max-samples", "0"], "--max-samples"),
+])
+def test_bad_numbers_exit_2_with_one_line_naming_the_option(args, option, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main([*args, "--out", str(tmp_path / "out")] if args[0] == "check" else args)
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and err.count("\n") == 1 and err.startswith("error: ") and option in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_internal_error_is_one_line_with_a_hint_and_a_traceback_with_v(monkeypatch, capsys):
+    def broken(name):
+        raise RuntimeError("boom\nsecond line")
+
+    monkeypatch.setattr(pipeline.__main__, "load_robot", broken)
+    assert main(["show", "gp7"]) == 1
+    err = capsys.readouterr().err
+    assert err == "internal error: RuntimeError: boom second line (run with -v for the traceback)\n"
+    assert main(["-v", "show", "gp7"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("Traceback (most recent call last)") and "in broken" in err
+    assert err.endswith("internal error: RuntimeError: boom second line (run with -v for the traceback)\n")
+
+
+def test_an_interrupt_exits_130_and_removes_the_staging(tmp_path, monkeypatch, capsys):
+    def interrupted(job):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pipeline.runner, "solve_waypoints", interrupted)
+    assert main(["run", str(ROOT / "trajectories" / "jobs" / "arm5_joint_spline.yaml"), "--out",
+                 str(tmp_path / "out")]) == 130
+    assert capsys.readouterr().err.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_help_names_every_command_and_an_existing_job(capsys):
+    assert "{run,show,check,bench}" in build_parser().format_help()
+    assert "{run,show,check,bench}" in pipeline.__main__.__doc__
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    out = capsys.readouterr().out
+    example = re.search(r"trajectories/jobs/\S+\.yaml", out).group(0)
+    assert (ROOT / example).is_file() and "--max-samples" in out
+
+
+def test_bench_out_that_is_a_folder_fails_before_the_benchmark(tmp_path, monkeypatch, capsys):
+    import pipeline.bench.kinematics
+
+    monkeypatch.setattr(pipeline.bench.kinematics, "run_kinematics_benchmark",
+                        lambda *args, **kwargs: pytest.fail("the benchmark ran"))
+    assert main(["bench", "kinematics", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == f"error: {tmp_path}: is a folder; give a file name for this output\n"

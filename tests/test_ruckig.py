@@ -58,7 +58,7 @@ def ruckig_own_duration(limits: Limits, start, target, target_velocity=None) -> 
 
 def segment_ends(profile) -> np.ndarray:
     """Sample indices of the segment ends (the profile samples every one of them)."""
-    ends = np.cumsum(profile.details["segment_durations_s"])
+    ends = np.cumsum(profile.details.segment_durations_s)
     return np.searchsorted(profile.t, ends - 1e-12)
 
 
@@ -69,13 +69,13 @@ def test_rest_to_rest_durations_are_ruckigs_own(name):
     profile = retime(robot, waypoints, method="ruckig")
     assert_certified_at_rest(profile, waypoints)
     own = [ruckig_own_duration(robot.limits, a, b) for a, b in zip(waypoints[:-1], waypoints[1:])]
-    np.testing.assert_allclose(profile.details["segment_durations_s"], own, rtol=0, atol=DURATION_TOLERANCE)
+    np.testing.assert_allclose(profile.details.segment_durations_s, own, rtol=0, atol=DURATION_TOLERANCE)
     assert abs(profile.duration - sum(own)) <= DURATION_TOLERANCE
     ends = segment_ends(profile)
     np.testing.assert_allclose(profile.q[ends], waypoints[1:], rtol=0, atol=1e-12)
     np.testing.assert_allclose(profile.qd[ends], 0.0, rtol=0, atol=REST_TOLERANCE)
     assert np.diff(profile.t).max() <= 0.004 + 1e-12
-    assert profile.details["cloud"] == "never used"
+    assert profile.details.rest_at_waypoints and profile.details.jerk_exact
 
 
 @pytest.mark.parametrize("name", ROBOTS)
@@ -95,9 +95,9 @@ def test_through_waypoints_with_toppra_velocities(name):
     np.testing.assert_allclose(profile.q[ends], waypoints[1:], rtol=0, atol=1e-12)
     np.testing.assert_allclose(profile.qd[ends], velocities[1:], rtol=0, atol=1e-9)
     np.testing.assert_allclose(profile.qdd[ends], 0.0, rtol=0, atol=1e-9)
-    assert profile.details["mode"] == "through waypoints with velocities"
+    assert not profile.details.rest_at_waypoints
     first = ruckig_own_duration(robot.limits, waypoints[0], waypoints[1], velocities[1])
-    assert abs(profile.details["segment_durations_s"][0] - first) <= DURATION_TOLERANCE
+    assert abs(profile.details.segment_durations_s[0] - first) <= DURATION_TOLERANCE
     assert profile.duration < retime(robot, waypoints, method="ruckig").duration
 
 
@@ -135,16 +135,15 @@ def test_toppra_ruckig_follows_the_path_within_tolerance(name, tolerance):
     profile = retime(robot, waypoints, method="toppra+ruckig", path_tolerance=tolerance)
     assert_certified_at_rest(profile, waypoints)
     details = profile.details
-    assert details["path_deviation"] <= tolerance
+    assert details.path_deviation <= tolerance
     path = make_path(waypoints, robot.limits.q_min, robot.limits.q_max)
     distance, half_spacing = path_distance(path, profile.q)
     assert distance.max() <= tolerance + half_spacing
     toppra = retime(robot, waypoints, method="toppra")
-    ratio = details["duration_ratio_to_toppra"]
+    ratio = details.duration_ratio_to_toppra
     assert ratio == pytest.approx(profile.duration / toppra.duration, rel=1e-9)
     assert 1.0 <= ratio <= 1.5
-    assert details["rounds"] >= 1 and details["waypoints"] > len(waypoints)
-    assert details["cloud"] == "never used"
+    assert details.rounds >= 1 and details.waypoints > len(waypoints)
 
 
 def test_toppra_ruckig_says_what_it_reached_when_the_tolerance_is_out_of_reach():
@@ -195,5 +194,5 @@ def test_exact_boundary_case_is_retried_and_certified():
     robot = load_robot("irb1600")
     waypoints = np.radians([[-30, 30, -40, -20, 60, -30], [0, 0, 0, 0, 30, 0]])
     profile = retime(robot, waypoints, method="ruckig")
-    assert profile.details["ruckig_boundary_retries"] == 1
+    assert profile.details.ruckig_boundary_retries == 1
     assert certify(profile).passed

@@ -14,7 +14,7 @@ import yaml
 import pipeline.plots
 from pipeline.__main__ import main
 from pipeline.errors import JobFileError
-from pipeline.io import profile_columns
+from pipeline.io import OWNER_MARKER, profile_columns
 from pipeline.jobs import load_job, parse_job
 from pipeline.runner import FILE_NAMES, run_job, run_job_file, solve_waypoints
 
@@ -75,7 +75,7 @@ def test_outputs_hold_the_profile_and_the_report(tmp_path):
     outcome = run_job_file(ROOT / "trajectories" / "jobs" / "arm5_joint_spline.yaml", tmp_path / "arm5")
     profile = outcome.profile
     assert [p.name for p in outcome.files] == list(FILE_NAMES.values())   # the job lists all, in this order
-    assert sorted(p.name for p in (tmp_path / "arm5").iterdir()) == sorted(FILE_NAMES.values())
+    assert sorted(p.name for p in (tmp_path / "arm5").iterdir()) == sorted([*FILE_NAMES.values(), OWNER_MARKER])
     header = (tmp_path / "arm5" / "profile.csv").read_text().splitlines()[0]
     assert header == ",".join(profile_columns([True] * 5)) and header.startswith("t_s,q1_rad,")
     with np.load(tmp_path / "arm5" / "profile.npz") as data:
@@ -106,8 +106,9 @@ def test_pose_waypoints_are_solved_in_order_and_stay_near_each_other():
 
 
 def unreachable_job(tmp_path: Path) -> Path:
+    """A pose inside the reach bound (every length added up, 1.375 m) that no configuration reaches."""
     doc = {"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "outputs": ["csv"],
-           "waypoints": [{"xyz": [560, 0, 600], "rpy": [180, 0, 0]}, {"xyz": [3000, 0, 600], "rpy": [180, 0, 0]}]}
+           "waypoints": [{"xyz": [560, 0, 600], "rpy": [180, 0, 0]}, {"xyz": [1200, 0, 600], "rpy": [180, 0, 0]}]}
     path = tmp_path / "unreachable.yaml"
     path.write_text(yaml.safe_dump(doc))
     return path
@@ -119,6 +120,7 @@ def test_unreachable_pose_names_the_waypoint_and_the_reason(tmp_path):
         run_job_file(path, tmp_path / "out")
     message = str(error.value)
     assert message.startswith(f"{path}: waypoints[1]: pose is unreachable") and len(message) > len(str(path)) + 60
+    assert (error.value.source, error.value.field) == (str(path), "waypoints[1]")
     assert not (tmp_path / "out").exists()
 
 
@@ -154,3 +156,20 @@ def test_torque_limited_robot_writes_torques(tmp_path):
     with np.load(tmp_path / "out" / "profile.npz") as data:
         np.testing.assert_array_equal(data["tau"], outcome.profile.tau)
     assert "tau" in outcome.summary()
+
+
+def test_the_report_says_what_timed_the_path_and_certifies_once(tmp_path, monkeypatch):
+    """ruckig times waypoint to waypoint (no path shape); the runner reuses retime's certificate."""
+    import pipeline.timing
+
+    calls = []
+    real_certify = pipeline.timing.certify
+    monkeypatch.setattr(pipeline.timing, "certify", lambda profile: calls.append(profile) or real_certify(profile))
+    for name, timing, path in (("arm6_joint_rad", "ruckig", None), ("arm5_joint_spline", "toppra", "spline")):
+        outcome = run_job_file(ROOT / "trajectories" / "jobs" / f"{name}.yaml", tmp_path / name)
+        assert len(calls) == 1 and outcome.limit_report is outcome.profile.certificate
+        calls.clear()
+        report = json.loads((tmp_path / name / "report.json").read_text())
+        assert report["method"]["timing"] == timing and report["method"]["path"] == path
+        assert report["timing_details"] == json.loads(json.dumps(outcome.profile.details.to_dict()))
+        assert not any(isinstance(value, str) for value in report["timing_details"].values())

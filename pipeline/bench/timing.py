@@ -314,7 +314,7 @@ def ours_method(robot: Robot) -> Method:
         # retime certifies the dense profile itself (and raises if it fails): the ratios below are
         # measured again, by the same formula as every other row's.
         dense = retime(robot, path, method="toppra", dt=profile.duration / (SAMPLES - 1))
-        return Evaluation(dense.duration, dense.qd, dense.qdd, float(dense.details.get("time_stretch", 1.0)),
+        return Evaluation(dense.duration, dense.qd, dense.qdd, dense.details.time_stretch,
                           dense.duration / profile.duration - 1.0)
 
     return Method(OURS, solve, evaluate)

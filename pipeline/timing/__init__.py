@@ -3,7 +3,9 @@
 Methods: ``toppra`` (time-optimal along the path, velocity and acceleration limits), ``ruckig``
 (jerk-limited, waypoint to waypoint), ``toppra+ruckig`` (jerk-limited and following the path within
 a stated tolerance). Every profile is certified by ``pipeline.profile.certify`` before it is
-returned: a profile that fails is an error, never a result.
+returned, with the verdict attached (``profile.certificate``): a profile that fails is an error,
+never a result. A profile that would have more than ``max_samples`` samples is refused before they
+are made (ProfileSizeError).
 """
 
 from __future__ import annotations
@@ -12,17 +14,18 @@ import dataclasses
 
 import numpy as np
 
+from ..choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, TIMING_METHODS
 from ..errors import ConfigurationError, TimingError
 from ..path import JointPath, make_path
 from ..profile import Profile, certify, scale_limits
 from ..robot_spec import Limits
 
-METHODS = ("toppra", "ruckig", "toppra+ruckig")
-DEFAULT_DT = 0.004   # [s]
+METHODS = TIMING_METHODS
 
 
 def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
-           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = "spline", **options) -> Profile:
+           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = "spline",
+           max_samples: int = DEFAULT_MAX_SAMPLES, **options) -> Profile:
     """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits.
 
     ``speed_scale`` in (0, 1] scales qd, qdd, qddd limits by s, s^2, s^3; ``limits`` replaces the
@@ -30,11 +33,15 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
     ``linear``) builds the path from waypoints. The profile starts and ends at rest. When the
     limits bound joint torques (``tau_max``, robot files with inertias), the torques come from
     Drake's inverse dynamics: toppra limits them, and every method's profile is judged on them.
+    ``max_samples``: a profile with more samples is refused (ProfileSizeError) as soon as its
+    duration is known, before they are made.
     """
     if method not in METHODS:
         raise ConfigurationError(f"unknown timing method {method!r}; choose one of {', '.join(METHODS)}")
     if not np.isfinite(dt) or dt <= 0.0:
         raise ConfigurationError(f"dt must be a positive number of seconds, got {dt}")
+    if isinstance(max_samples, bool) or not isinstance(max_samples, (int, np.integer)) or max_samples < 2:
+        raise ConfigurationError(f"max_samples must be an integer of at least 2, got {max_samples!r}")
     limits = scale_limits(robot.limits if limits is None else limits, speed_scale)
     names = tuple(robot.joint_names)
     inverse_dynamics = None
@@ -46,24 +53,26 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
         from .ruckig_backend import retime_ruckig
 
         waypoints = path_or_waypoints.waypoints if isinstance(path_or_waypoints, JointPath) else path_or_waypoints
-        profile = retime_ruckig(np.asarray(waypoints, dtype=float), limits, dt, names, **options)
+        profile = retime_ruckig(np.asarray(waypoints, dtype=float), limits, dt, names, max_samples=max_samples,
+                                **options)
     else:
         path = (path_or_waypoints if isinstance(path_or_waypoints, JointPath)
                 else make_path(path_or_waypoints, limits.q_min, limits.q_max, shape))
         if method == "toppra":
             from .toppra_backend import retime_toppra
 
-            profile = retime_toppra(path, limits, dt, names, inverse_dynamics=inverse_dynamics, **options)
+            profile = retime_toppra(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
+                                    max_samples=max_samples, **options)
         else:
             from .ruckig_backend import retime_toppra_ruckig
 
-            profile = retime_toppra_ruckig(path, limits, dt, names, **options)
+            profile = retime_toppra_ruckig(path, limits, dt, names, max_samples=max_samples, **options)
     if inverse_dynamics is not None:
         profile = dataclasses.replace(profile, tau=inverse_dynamics(profile.q, profile.qd, profile.qdd))
     report = certify(profile)
     if not report.passed:
         raise TimingError(f"{method} profile failed certification: {report}")
-    return profile
+    return dataclasses.replace(profile, certificate=report)
 
 
-__all__ = ["METHODS", "retime"]
+__all__ = ["DEFAULT_MAX_SAMPLES", "METHODS", "retime"]

@@ -41,11 +41,12 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
+from ..choices import DEFAULT_MAX_SAMPLES
 from ..errors import TimingError
 from ..path import JointPath, check_waypoints
-from ..profile import CERTIFY_TOLERANCE, Profile
+from ..profile import CERTIFY_TOLERANCE, Profile, TimingDetails
 from ..robot_spec import Limits
-from .toppra_backend import retime_toppra, sample_times
+from .toppra_backend import check_sample_count, sample_toppra, sample_times, solve_toppra
 
 #: Velocities and accelerations below this count as rest [rad/s, rad/s^2].
 REST_TOLERANCE = 1e-12
@@ -167,12 +168,14 @@ def sample_segment(trajectory, tau: np.ndarray):
     return q, qd, qdd, segment_jerk(trajectory, tau)
 
 
-def profile_from_segments(trajectories, dt: float, method: str, limits: Limits,
-                          joint_names: tuple[str, ...], details: dict) -> Profile:
-    """Concatenate segments into one Profile sampled every ``dt`` [s] and at every segment end."""
+def profile_from_segments(trajectories, dt: float, method: str, limits: Limits, joint_names: tuple[str, ...],
+                          details: TimingDetails, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+    """Concatenate segments into one Profile sampled every ``dt`` [s] and at every segment end;
+    ProfileSizeError before sampling more than ``max_samples``."""
     durations = np.array([trajectory.duration for trajectory in trajectories])
     ends = np.concatenate([[0.0], np.cumsum(durations)])
-    t = np.unique(np.concatenate([sample_times(ends[-1], dt), ends]))
+    check_sample_count(ends[-1], dt, max_samples, extra=len(trajectories))
+    t = np.unique(np.concatenate([sample_times(ends[-1], dt, max_samples), ends]))
     segment = np.clip(np.searchsorted(ends, t, side="right") - 1, 0, len(trajectories) - 1)
     columns = [np.empty((t.size, limits.qd_max.size)) for _ in range(4)]
     bounds = np.searchsorted(segment, np.arange(len(trajectories) + 1))       # t is sorted
@@ -216,12 +219,27 @@ def _check_velocities(waypoints: np.ndarray, velocities: np.ndarray, limits: Lim
                           "(the profile starts and ends at rest)")
 
 
+@dataclass(frozen=True)
+class RuckigDetails(TimingDetails):
+    """What the Ruckig back end did: ``rest_at_waypoints`` (False: passing them with the given
+    velocities), ``segment_durations_s`` [s] per waypoint pair, ``ruckig_compute_s_per_segment`` [s],
+    ``ruckig_boundary_retries`` (segments retried with limits shrunk by BOUNDARY_SHRINK); ``jerk_exact``:
+    qddd is the constant jerk of each Ruckig phase."""
+
+    rest_at_waypoints: bool
+    segment_durations_s: tuple[float, ...]
+    ruckig_compute_s_per_segment: float
+    ruckig_boundary_retries: int
+    jerk_exact: bool = True
+
+
 def retime_ruckig(waypoints: np.ndarray, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                  waypoint_velocities=None) -> Profile:
+                  waypoint_velocities=None, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
     """Jerk-limited, synchronised profile through waypoints (K, dof) [rad or m], sampled every ``dt`` [s].
 
     At rest at every waypoint, or passing waypoint k with ``waypoint_velocities[k]`` [rad/s] (zero
-    acceleration there; the first and last rows must be zero). Raises TimingError naming the segment.
+    acceleration there; the first and last rows must be zero). Raises TimingError naming the segment,
+    ProfileSizeError (once the segments' durations are known) beyond ``max_samples`` samples.
     """
     require_jerk_limits(limits, "ruckig")
     waypoints = check_waypoints(waypoints, limits.q_min, limits.q_max)
@@ -232,15 +250,12 @@ def retime_ruckig(waypoints: np.ndarray, limits: Limits, dt: float, joint_names:
     states = [(q, v, zero) for q, v in zip(waypoints, velocities)]
     trajectories = [solver.solve(states[k], states[k + 1], f"segment {k} (waypoint {k} to {k + 1})")
                     for k in range(len(states) - 1)]
-    details = {
-        "mode": "rest at every waypoint" if waypoint_velocities is None else "through waypoints with velocities",
-        "segment_durations_s": [trajectory.duration for trajectory in trajectories],
-        "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
-        "ruckig_boundary_retries": solver.boundary_retries,
-        "jerk": "exact: the constant jerk of each Ruckig phase",
-        "cloud": "never used",
-    }
-    return profile_from_segments(trajectories, dt, "ruckig", limits, joint_names, details)
+    details = RuckigDetails(
+        rest_at_waypoints=waypoint_velocities is None,
+        segment_durations_s=tuple(float(trajectory.duration) for trajectory in trajectories),
+        ruckig_compute_s_per_segment=solver.compute_s / solver.calls,
+        ruckig_boundary_retries=solver.boundary_retries)
+    return profile_from_segments(trajectories, dt, "ruckig", limits, joint_names, details, max_samples)
 
 
 # -- along the path: the guide ------------------------------------------------------------------
@@ -439,17 +454,52 @@ def follow_guide(guide: Guide, table: PathTable, solver: SegmentSolver, limits: 
                       f"({int((deviations > tolerance).sum())} segments still above it); raise path_tolerance")
 
 
+@dataclass(frozen=True)
+class ToppraRuckigDetails(TimingDetails):
+    """What toppra+ruckig did: ``path_tolerance``, the reached ``path_deviation`` and the deviation
+    check's ``path_chord_error`` [rad]; ``toppra_duration_s`` [s] and ``duration_ratio_to_toppra`` [1];
+    refinement ``rounds`` and the Ruckig ``waypoints`` they ended with; the guide's ``guide_duration_s``,
+    ``guide_step_s``, ``guide_smoothing_window_s`` [s], ``guide_warp_rounds`` and ``guide_uniform_stretch``
+    [1]; ``slowdowns`` of the guide; ``ruckig_segments_solved``, ``ruckig_compute_s_per_segment`` [s],
+    ``ruckig_boundary_retries``; ``compute_s`` [s]; ``jerk_exact``: qddd is Ruckig's own jerk."""
+
+    path_tolerance: float
+    path_deviation: float
+    path_chord_error: float
+    toppra_duration_s: float
+    duration_ratio_to_toppra: float
+    rounds: int
+    waypoints: int
+    guide_duration_s: float
+    guide_step_s: float
+    guide_smoothing_window_s: float
+    guide_warp_rounds: int
+    guide_uniform_stretch: float
+    slowdowns: int
+    ruckig_segments_solved: int
+    ruckig_compute_s_per_segment: float
+    ruckig_boundary_retries: int
+    compute_s: float
+    jerk_exact: bool = True
+
+
 def retime_toppra_ruckig(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                         path_tolerance: float = DEFAULT_PATH_TOLERANCE, max_rounds: int = MAX_ROUNDS) -> Profile:
+                         path_tolerance: float = DEFAULT_PATH_TOLERANCE, max_rounds: int = MAX_ROUNDS,
+                         max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
     """Jerk-limited profile within ``path_tolerance`` [rad] of ``path``, at rest at both ends, sampled
     every ``dt`` [s] and at every segment end (see the module doc). Raises TimingError when Ruckig
-    fails or the tolerance is not met within ``max_rounds`` refinements (after MAX_SLOWDOWNS retries)."""
+    fails or the tolerance is not met within ``max_rounds`` refinements (after MAX_SLOWDOWNS retries);
+    ProfileSizeError, as soon as toppra's duration is known, when the profile or the guide would
+    have more than ``max_samples`` samples."""
     require_jerk_limits(limits, "toppra+ruckig")
     if not np.isfinite(path_tolerance) or path_tolerance <= 0.0:
         raise TimingError(f"path_tolerance must be a positive number of radians, got {path_tolerance}")
     began = time.perf_counter()
     step = guide_step(limits, path_tolerance)
-    reference = retime_toppra(path, limits, step, joint_names)
+    solution = solve_toppra(path, limits)
+    check_sample_count(solution.duration, dt, max_samples, "the profile (no shorter than toppra's)")
+    check_sample_count(solution.duration, step, max_samples, "the toppra+ruckig guide")
+    reference = sample_toppra(solution, limits, step, joint_names, max_samples)
     table = PathTable.for_tolerance(path, path_tolerance)
     guide = build_guide(reference, table, limits, step)
     solver = SegmentSolver(limits)
@@ -462,23 +512,14 @@ def retime_toppra_ruckig(path: JointPath, limits: Limits, dt: float, joint_names
                 raise TimingError(f"{error} (also with the guide slowed {slowdowns} times by {SLOWDOWN})") from error
             guide = guide.slowed(SLOWDOWN)
     duration = float(sum(trajectory.duration for trajectory in following.trajectories))
-    details = {
-        "path_tolerance": path_tolerance,
-        "path_deviation": following.deviation,
-        "path_chord_error": table.chord_error,
-        "toppra_duration_s": reference.duration,
-        "duration_ratio_to_toppra": duration / reference.duration,
-        "rounds": following.rounds,
-        "waypoints": int(len(following.waypoints)),
-        "guide": {"duration_s": float(guide.t[-1]), "step_s": step, "warp_rounds": guide.warp_rounds,
-                  "smoothing_window_s": float(np.max(limits.qdd_max / limits.qddd_max)),
-                  "uniform_stretch": guide.stretch},
-        "slowdowns": slowdowns,
-        "ruckig_segments_solved": solver.calls,
-        "ruckig_compute_s_per_segment": solver.compute_s / solver.calls,
-        "ruckig_boundary_retries": solver.boundary_retries,
-        "compute_s": time.perf_counter() - began,
-        "jerk": "exact: the constant jerk of each Ruckig phase",
-        "cloud": "never used",
-    }
-    return profile_from_segments(following.trajectories, dt, "toppra+ruckig", limits, joint_names, details)
+    details = ToppraRuckigDetails(
+        path_tolerance=path_tolerance, path_deviation=following.deviation, path_chord_error=table.chord_error,
+        toppra_duration_s=reference.duration, duration_ratio_to_toppra=duration / reference.duration,
+        rounds=following.rounds, waypoints=int(len(following.waypoints)),
+        guide_duration_s=float(guide.t[-1]), guide_step_s=step,
+        guide_smoothing_window_s=float(np.max(limits.qdd_max / limits.qddd_max)),
+        guide_warp_rounds=guide.warp_rounds, guide_uniform_stretch=guide.stretch, slowdowns=slowdowns,
+        ruckig_segments_solved=solver.calls, ruckig_compute_s_per_segment=solver.compute_s / solver.calls,
+        ruckig_boundary_retries=solver.boundary_retries, compute_s=time.perf_counter() - began)
+    return profile_from_segments(following.trajectories, dt, "toppra+ruckig", limits, joint_names, details,
+                                 max_samples)

@@ -17,9 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import TimingError
+from ..choices import DEFAULT_MAX_SAMPLES
+from ..errors import ProfileSizeError, TimingError
 from ..path import JointPath
-from ..profile import Profile
+from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 
 #: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
@@ -153,14 +154,49 @@ def solve_grid_timing(path: ArcLengthPath, limits: Limits, gridpoints: int, inve
     return GridTiming.from_grid(grid, sd)
 
 
-def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                  gridpoints: int = GRIDPOINTS, inverse_dynamics=None) -> Profile:
-    """Time-optimal profile along ``path`` within qd_max and qdd_max, at rest at both ends.
+@dataclass(frozen=True)
+class ToppraDetails(TimingDetails):
+    """What the toppra back end did: ``gridpoints`` of the solve that succeeded, after the
+    ``retried_gridpoints`` that failed; ``optimal_on_grid_s`` [s] its duration; ``check_samples`` of
+    the dense check, which found peaks ``grid_peak_qd_ratio`` and ``grid_peak_qdd_ratio`` [1] between grid
+    points; ``time_stretch`` [1] the uniform slow-down applied (1: none); ``compute_s`` [s];
+    ``jerk_exact`` False: qddd is the finite difference of qdd (jerk is not limited)."""
 
-    With ``limits.tau_max`` and ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched, [N m]) the joint
-    torques are limited too. Sampled every ``dt`` [s] (and at the end). Raises TimingError when
-    toppra fails on every grid.
-    """
+    gridpoints: int
+    retried_gridpoints: tuple[int, ...]
+    optimal_on_grid_s: float
+    check_samples: int
+    grid_peak_qd_ratio: float
+    grid_peak_qdd_ratio: float
+    time_stretch: float
+    compute_s: float
+    jerk_exact: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class ToppraSolution:
+    """toppra's grid timing along ``path``, slowed uniformly by ``stretch`` [1] so that its dense check
+    (``check_samples`` samples, peaks ``grid_peak_ratios`` (qd, qdd) [1]) passes; ``solve_s`` [s]."""
+
+    path: ArcLengthPath
+    grid: GridTiming
+    stretch: float
+    retried_gridpoints: tuple[int, ...]
+    check_samples: int
+    grid_peak_ratios: tuple[float, float]
+    solve_s: float
+
+    @property
+    def duration(self) -> float:
+        """[s]"""
+        return self.grid.duration * self.stretch
+
+
+def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
+                 inverse_dynamics=None) -> ToppraSolution:
+    """Time-optimal timing along ``path`` within qd_max and qdd_max (and tau_max through
+    ``inverse_dynamics(Q, QD, QDD) -> TAU``, batched [N m], when the limits have it), checked densely
+    between grid points; no samples yet. Raises TimingError when toppra fails on every grid."""
     torques = inverse_dynamics if limits.tau_max is not None else None
     if limits.qdd_max is None:
         raise TimingError("toppra needs acceleration limits (qdd_max) for every joint")
@@ -178,33 +214,44 @@ def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple
         raise TimingError(f"toppra found no feasible time parameterisation on {attempts} grid points "
                           f"(path through {len(path.path.waypoints)} waypoints)")
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    velocity_ratio, acceleration_ratio = _peak_ratios(timing, path, check_t, limits, 1.0)
-    stretch = _stretch_for(velocity_ratio, acceleration_ratio, 1.0)
+    peaks = _peak_ratios(timing, path, check_t, limits, 1.0)
+    stretch = _stretch_for(*peaks, 1.0)
     if torques is not None:
         stretch = max(stretch, _torque_stretch(timing, path, check_t, limits, torques))
-    t = sample_times(timing.duration * stretch, dt)
+    return ToppraSolution(path, timing, stretch, tuple(attempts[: attempts.index(used)]), int(check_t.size), peaks,
+                          time.perf_counter() - start)
+
+
+def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_names: tuple[str, ...],
+                  max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+    """The solution sampled every ``dt`` [s] (and at the end); slowed a little more if an output
+    sample exceeds a limit. Raises ProfileSizeError before sampling more than ``max_samples``."""
+    start = time.perf_counter()
+    path, timing, stretch = solution.path, solution.grid, solution.stretch
+    t = sample_times(timing.duration * stretch, dt, max_samples)
     q, qd, qdd = timing.at(path, t, stretch)
     # The output samples are judged too (certify() reads them): stretch more if one of them exceeds.
     output_ratios = _ratios(qd, qdd, limits)
-    if max(output_ratios[0], output_ratios[1]) > 1.0:
+    if max(output_ratios) > 1.0:
         stretch = _stretch_for(*output_ratios, stretch)
-        t = sample_times(timing.duration * stretch, dt)
+        t = sample_times(timing.duration * stretch, dt, max_samples)
         q, qd, qdd = timing.at(path, t, stretch)
-    details = {
-        "gridpoints": int(len(timing.s)),
-        "retried_gridpoints": attempts[: attempts.index(used)],
-        "optimal_on_grid_s": timing.duration,
-        "check_samples": int(check_t.size),
-        "grid_peak_ratio": {"qd": velocity_ratio, "qdd": acceleration_ratio},
-        "time_stretch": stretch,
-        "changed": (f"toppra's solution exceeded the limits between grid points (qd x{velocity_ratio:.6f}, "
-                    f"qdd x{acceleration_ratio:.6f}): slowed uniformly by {stretch:.6f}")
-                   if stretch > 1.0 else "nothing",
-        "compute_s": time.perf_counter() - start,
-        "jerk": "not limited (qddd is the finite difference of qdd)",
-    }
+    details = ToppraDetails(
+        gridpoints=int(len(timing.s)), retried_gridpoints=solution.retried_gridpoints,
+        optimal_on_grid_s=timing.duration, check_samples=solution.check_samples,
+        grid_peak_qd_ratio=solution.grid_peak_ratios[0], grid_peak_qdd_ratio=solution.grid_peak_ratios[1],
+        time_stretch=stretch, compute_s=solution.solve_s + time.perf_counter() - start)
     timed_limits = Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None, limits.tau_max)
     return Profile(t, q, qd, qdd, np.gradient(qdd, t, axis=0), "toppra", timed_limits, joint_names, details)
+
+
+def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
+                  gridpoints: int = GRIDPOINTS, inverse_dynamics=None,
+                  max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+    """Time-optimal profile along ``path``, at rest at both ends, sampled every ``dt`` [s]:
+    ``solve_toppra`` then ``sample_toppra``."""
+    return sample_toppra(solve_toppra(path, limits, gridpoints, inverse_dynamics), limits, dt, joint_names,
+                         max_samples)
 
 
 def _ratios(qd: np.ndarray, qdd: np.ndarray, limits: Limits) -> tuple[float, float]:
@@ -247,7 +294,21 @@ def _stretch_for(velocity_ratio: float, acceleration_ratio: float, stretch: floa
     return stretch * factor * (1.0 + STRETCH_MARGIN) if factor > 1.0 else stretch
 
 
-def sample_times(duration: float, dt: float) -> np.ndarray:
-    """0, dt, 2 dt, ... and the end time itself [s]."""
+def check_sample_count(duration: float, dt: float, max_samples: int, what: str = "the profile",
+                       extra: int = 0) -> None:
+    """Raise ProfileSizeError when ``what``, lasting ``duration`` [s] and sampled every ``dt`` [s] (and
+    at ``extra`` more instants), could have more than ``max_samples`` samples: checked before any array
+    of that size exists."""
+    count = duration / dt + 2.0 + extra            # sample_times' count, at most, and the extra ones
+    if not count <= max_samples:
+        raise ProfileSizeError(
+            f"{what} would last {duration:.6g} s; sampled every dt = {dt:g} s that is {count:,.0f} samples, "
+            f"above the limit of {max_samples:,}: raise the limit (--max-samples, or max_samples=...) or "
+            "use a larger dt or speed_scale")
+
+
+def sample_times(duration: float, dt: float, max_samples: int = DEFAULT_MAX_SAMPLES) -> np.ndarray:
+    """0, dt, 2 dt, ... and the end time itself [s]; ProfileSizeError beyond ``max_samples``."""
+    check_sample_count(duration, dt, max_samples)
     t = np.arange(0.0, duration, dt)
     return np.append(t, duration) if duration - t[-1] > 1e-12 else t
