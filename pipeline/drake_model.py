@@ -10,7 +10,6 @@ the same chain (the same ``add_robot``), simple visual shapes per link and, opti
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +28,8 @@ from pydrake.multibody.tree import (
 )
 from pydrake.systems.framework import Diagram, DiagramBuilder
 
+from .geometry import compute_link_polylines, visual_radius
+from .kinematics import DhKinematics
 from .robot_spec import DhJoint, RobotSpec
 
 BASE_FRAME = "base"
@@ -113,23 +114,12 @@ def build_plant(spec: RobotSpec) -> MultibodyPlant:
 
 
 # -- visual geometry ------------------------------------------------------------------------------
-#: Link radius as a fraction of the robot's size (the farthest drawn point from the base origin at
-#: q = 0), clipped to VISUAL_RADIUS_RANGE [m]. Joints, base and flange are sized from it.
-VISUAL_RADIUS_FRACTION = 0.04
-VISUAL_RADIUS_RANGE = (0.004, 0.05)
 #: Segments shorter than this are not drawn [m].
 MIN_SEGMENT_M = 1e-6
 LINK_COLOURS = ((0.93, 0.55, 0.13, 1.0), (0.75, 0.75, 0.78, 1.0))   # alternate: orange, light grey
 JOINT_COLOUR = (0.25, 0.25, 0.28, 1.0)
 BASE_COLOUR = (0.35, 0.35, 0.38, 1.0)
 FLANGE_COLOUR = (0.20, 0.45, 0.85, 1.0)
-
-
-def visual_radius(robot) -> float:
-    """The link radius [m] used for a robot's visual geometry (see VISUAL_RADIUS_FRACTION)."""
-    from .views import robot_size
-
-    return float(np.clip(VISUAL_RADIUS_FRACTION * robot_size(robot), *VISUAL_RADIUS_RANGE))
 
 
 def _cylinder_between(p: np.ndarray, r: np.ndarray) -> RigidTransform:
@@ -149,9 +139,6 @@ def register_visual_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: lis
     segments skipped, a sphere at each corner); per joint, a short cylinder along its axis on the parent
     body; a base disc (and pedestal) on the world body; a flange disc at the end frame. Placed from the
     NumPy FK at q = 0 expressed in each body's frame (the body frame is DH frame i). Returns the count."""
-    from .kinematics import DhKinematics
-    from .views import compute_link_polylines
-
     robot = DhKinematics(spec)
     q0 = np.zeros(robot.dof)
     radius = visual_radius(robot)
@@ -274,15 +261,3 @@ class DrakeRobot:
 def build_drake_robot(spec: RobotSpec) -> DrakeRobot:
     """Build the Drake model (plant + context + named frames) of a RobotSpec."""
     return DrakeRobot(spec)
-
-
-_DRAKE_MODELS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
-def drake_robot_for(robot) -> DrakeRobot:
-    """The DrakeRobot of a Robot (built on first use, then cached for the robot's lifetime)."""
-    model = _DRAKE_MODELS.get(robot)
-    if model is None:
-        model = _DRAKE_MODELS[robot] = build_drake_robot(robot.spec)
-    return model
-

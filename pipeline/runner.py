@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigurationError, JobFileError, TimingError
+from .ik import with_drake_model
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, JointWaypoint, load_job
 from .profile import QUANTITIES, LimitReport, Profile
@@ -84,12 +85,13 @@ def solve_waypoints(job: Job) -> list[WaypointIk]:
     robot = job.robot
     limits = robot.limits
     previous = job.start if job.start is not None else (limits.q_min + limits.q_max) / 2.0
+    options = with_drake_model(robot, job.ik, {}) if job.has_poses else {}
     solved = []
     for k, waypoint in enumerate(job.waypoints):
         if isinstance(waypoint, JointWaypoint):
             solved.append(WaypointIk(waypoint.q))
         else:
-            result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik)
+            result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, **options)
             if not result.success:
                 raise JobFileError(job.source, f"waypoints[{k}]", f"pose is unreachable with IK method "
                                    f"{job.ik!r} ({result.method}): {result.reason}")

@@ -2,8 +2,7 @@
 profile, live in a notebook or saved as one standalone HTML file.
 
 The drawings and the visual geometry of the Drake model share one stick figure,
-``compute_link_polylines``: per link, the points fixed on it from its joint frame to the next joint
-frame, with the DH offset ``d`` and ``a`` drawn as separate legs. Matplotlib is imported only when a
+``pipeline.geometry.compute_link_polylines``. Matplotlib is imported only when a
 figure is drawn, and it is used through ``matplotlib.figure.Figure`` (no pyplot, no global backend,
 so a notebook's inline backend is untouched); Drake only when Meshcat is used.
 """
@@ -17,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .geometry import compute_arm_path, robot_size
 from .profile import Profile
 
 log = logging.getLogger(__name__)
 
-#: Points closer than this are merged in a polyline [m].
-MERGE_TOLERANCE_M = 1e-9
 #: Frames per second of the Meshcat animation [1/s].
 DEFAULT_FPS = 30.0
 #: Arm poses drawn along a profile by ``motion_figure``.
@@ -31,53 +29,6 @@ DEFAULT_POSES = 6
 AXIS_ARROW_FRACTION = 0.12
 TRIAD_FRACTION = 0.15
 TRIAD_COLOURS = ("tab:red", "tab:green", "tab:blue")
-
-
-# -- the stick figure (NumPy only) ------------------------------------------------------------------
-def _merge(points) -> np.ndarray:
-    """Points (k, 3) with consecutive duplicates (within MERGE_TOLERANCE_M) removed."""
-    points = np.asarray(points, dtype=float)
-    keep = np.ones(len(points), dtype=bool)
-    keep[1:] = np.linalg.norm(np.diff(points, axis=0), axis=1) > MERGE_TOLERANCE_M
-    return points[keep]
-
-
-def compute_link_polylines(robot, q) -> list[np.ndarray]:
-    """The arm as polylines in the base frame [m] at q: ``dof + 1`` arrays (k, 3), k >= 1.
-
-    Entry 0 is fixed on the base: base origin, DH frame 0, joint 1's frame. Entry i (1..dof) is fixed
-    on link i: joint i's frame origin (after its motion: a prismatic joint's slide is part of the
-    link), the corner where the DH ``d`` offset ends (standard revolute rows), DH frame i, and joint
-    i+1's frame origin (the end frame for the last link). ``robot``: a Robot (or DhKinematics).
-    Successive polylines meet, so concatenated they run from the base origin to the end frame.
-    """
-    q = robot.as_configuration(q)
-    spec = robot.spec
-    X_BD = robot.fk_all(q)                       # DH frames 0..dof, then the end frame
-    J, X_BE = robot.joint_frames(q)              # joint frames (z = axis, before the motion)
-    ends = [J[i, :3, 3] for i in range(1, robot.dof)] + [X_BE[:3, 3]]
-    polylines = [_merge([np.zeros(3), X_BD[0, :3, 3], J[0, :3, 3]])]
-    for i, joint in enumerate(spec.joints):
-        p, z = J[i, :3, 3], J[i, :3, 2]
-        if not joint.is_revolute:
-            step = joint.sign * q[i]             # the slide
-        elif spec.convention == "standard":
-            step = joint.d                       # Tz(d) before Tx(a)
-        else:
-            step = 0.0                           # modified: DH frame i is the end of the d leg
-        polylines.append(_merge([p, p + step * z, X_BD[i + 1, :3, 3], ends[i]]))
-    return polylines
-
-
-def compute_arm_path(robot, q) -> np.ndarray:
-    """The stick figure as one polyline (k, 3) [m] from the base origin to the end-frame origin."""
-    return _merge(np.vstack(compute_link_polylines(robot, q)))
-
-
-def robot_size(robot) -> float:
-    """The farthest stick-figure point from the base origin at q = 0 [m] (at least 1 mm)."""
-    points = compute_arm_path(robot, np.zeros(robot.dof))
-    return max(float(np.linalg.norm(points, axis=1).max()), 1e-3)
 
 
 # -- matplotlib -------------------------------------------------------------------------------------
@@ -242,15 +193,16 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS):
 
 
 @contextmanager
-def _drake_log_level(level: str):
-    """Drake's C++ log threshold set to ``level`` inside the block (Meshcat announces its URL at info)."""
-    from pydrake.common import _set_log_level
-
-    previous = _set_log_level(level)
+def _quiet_drake_log():
+    """Drake's log (Python's ``drake`` logger, which pydrake keeps in step with Drake's C++ log) at
+    WARNING inside the block: Meshcat announces its URL at INFO."""
+    drake_log = logging.getLogger("drake")
+    previous = drake_log.level
+    drake_log.setLevel(max(logging.WARNING, previous))
     try:
         yield
     finally:
-        _set_log_level(previous or "unchanged")
+        drake_log.setLevel(previous)
 
 
 def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS) -> str:
@@ -266,7 +218,7 @@ def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS) -> str:
     params = MeshcatParams()
     params.host = "localhost"
     params.port = 0
-    with _drake_log_level("warn"):
+    with _quiet_drake_log():
         meshcat = Meshcat(params)
     try:
         show_profile(robot, profile, meshcat, fps)       # the VisualModel it returns is not kept

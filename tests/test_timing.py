@@ -151,14 +151,14 @@ def test_torque_limits_through_drake_inverse_dynamics():
     assert report.passed and "tau" in report.ratios
     assert 0.98 < report.max_ratio("tau") <= 1 + CERTIFY_TOLERANCE          # the torque limit is active
     # the same path without torque limits is faster, and would exceed them
-    from pipeline.drake_model import drake_robot_for
+    from pipeline.drake_model import build_drake_robot
     from pipeline.robot_spec import Limits
 
     limits = robot.limits
     free = retime(robot, waypoints, method="toppra", dt=0.002,
                   limits=Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None))
     assert free.duration < profile.duration
-    tau_free = drake_robot_for(robot).inverse_dynamics(free.q, free.qd, free.qdd)
+    tau_free = build_drake_robot(robot.spec).inverse_dynamics(free.q, free.qd, free.qdd)
     assert np.max(np.abs(tau_free) / limits.tau_max) > 1.05
 
 

@@ -4,6 +4,7 @@ figure), the matplotlib drawings, the standalone Meshcat HTML, and the runner's 
 from __future__ import annotations
 
 import base64
+import logging
 import re
 from pathlib import Path
 
@@ -13,19 +14,14 @@ import yaml
 from pydrake.geometry import Cylinder, Role
 
 from pipeline.drake_model import BASE_FRAME, END_FRAME, build_visual_diagram
+from pipeline.io import OWNER_MARKER
 from pipeline.jobs import load_job, parse_job
 from pipeline.robot import Robot, load_robot
 from pipeline.robot_spec import parse_robot_spec
 from pipeline.runner import FILE_NAMES, run_job
 from pipeline.timing import retime
-from pipeline.views import (
-    arm_figure,
-    compute_arm_path,
-    compute_link_polylines,
-    motion_figure,
-    profile_html,
-    sample_profile,
-)
+from pipeline.geometry import compute_arm_path, compute_link_polylines
+from pipeline.views import arm_figure, motion_figure, profile_html, sample_profile
 
 ROOT = Path(__file__).resolve().parent.parent
 JOB_FILES = sorted((ROOT / "trajectories" / "jobs").glob("*.yaml"))
@@ -165,6 +161,17 @@ def listening_ports() -> set[int]:
     return ports
 
 
+def test_profile_html_keeps_meshcats_address_out_of_the_log(caplog, capfd):
+    """Meshcat announces its URL at INFO through the public ``drake`` logger; profile_html hides it
+    (and only it: the logger's level is restored)."""
+    robot, profile = short_profile()
+    caplog.set_level(logging.INFO, logger="drake")
+    profile_html(robot, profile, fps=5)
+    assert not [r for r in caplog.records if "Meshcat listening" in r.getMessage()]
+    assert "Meshcat listening" not in capfd.readouterr().err
+    assert logging.getLogger("drake").level == logging.INFO
+
+
 def test_profile_html_is_standalone_and_holds_the_animation():
     robot, profile = short_profile()
     before = listening_ports()
@@ -196,7 +203,7 @@ def test_a_job_with_html_and_arm_png_writes_view_html_and_arm_png(tmp_path):
     """))
     outcome = run_job(job, tmp_path / "out")
     assert [p.name for p in outcome.files] == [FILE_NAMES["html"], FILE_NAMES["arm_png"]] == ["view.html", "arm.png"]
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["arm.png", "view.html"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [OWNER_MARKER, "arm.png", "view.html"]
     assert (tmp_path / "out" / "arm.png").read_bytes()[:8] == PNG_MAGIC
     html = (tmp_path / "out" / "view.html").read_text(encoding="utf-8")
     assert "<html" in html and len(html) > 100_000

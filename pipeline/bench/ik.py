@@ -149,10 +149,12 @@ Solve = Callable[[np.ndarray, np.ndarray], tuple[bool, np.ndarray]]
 
 def ours_solver(robot: Robot, method: str) -> Solve:
     """Our ``solve_ik`` through the dispatcher, full pose targets."""
-    from ..ik import solve_ik
+    from ..ik import solve_ik, with_drake_model
+
+    options = with_drake_model(robot, method, {})          # one Drake model, built outside the timing
 
     def solve(X: np.ndarray, q_seed: np.ndarray) -> tuple[bool, np.ndarray]:
-        result = solve_ik(robot, X, q_seed=q_seed, method=method)
+        result = solve_ik(robot, X, q_seed=q_seed, method=method, **options)
         return result.success, result.q
 
     return solve

@@ -23,7 +23,8 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
 
     ``q_seed``: configuration to stay near (default: the middle of the joint ranges).
     ``options`` go to the method: ``rng`` (np.random.Generator for restarts), ``max_restarts``,
-    ``max_iterations``, ``time_budget`` [s].
+    ``max_iterations``, ``time_budget`` [s]; for ``drake``, ``solver`` and ``drake`` (the robot's
+    DrakeRobot, to reuse one over many calls).
     """
     target = make_target(X_target, target_kind)
     seed = _seed(robot, q_seed)
@@ -39,6 +40,15 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     from .drake_ik import solve_drake
 
     return solve_drake(robot, target, seed, **options)
+
+
+def with_drake_model(robot, method: str, options: dict) -> dict:
+    """``options`` with one DrakeRobot to share over many ``drake`` solves (unless they carry one)."""
+    if method != "drake" or options.get("drake") is not None:
+        return options
+    from ..drake_model import build_drake_robot
+
+    return {**options, "drake": build_drake_robot(robot.spec)}
 
 
 def _seed(robot, q_seed) -> np.ndarray:
@@ -75,6 +85,7 @@ def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_
         from .analytic import solve_analytic_batch
 
         return solve_analytic_batch(robot, X_targets, seeds, target_kind)
+    options = with_drake_model(robot, method, options)
     results = []
     with Progress(len(targets), f"IK {method} {robot.name}") as tick:
         for target, seed in zip(targets, seeds):

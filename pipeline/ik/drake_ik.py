@@ -136,13 +136,14 @@ def _score(position_error: float, rotation_error: float) -> float:
 
 
 def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Generator | None = None,
-                max_restarts: int = 20, time_budget: float = 1.0, solver: str = "auto", **_ignored) -> IkResult:
+                max_restarts: int = 20, time_budget: float = 1.0, solver: str = "auto", drake=None) -> IkResult:
     """Solve one IK target with Drake's InverseKinematics, judged by our FK.
 
     ``q_seed`` (dof,): first initial guess [rad or m]; ``rng``: for the restart seeds (default: a
     generator seeded with 0, so results are repeatable); ``max_restarts``: random restarts after the
     seeded solve; ``time_budget`` [s]: no new solve starts after it (a solve in progress finishes);
-    ``solver``: ``auto`` (SNOPT if available, else IPOPT), ``snopt`` or ``ipopt``.
+    ``solver``: ``auto`` (SNOPT if available, else IPOPT), ``snopt`` or ``ipopt``; ``drake``: the robot's
+    DrakeRobot (built here when None; pass one to reuse it over many targets).
     On success ``q`` is the strict solution nearest the seed (usually the only one found).
     """
     rng = np.random.default_rng(0) if rng is None else rng
@@ -151,9 +152,9 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     label, drake_solver = pick_solver(solver)
     main_options = _solver_options(drake_solver, MAIN_OPTIONS[label])
     polish_options = _solver_options(drake_solver, POLISH_OPTIONS[label])
-    from ..drake_model import drake_robot_for
+    from ..drake_model import build_drake_robot
 
-    drake_robot = drake_robot_for(robot)
+    drake_robot = drake if drake is not None else build_drake_robot(robot.spec)
 
     start = time.perf_counter()
     solves = polish_solves = reported_not_strict = 0

@@ -43,8 +43,9 @@ def solve_ik_path(robot, X_path, q_start, method: str = "auto", target_kind: str
     solutions the one nearest the previous configuration is taken; a change above ``max_joint_step``
     in any joint (a branch switch, or a singularity crossed) stops the path at that index.
     """
-    from . import solve_ik
+    from . import solve_ik, with_drake_model
 
+    options = with_drake_model(robot, method, options)
     X_path = np.asarray(X_path, dtype=float)
     q_previous = robot.as_configuration(q_start)
     solved, results, branches = [], [], []

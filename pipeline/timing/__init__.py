@@ -25,7 +25,7 @@ METHODS = TIMING_METHODS
 
 def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
            limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = "spline",
-           max_samples: int = DEFAULT_MAX_SAMPLES, **options) -> Profile:
+           max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, **options) -> Profile:
     """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits.
 
     ``speed_scale`` in (0, 1] scales qd, qdd, qddd limits by s, s^2, s^3; ``limits`` replaces the
@@ -34,7 +34,8 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
     limits bound joint torques (``tau_max``, robot files with inertias), the torques come from
     Drake's inverse dynamics: toppra limits them, and every method's profile is judged on them.
     ``max_samples``: a profile with more samples is refused (ProfileSizeError) as soon as its
-    duration is known, before they are made.
+    duration is known, before they are made. ``drake``: the robot's DrakeRobot for the inverse
+    dynamics (built here when torques are limited and none is given; pass one to reuse it).
     """
     if method not in METHODS:
         raise ConfigurationError(f"unknown timing method {method!r}; choose one of {', '.join(METHODS)}")
@@ -46,9 +47,9 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
     names = tuple(robot.joint_names)
     inverse_dynamics = None
     if limits.tau_max is not None:
-        from ..drake_model import drake_robot_for
+        from ..drake_model import build_drake_robot
 
-        inverse_dynamics = drake_robot_for(robot).inverse_dynamics
+        inverse_dynamics = (drake if drake is not None else build_drake_robot(robot.spec)).inverse_dynamics
     if method == "ruckig":
         from .ruckig_backend import retime_ruckig
 

@@ -1,0 +1,69 @@
+"""The arm's link geometry in NumPy (no Drake, no matplotlib): what the Drake model's visual shapes,
+the matplotlib drawings and the Meshcat view all draw from.
+
+The stick figure: per link, the points fixed on it from its joint frame to the next joint frame, with
+the DH offsets ``d`` and ``a`` drawn as separate legs; consecutive points are the link's segments (the
+natural unit for shapes with a radius around them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Points closer than this are merged in a polyline [m].
+MERGE_TOLERANCE_M = 1e-9
+#: Link radius as a fraction of the robot's size (the farthest drawn point from the base origin at
+#: q = 0), clipped to VISUAL_RADIUS_RANGE [m]. Joints, base and flange are sized from it.
+VISUAL_RADIUS_FRACTION = 0.04
+VISUAL_RADIUS_RANGE = (0.004, 0.05)
+
+
+def _merge(points) -> np.ndarray:
+    """Points (k, 3) with consecutive duplicates (within MERGE_TOLERANCE_M) removed."""
+    points = np.asarray(points, dtype=float)
+    keep = np.ones(len(points), dtype=bool)
+    keep[1:] = np.linalg.norm(np.diff(points, axis=0), axis=1) > MERGE_TOLERANCE_M
+    return points[keep]
+
+
+def compute_link_polylines(robot, q) -> list[np.ndarray]:
+    """The arm as polylines in the base frame [m] at q: ``dof + 1`` arrays (k, 3), k >= 1.
+
+    Entry 0 is fixed on the base: base origin, DH frame 0, joint 1's frame. Entry i (1..dof) is fixed
+    on link i: joint i's frame origin (after its motion: a prismatic joint's slide is part of the
+    link), the corner where the DH ``d`` offset ends (standard revolute rows), DH frame i, and joint
+    i+1's frame origin (the end frame for the last link). ``robot``: a Robot (or DhKinematics).
+    Successive polylines meet, so concatenated they run from the base origin to the end frame.
+    """
+    q = robot.as_configuration(q)
+    spec = robot.spec
+    X_BD = robot.fk_all(q)                       # DH frames 0..dof, then the end frame
+    J, X_BE = robot.joint_frames(q)              # joint frames (z = axis, before the motion)
+    ends = [J[i, :3, 3] for i in range(1, robot.dof)] + [X_BE[:3, 3]]
+    polylines = [_merge([np.zeros(3), X_BD[0, :3, 3], J[0, :3, 3]])]
+    for i, joint in enumerate(spec.joints):
+        p, z = J[i, :3, 3], J[i, :3, 2]
+        if not joint.is_revolute:
+            step = joint.sign * q[i]             # the slide
+        elif spec.convention == "standard":
+            step = joint.d                       # Tz(d) before Tx(a)
+        else:
+            step = 0.0                           # modified: DH frame i is the end of the d leg
+        polylines.append(_merge([p, p + step * z, X_BD[i + 1, :3, 3], ends[i]]))
+    return polylines
+
+
+def compute_arm_path(robot, q) -> np.ndarray:
+    """The stick figure as one polyline (k, 3) [m] from the base origin to the end-frame origin."""
+    return _merge(np.vstack(compute_link_polylines(robot, q)))
+
+
+def robot_size(robot) -> float:
+    """The farthest stick-figure point from the base origin at q = 0 [m] (at least 1 mm)."""
+    points = compute_arm_path(robot, np.zeros(robot.dof))
+    return max(float(np.linalg.norm(points, axis=1).max()), 1e-3)
+
+
+def visual_radius(robot) -> float:
+    """The link radius [m] used for a robot's visual geometry (see VISUAL_RADIUS_FRACTION)."""
+    return float(np.clip(VISUAL_RADIUS_FRACTION * robot_size(robot), *VISUAL_RADIUS_RANGE))
