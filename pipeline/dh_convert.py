@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 
+from .errors import ConfigurationError
 from .robot_spec import RobotSpec
 
 
@@ -24,7 +25,7 @@ def _tx_rx(a: float, alpha: float) -> np.ndarray:
 def standard_to_modified(spec: RobotSpec) -> RobotSpec:
     """The modified-DH RobotSpec whose FK equals ``spec``'s for every q (joint variables unchanged)."""
     if spec.convention != "standard":
-        raise ValueError(f"{spec.name}: expected a standard-DH spec, got {spec.convention!r}")
+        raise ConfigurationError(f"{spec.name}: expected a standard-DH spec, got {spec.convention!r}")
     previous = [(0.0, 0.0)] + [(j.a, j.alpha) for j in spec.joints[:-1]]
     joints = tuple(
         dataclasses.replace(joint, a=a_prev, alpha=alpha_prev)

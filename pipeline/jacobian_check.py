@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .drake_model import DrakeRobot, build_drake_robot
+from .errors import ConfigurationError
 from .kinematics import finite_difference_jacobian
 from .robot import Robot
 
@@ -113,7 +114,7 @@ class _Tracker:
 def check_robot(robot: Robot, samples: int = 200, seed: int = 0, drake: DrakeRobot | None = None) -> JacobianCheckReport:
     """Compare analytic, Drake and finite-difference FK/Jacobians on seeded random in-limit configurations."""
     if samples < 1:
-        raise ValueError(f"samples must be >= 1, got {samples}")
+        raise ConfigurationError(f"samples must be >= 1, got {samples}")
     drake = drake or build_drake_robot(robot.spec)
     configurations = robot.random_configurations(np.random.default_rng(seed), samples)
     exact = _Tracker("analytic vs Drake", EXACT_TOLERANCE)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import MAX_MAGNITUDE, float_array
 from .errors import ConfigurationError
 from .robot_spec import DhJoint, RobotSpec
 
@@ -86,21 +87,11 @@ class DhKinematics:
     # -- input checks ---------------------------------------------------------------------------
     def as_configuration(self, q) -> np.ndarray:
         """Validate one joint vector -> float array (dof,) [rad or m]."""
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.dof,):
-            raise ConfigurationError(f"{self.spec.name}: q must have shape ({self.dof},), got {q.shape}")
-        if not np.isfinite(q).all():
-            raise ConfigurationError(f"{self.spec.name}: q has non-finite values: {q}")
-        return q
+        return float_array(q, f"{self.spec.name}: q", (self.dof,), MAX_MAGNITUDE)
 
     def as_batch(self, Q) -> np.ndarray:
         """Validate a batch of joint vectors -> float array (N, dof)."""
-        Q = np.asarray(Q, dtype=float)
-        if Q.ndim != 2 or Q.shape[1] != self.dof:
-            raise ConfigurationError(f"{self.spec.name}: Q must have shape (N, {self.dof}), got {Q.shape}")
-        if not np.isfinite(Q).all():
-            raise ConfigurationError(f"{self.spec.name}: Q has non-finite values")
-        return Q
+        return float_array(Q, f"{self.spec.name}: Q", (None, self.dof), MAX_MAGNITUDE)
 
     # -- the chain ------------------------------------------------------------------------------
     def _moved_links(self, Q: np.ndarray) -> np.ndarray:
@@ -115,6 +106,10 @@ class DhKinematics:
 
     def joint_frames(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint frames (..., dof, 4, 4) (z = joint i's axis, before its motion) and the end pose (..., 4, 4)."""
+        Q = float_array(Q, f"{self.spec.name}: q", None, MAX_MAGNITUDE)
+        if Q.shape[-1:] != (self.dof,):
+            raise ConfigurationError(f"{self.spec.name}: q must have {self.dof} values in its last axis, "
+                                     f"got shape {Q.shape}")
         T = self._moved_links(Q)
         frames = np.empty_like(T)
         frames[..., 0, :, :] = self._K0

@@ -5,9 +5,12 @@ Quaternions are scalar-first ``[w, x, y, z]``, as in seed 003 and Drake, with ``
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .arrays import float_array
 from .errors import ConfigurationError
 
 #: How far a 3x3 matrix may be from orthonormal with det +1 and still count as a rotation.
@@ -16,13 +19,10 @@ ROTATION_TOLERANCE = 1e-6
 
 def check_pose(X, what: str = "pose") -> np.ndarray:
     """Validate a homogeneous transform (4, 4): finite, a proper rotation, last row [0 0 0 1]."""
-    X = np.asarray(X, dtype=float)
-    if X.shape != (4, 4):
-        raise ConfigurationError(f"{what} must have shape (4, 4), got {X.shape}")
-    if not np.all(np.isfinite(X)):
-        raise ConfigurationError(f"{what} has non-finite values")
+    X = float_array(X, what, (4, 4))
     R = X[:3, :3]
-    if np.abs(R.T @ R - np.eye(3)).max() > ROTATION_TOLERANCE or np.linalg.det(R) < 0.0:
+    if (np.abs(R).max() > 1.0 + ROTATION_TOLERANCE or np.abs(R.T @ R - np.eye(3)).max() > ROTATION_TOLERANCE
+            or np.linalg.det(R) < 0.0):
         raise ConfigurationError(f"{what}: the 3x3 block is not a rotation matrix (R^T R != I or det < 0)")
     if np.abs(X[3] - [0.0, 0.0, 0.0, 1.0]).max() > 0.0:
         raise ConfigurationError(f"{what}: last row must be [0, 0, 0, 1], got {X[3]}")
@@ -58,12 +58,9 @@ def rpy_position_to_pose(rpy, p) -> np.ndarray:
 
 def quaternion_position_to_pose(quat_wxyz, p) -> np.ndarray:
     """(quaternion [w, x, y, z], position [m]) -> pose (4, 4). The quaternion must be unit length."""
-    quat = np.asarray(quat_wxyz, dtype=float)
-    p = np.asarray(p, dtype=float)
-    if quat.shape != (4,) or p.shape != (3,):
-        raise ConfigurationError(f"quaternion must have shape (4,) and position (3,), got {quat.shape}, {p.shape}")
-    if not (np.all(np.isfinite(quat)) and np.all(np.isfinite(p))):
-        raise ConfigurationError("quaternion or position has non-finite values")
-    if abs(np.linalg.norm(quat) - 1.0) > ROTATION_TOLERANCE:
-        raise ConfigurationError(f"quaternion must be unit length, |q| = {np.linalg.norm(quat):.9f}")
+    quat = float_array(quat_wxyz, "quaternion", (4,))
+    p = float_array(p, "position", (3,))
+    norm = math.hypot(*quat)
+    if abs(norm - 1.0) > ROTATION_TOLERANCE:
+        raise ConfigurationError(f"quaternion must be unit length, |q| = {norm:.9f}")
     return make_pose(Rotation.from_quat(quat, scalar_first=True).as_matrix(), p)

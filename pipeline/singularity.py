@@ -7,6 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import float_array
+from .errors import ConfigurationError
+
 #: A singular value below this (relative to the largest) counts as lost rank.
 RELATIVE_RANK_TOLERANCE = 1e-9
 #: A joint takes part in a dependency when its weight in a null-space vector exceeds this.
@@ -50,7 +53,9 @@ class SingularityReport:
 
 def compute_singularity(J: np.ndarray) -> SingularityReport:
     """Singularity measures of a (6, dof) Jacobian."""
-    J = np.asarray(J, dtype=float)
+    J = float_array(J, "Jacobian", (6, None))
+    if J.shape[1] == 0:
+        raise ConfigurationError("Jacobian must have at least one column")
     U, s, Vt = np.linalg.svd(J)
     tolerance = RELATIVE_RANK_TOLERANCE * max(s[0], 1.0)
     rank = int(np.sum(s > tolerance))

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import ConfigurationError
 from .geometry import compute_arm_path, robot_size
 from .profile import Profile
 
@@ -153,7 +154,7 @@ def sample_profile(profile: Profile, fps: float = DEFAULT_FPS) -> tuple[np.ndarr
     """Times from the profile's start (N,) [s] every 1/fps and the last sample, with q (N, dof)
     interpolated linearly between the profile's samples."""
     if not fps > 0:
-        raise ValueError(f"fps must be positive, got {fps!r}")
+        raise ConfigurationError(f"fps must be positive, got {fps!r}")
     t = np.arange(0.0, profile.duration, 1.0 / fps)
     t = np.append(t, profile.duration) if len(t) == 0 or profile.duration - t[-1] > 1e-9 else t
     t_profile = profile.t - profile.t[0]

@@ -19,6 +19,7 @@ from pipeline.bench.timing import (
     random_paths,
     run_timing_benchmark,
 )
+from pipeline.errors import ConfigurationError
 from pipeline.robot import load_robot
 
 #: Our gap on one path may exceed the issue's 0.5 % goal only in a tiny run's bad luck; 1 % is a bug.
@@ -89,7 +90,7 @@ def test_drake_path_is_our_path():
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="paths"):
+    with pytest.raises(ConfigurationError, match="paths"):
         run_timing_benchmark(robots=("gp7",), paths=0)
 
 

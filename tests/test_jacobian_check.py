@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pipeline.drake_model import build_drake_robot
+from pipeline.errors import ConfigurationError
 from pipeline.jacobian_check import EXACT_TOLERANCE, FINITE_DIFFERENCE_TOLERANCE, check_robot
 
 
@@ -40,7 +41,7 @@ def test_a_wrong_drake_model_fails_and_names_the_worst_configuration(drake_robot
 def test_sample_count_is_validated():
     from pipeline.robot import load_robot
 
-    with pytest.raises(ValueError):
+    with pytest.raises(ConfigurationError, match="samples must be >= 1"):
         check_robot(load_robot("arm5"), samples=0)
 
 

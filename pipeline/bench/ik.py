@@ -357,7 +357,7 @@ def run_ik_benchmark(robots=ROBOTS, targets: int = 1000, seed: int = 0, methods=
     ``pipeline.ik.solve_ik`` (one that raises NotImplementedError or ImportError is reported unavailable).
     """
     if targets < 1:
-        raise ValueError(f"targets must be >= 1, got {targets}")
+        raise ConfigurationError(f"targets must be >= 1, got {targets}")
     if isinstance(robots, str):
         robots = (robots,)
     methods = tuple(methods)

@@ -29,6 +29,7 @@ from ..drake_model import (
     build_drake_robot,
     joint_split,
 )
+from ..errors import ConfigurationError
 from ..versions import version_table
 from ..robot import Robot, load_robot
 
@@ -342,7 +343,7 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
     ``single_calls``: configurations timed one call at a time; ``seed``: of the random configurations.
     """
     if batch < 1 or single_calls < 1:
-        raise ValueError(f"batch and single_calls must be >= 1, got {batch} and {single_calls}")
+        raise ConfigurationError(f"batch and single_calls must be >= 1, got {batch} and {single_calls}")
     robot = load_robot(robot_name)
     rng = np.random.default_rng(seed)
     Q_verify = robot.random_configurations(rng, VERIFY_CONFIGURATIONS)

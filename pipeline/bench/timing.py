@@ -548,10 +548,10 @@ def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0) -> Timing
     ``seed``: of the waypoints (each robot draws from its own generator seeded with it).
     """
     if paths < 1:
-        raise ValueError(f"paths must be >= 1, got {paths}")
+        raise ConfigurationError(f"paths must be >= 1, got {paths}")
     robots = (robots,) if isinstance(robots, str) else tuple(robots)
     if not robots:
-        raise ValueError("no robots to benchmark")
+        raise ConfigurationError("no robots to benchmark")
     reports = tuple(benchmark_robot(load_robot(name), paths, seed) for name in robots)
     versions = version_table("numpy", "scipy", "toppra", "drake")
     return TimingBenchReport(paths=paths, seed=seed, waypoints=WAYPOINTS, samples=SAMPLES, robots=reports,

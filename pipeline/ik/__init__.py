@@ -11,11 +11,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..choices import IK_METHODS
+from ..arrays import float_array
 from ..errors import ConfigurationError
 from ..progress import Progress
 from .result import FULL_POSE, IkResult, IkTarget, Solution, make_target
 
 METHODS = IK_METHODS
+#: The options each method takes (``solve_jacobian``, ``solve_drake``); a call may give any of them.
+OPTIONS = {"analytic": (), "jacobian": ("rng", "max_restarts", "max_iterations", "time_budget"),
+           "drake": ("rng", "max_restarts", "time_budget", "solver", "drake")}
 
 
 def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: str = FULL_POSE, **options) -> IkResult:
@@ -28,7 +32,9 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     """
     target = make_target(X_target, target_kind)
     seed = _seed(robot, q_seed)
+    _check_options(options)
     method = _resolve_method(robot, method, target.kind)
+    options = {name: value for name, value in options.items() if name in OPTIONS[method]}
     if method == "analytic":
         from .analytic import solve_analytic
 
@@ -51,6 +57,15 @@ def with_drake_model(robot, method: str, options: dict) -> dict:
     return {**options, "drake": build_drake_robot(robot.spec)}
 
 
+def _check_options(options: dict) -> None:
+    """``options`` for the method that runs: ConfigurationError for a name no method takes (a typo);
+    the names of the other methods are dropped (one call can serve ``auto`` and every method)."""
+    unknown = sorted(set(options) - {name for names in OPTIONS.values() for name in names})
+    if unknown:
+        known = sorted({name for names in OPTIONS.values() for name in names})
+        raise ConfigurationError(f"unknown IK option {', '.join(map(repr, unknown))}; the options: {', '.join(known)}")
+
+
 def _seed(robot, q_seed) -> np.ndarray:
     """The seed as a checked configuration; default the middle of the joint ranges."""
     limits = robot.limits
@@ -71,9 +86,7 @@ def _resolve_method(robot, method: str, kind: str) -> str:
 def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_kind: str = FULL_POSE,
                    **options) -> list[IkResult]:
     """IK for N targets (N, 4, 4); ``q_seeds`` (N, dof), (dof,) or None. The closed form is vectorised."""
-    X_targets = np.asarray(X_targets, dtype=float)
-    if X_targets.ndim != 3 or X_targets.shape[1:] != (4, 4):
-        raise ConfigurationError(f"targets must have shape (N, 4, 4), got {X_targets.shape}")
+    X_targets = float_array(X_targets, "IK targets", (None, 4, 4))
     targets = [make_target(X, target_kind) for X in X_targets]
     if q_seeds is None or np.ndim(q_seeds) == 1:
         seeds = np.tile(_seed(robot, q_seeds), (len(targets), 1))

@@ -33,6 +33,8 @@ import time
 
 import numpy as np
 
+from ..errors import ConfigurationError
+
 from .result import (
     FULL_POSE,
     MATCHED_COMPONENTS,
@@ -43,6 +45,7 @@ from .result import (
     IkResult,
     IkTarget,
     Solution,
+    check_search_budget,
     distinct_order,
     is_strict,
     pose_errors,
@@ -76,11 +79,11 @@ def pick_solver(name: str = "auto"):
     order = [SNOPT, IPOPT] if name == "auto" else [name.upper()]
     for label in order:
         if label not in candidates:
-            raise ValueError(f"unknown Drake solver {name!r}; choose auto, snopt or ipopt")
+            raise ConfigurationError(f"unknown Drake solver {name!r}; choose auto, snopt or ipopt")
         solver = candidates[label]()
         if solver.available() and solver.enabled():
             return label, solver
-    raise RuntimeError(f"Drake solver {name!r} is not available in this pydrake build")
+    raise ConfigurationError(f"Drake solver {name!r} is not available in this pydrake build")
 
 
 def build_ik_program(drake_robot, target: IkTarget, first_order: bool = False):
@@ -146,6 +149,7 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
     DrakeRobot (built here when None; pass one to reuse it over many targets).
     On success ``q`` is the strict solution nearest the seed (usually the only one found).
     """
+    check_search_budget(max_restarts, time_budget)
     rng = np.random.default_rng(0) if rng is None else rng
     q_seed = np.asarray(q_seed, dtype=float)
     q_min, q_max = robot.limits.q_min, robot.limits.q_max

@@ -21,6 +21,7 @@ from .result import (
     IkResult,
     IkTarget,
     Solution,
+    check_search_budget,
     is_strict,
     pose_errors,
     within_limits,
@@ -70,12 +71,13 @@ def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int, deadli
     e, A = residual(X, J, target)
     cost = e @ e
     damping = INITIAL_DAMPING
-    slow_steps = 0
-    for iteration in range(1, max_iterations + 1):
+    slow_steps = iterations = 0
+    while iterations < max_iterations:
         if np.abs(e).max() <= CONVERGED:
-            return q, iteration - 1, True
+            return q, iterations, True
         if damping > STALLED_DAMPING or slow_steps >= STALLED_STEPS or time.perf_counter() > deadline:
             break
+        iterations += 1
         H = A.T @ A
         step = np.linalg.solve(H + damping * np.eye(H.shape[0]), A.T @ e)
         q_new = wrap_into_limits(q + step, revolute, limits.q_min, limits.q_max, reference=q)
@@ -89,7 +91,7 @@ def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int, deadli
             damping = max(damping / 10.0, MIN_DAMPING)
         else:
             damping = min(damping * 10.0, MAX_DAMPING)
-    return q, iteration, np.abs(e).max() <= CONVERGED
+    return q, iterations, np.abs(e).max() <= CONVERGED
 
 
 def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Generator | None = None,
@@ -99,6 +101,7 @@ def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.G
     ``max_restarts`` random restarts after the seed, ``max_iterations`` per descent, ``time_budget`` [s]
     for the whole solve. The answer is judged by our FK: strict errors and every joint in limits.
     """
+    check_search_budget(max_restarts, time_budget, max_iterations)
     limits = robot.limits
     rng = np.random.default_rng(0) if rng is None else rng
     deadline = time.perf_counter() + time_budget

@@ -40,11 +40,30 @@ class IkTarget:
     kind: str = FULL_POSE
 
 
+#: A target coordinate beyond this is refused outright [m] (its arithmetic would overflow).
+MAX_TARGET_COORDINATE_M = 1e6
+
+
+def check_search_budget(max_restarts, time_budget, max_iterations=1) -> None:
+    """ConfigurationError unless ``max_restarts`` >= 0 and ``max_iterations`` >= 1 are integers and
+    ``time_budget`` [s] is a finite number >= 0 (0: the first attempt only)."""
+    for name, value, low in (("max_restarts", max_restarts, 0), ("max_iterations", max_iterations, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
+    if isinstance(time_budget, bool) or not isinstance(time_budget, (int, float, np.floating, np.integer)) \
+            or not np.isfinite(time_budget) or time_budget < 0:
+        raise ConfigurationError(f"time_budget must be a finite number of seconds >= 0, got {time_budget!r}")
+
+
 def make_target(X_target, kind: str = FULL_POSE) -> IkTarget:
     """Validate a target pose and its kind; raises ConfigurationError on bad input."""
     if kind not in TARGET_KINDS:
         raise ConfigurationError(f"target kind must be one of {', '.join(TARGET_KINDS)}, got {kind!r}")
-    return IkTarget(check_pose(X_target, "IK target"), kind)
+    X = check_pose(X_target, "IK target")
+    if np.abs(X[:3, 3]).max() > MAX_TARGET_COORDINATE_M:
+        raise ConfigurationError(f"IK target position {X[:3, 3]} is beyond {MAX_TARGET_COORDINATE_M:g} m: no arm "
+                                 "reaches it (are the units metres?)")
+    return IkTarget(X, kind)
 
 
 class Solution(NamedTuple):

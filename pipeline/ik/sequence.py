@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..arrays import float_array
 from .result import FULL_POSE, IkResult
 
 #: Largest change of any joint between consecutive poses that still counts as continuous [rad or m].
@@ -46,7 +47,7 @@ def solve_ik_path(robot, X_path, q_start, method: str = "auto", target_kind: str
     from . import solve_ik, with_drake_model
 
     options = with_drake_model(robot, method, options)
-    X_path = np.asarray(X_path, dtype=float)
+    X_path = float_array(X_path, "IK path poses", (None, 4, 4))
     q_previous = robot.as_configuration(q_start)
     solved, results, branches = [], [], []
     for k, X in enumerate(X_path):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigurationError
+from ..arrays import MAX_MAGNITUDE, float_array
 
 #: Below this smallest singular value [m/rad or 1] the Jacobian counts as near singular and damping
 #: grows smoothly from 0 (Maciejewski-Klein damped least squares).
@@ -29,9 +29,7 @@ class JointVelocityResult:
 
 def joint_velocities(robot, q, twist, threshold: float = NEAR_SINGULAR, max_damping: float = MAX_DAMPING) -> JointVelocityResult:
     """qd for an end-frame twist [vx vy vz wx wy wz] (base frame, at the end-frame origin) [m/s, rad/s]."""
-    twist = np.asarray(twist, dtype=float)
-    if twist.shape != (6,) or not np.isfinite(twist).all():
-        raise ConfigurationError(f"twist must be 6 finite numbers [v; w], got shape {twist.shape}")
+    twist = float_array(twist, "twist [v; w]", (6,), MAX_MAGNITUDE)
     J = robot.jacobian(q)
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     sigma_min = float(s[-1])

@@ -1,0 +1,34 @@
+"""Arrays handed to the public API, checked once at the boundary: numbers only, the right shape,
+finite. Anything else is a ConfigurationError naming the argument, never a NumPy exception."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import ConfigurationError, shown
+
+#: Joint values, twists and the like beyond this magnitude are refused [SI units]: no joint turns or
+#: slides that far, no tool moves that fast, and products of such values overflow.
+MAX_MAGNITUDE = 1e6
+
+
+def float_array(value, what: str, shape: tuple[int | None, ...] | None = None,
+                max_abs: float | None = None) -> np.ndarray:
+    """``value`` as a finite float array; ``shape`` entries of None match any size; with ``max_abs``,
+    every entry within +-max_abs."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError) as exc:          # ragged nesting, unconvertible objects
+        raise ConfigurationError(f"{what} must be an array of numbers ({exc})") from exc
+    if array.dtype.kind not in "iuf":
+        raise ConfigurationError(f"{what} must hold numbers, got {array.dtype} values ({shown(value)})")
+    array = array.astype(float)
+    if shape is not None and (array.ndim != len(shape)
+                              or any(want is not None and want != got for want, got in zip(shape, array.shape))):
+        expected = "(" + ", ".join("N" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise ConfigurationError(f"{what} must have shape {expected}, got {array.shape}")
+    if not np.isfinite(array).all():
+        raise ConfigurationError(f"{what} has non-finite values")
+    if max_abs is not None and array.size and np.abs(array).max() > max_abs:
+        raise ConfigurationError(f"{what} has values beyond {max_abs:g} (SI units)")
+    return array
