@@ -11,16 +11,9 @@ import yaml
 
 from pipeline.__main__ import main
 
+from .test_schema import TWO_LINK
+
 ROOT = Path(__file__).resolve().parent.parent
-TWO_LINK = """\
-name: two_link
-convention: standard
-length_unit: mm
-angle_unit: deg
-joints:
-  - {a: 300, alpha: 0, d: 0, q_min: -90, q_max: 90, qd_max: 180, qdd_max: 500, qddd_max: 8e3}
-  - {a: 200, alpha: 0, d: 0, q_min: -90, q_max: 90, qd_max: 180, qdd_max: 500, qddd_max: 8e3}
-"""
 
 
 def fails_cleanly(capsys, args: list[str], *expected: str) -> str:
@@ -73,7 +66,7 @@ def test_garbage_job_file(tmp_path, capsys):
 
 def test_exponent_numbers_are_numbers(tmp_path, capsys):
     robot = tmp_path / "two_link.yaml"
-    robot.write_text(TWO_LINK)
+    robot.write_text(TWO_LINK.replace("qddd_max: 5000}", "qddd_max: 8e3}"))
     assert main(["show", str(robot)]) == 0                   # qddd_max: 8e3 is a number
     capsys.readouterr()
     path = tmp_path / "job.yaml"
