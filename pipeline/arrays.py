@@ -3,6 +3,8 @@ finite. Anything else is a ConfigurationError naming the argument, never a NumPy
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from .errors import ConfigurationError, shown
@@ -13,22 +15,27 @@ MAX_MAGNITUDE = 1e6
 
 
 def float_array(value, what: str, shape: tuple[int | None, ...] | None = None,
-                max_abs: float | None = None) -> np.ndarray:
-    """``value`` as a finite float array; ``shape`` entries of None match any size; with ``max_abs``,
-    every entry within +-max_abs."""
+                max_abs: float = sys.float_info.max) -> np.ndarray:
+    """``value`` as a finite float array; ``shape`` entries of None match any size; every entry within
+    +-``max_abs``. (A float64 array passes through without a copy: this sits on hot paths.)"""
+    array = value if isinstance(value, np.ndarray) and value.dtype == np.float64 else _as_floats(value, what)
+    if shape is not None and (array.ndim != len(shape)
+                              or any(want is not None and want != got for want, got in zip(shape, array.shape))):
+        expected = "(" + ", ".join("N" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise ConfigurationError(f"{what} must have shape {expected}, got {array.shape}")
+    if array.size and not np.abs(array).max() <= max_abs:        # NaN fails the comparison too
+        if not np.isfinite(array).all():
+            raise ConfigurationError(f"{what} has non-finite values")
+        raise ConfigurationError(f"{what} has values beyond {max_abs:g} (SI units)")
+    return array
+
+
+def _as_floats(value, what: str) -> np.ndarray:
+    """Any array-like of numbers as float64; ConfigurationError for text, objects, booleans, ragged lists."""
     try:
         array = np.asarray(value)
     except (TypeError, ValueError) as exc:          # ragged nesting, unconvertible objects
         raise ConfigurationError(f"{what} must be an array of numbers ({exc})") from exc
     if array.dtype.kind not in "iuf":
         raise ConfigurationError(f"{what} must hold numbers, got {array.dtype} values ({shown(value)})")
-    array = array.astype(float)
-    if shape is not None and (array.ndim != len(shape)
-                              or any(want is not None and want != got for want, got in zip(shape, array.shape))):
-        expected = "(" + ", ".join("N" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
-        raise ConfigurationError(f"{what} must have shape {expected}, got {array.shape}")
-    if not np.isfinite(array).all():
-        raise ConfigurationError(f"{what} has non-finite values")
-    if max_abs is not None and array.size and np.abs(array).max() > max_abs:
-        raise ConfigurationError(f"{what} has values beyond {max_abs:g} (SI units)")
-    return array
+    return array.astype(float)
