@@ -15,7 +15,8 @@ from pipeline.poses import check_pose, quaternion_position_to_pose
 ROBOT = load_robot("gp7")
 NOT_POSES = {"text": "pose", "dict": {"xyz": [0, 0, 0]}, "ragged": [[1, 0, 0, 0], [0, 1, 0]], "none": None,
              "bools": np.eye(4, dtype=bool), "objects": np.array([object()] * 16).reshape(4, 4),
-             "nan": np.full((4, 4), np.nan), "3x3": np.eye(3), "huge rotation": np.eye(4) * 1e308}
+             "nan": np.full((4, 4), np.nan), "inf": np.where(np.eye(4) > 0, np.inf, 0.0), "3x3": np.eye(3),
+             "huge rotation": np.eye(4) * 1e308}
 NOT_CONFIGURATIONS = {"text": "q", "short": [0.0] * 5, "nan": [0, 0, np.nan, 0, 0, 0], "strings": ["a"] * 6,
                       "huge": [1e308] * 6, "none": None, "dict": {"q1": 0}, "ragged": [[0, 0], [0]]}
 
