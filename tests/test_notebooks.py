@@ -64,7 +64,7 @@ def test_committed_notebook_has_no_outputs(path):
 @pytest.fixture
 def kernel_env(tmp_path, monkeypatch):
     """A ``python3`` kernel spec for this interpreter, first on JUPYTER_PATH; the repository first on
-    PYTHONPATH; Agg; the test flag."""
+    PYTHONPATH; Agg; the test flag; the system temp folder inside tmp_path."""
     spec_dir = tmp_path / "jupyter" / "kernels" / "python3"
     spec_dir.mkdir(parents=True)
     (spec_dir / "kernel.json").write_text(json.dumps({
@@ -75,6 +75,8 @@ def kernel_env(tmp_path, monkeypatch):
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.setenv("PIPELINE_NOTEBOOK_TEST", "1")
+    (tmp_path / "tmp").mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))     # the notebooks' scratch folders end with the test
     work = tmp_path / "work"
     work.mkdir()
     return work
