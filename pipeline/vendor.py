@@ -2,7 +2,7 @@
 
 Our model's q3 for the Fanuc LR Mate 200iD is the *serial* J3 angle (the forearm relative to the
 upper arm). Fanuc pendants show J3 relative to the horizontal instead, so that moving J2 alone keeps
-the forearm's attitude: ``J3_pendant = q3 - q2`` (shared/robot_facts.md). The other joints agree.
+the forearm's attitude: ``J3_pendant = q3 - q2`` (models/SOURCES.md). The other joints agree.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from pipeline.robot_spec import parse_robot_spec
 
 from .conftest import DATA_DIR
 
-# shared/robot_facts.md: flange origin [mm], z_flange and x_flange in the base frame, joint axes at q = 0.
+# models/SOURCES.md: flange origin [mm], z_flange and x_flange in the base frame, joint axes at q = 0.
 FLANGE_AT_ZERO = {
     "gp7": ([560, 0, 815], [1, 0, 0], [0, 0, 1]),
     "lrmate200id": ([465, 0, 695], [1, 0, 0], [0, 0, 1]),

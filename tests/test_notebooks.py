@@ -1,5 +1,5 @@
 """The notebooks in notebooks/: one per seed paper, committed without outputs, executed headless, and
-their key numbers asserted against expectations derived here (the seed papers, shared/robot_facts.md,
+their key numbers asserted against expectations derived here (the seed papers, models/SOURCES.md,
 our own FK), not only shown.
 
 Each notebook runs in a fresh ``python3`` kernel of *this* interpreter (a kernel spec written into a
@@ -37,7 +37,7 @@ FINITE_DIFFERENCE = 1e-6    # vs central finite differences [m/rad, 1]
 IK_RESIDUAL = 1e-5          # max |FK(q_ik) - X_target| entry, for methods verified at 1e-6 m / 1e-6 rad
 RATIO_LIMIT = 1.0 + 1e-6    # certify()'s peak/limit ratio bound
 MM = 1e-3
-#: Joint axes at q = 0 of the GP7 and the LR Mate 200iD (shared/robot_facts.md): J1 +z, J2 +y, J3 -y, J4 -x, J5 -y, J6 -x.
+#: Joint axes at q = 0 of the GP7 and the LR Mate 200iD (models/SOURCES.md): J1 +z, J2 +y, J3 -y, J4 -x, J5 -y, J6 -x.
 YASKAWA_FANUC_AXES = [[0, 0, 1], [0, 1, 0], [0, -1, 0], [-1, 0, 0], [0, -1, 0], [-1, 0, 0]]
 
 
