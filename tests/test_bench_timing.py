@@ -79,7 +79,12 @@ def test_json_and_table(report):
     table = report.format_table()
     assert "toppra" in table and "Drake Toppra" in table and "gp7" in table
     assert "compute median ms" in table and "Goals" in table
-    assert ("PASS" in table) or ("FAIL" in table)
+    for name in METHOD_NAMES:                                      # a row per method
+        assert any(line.lstrip().startswith(name) for line in table.splitlines()), name
+    goal_lines = table.split("Goals over all robots and paths:")[1].splitlines()
+    verdicts = [line.split()[0] for line in goal_lines if line.strip() and not line.startswith("versions")]
+    assert verdicts == ["PASS" if goal.passed else "FAIL" for goal in report.goals]
+    assert verdicts[:2] == ["PASS", "PASS"]                        # our gap and our zero violations
 
 
 def test_drake_path_is_our_path():
