@@ -1,0 +1,67 @@
+"""The package installed non-editable, as a user gets it from `pip install .`, works from any
+directory: the presets ship inside it and a demo job runs.
+
+The tracked files are copied to a temporary folder first (so no build/ or egg-info lands in the
+checkout) and installed there with `pip install --no-deps` into a fresh virtual environment; the
+dependencies come from this test's environment through a .pth file placed after the new environment's
+own site-packages, so `pipeline` is imported from the installed copy (asserted).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def tracked_copy(destination: Path) -> Path:
+    files = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
+    for name in files:
+        target = destination / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if (ROOT / name).is_file():
+            shutil.copy2(ROOT / name, target)
+    return destination
+
+
+def fresh_venv(folder: Path) -> Path:
+    """A virtual environment whose own site-packages comes first, then this environment's (for the
+    dependencies), without this environment's editable finder for the checkout."""
+    subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True)
+    python = folder / "bin" / "python"
+    site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                               capture_output=True, text=True, check=True).stdout.strip())
+    ours = sysconfig.get_paths()["purelib"]
+    (site / "zz_test_dependencies.pth").write_text(ours + "\n")   # appended after the venv's own entries
+    return python
+
+
+@pytest.mark.slow
+def test_non_editable_install_works_from_another_directory(tmp_path):
+    source = tracked_copy(tmp_path / "source")
+    python = fresh_venv(tmp_path / "venv")
+    subprocess.run([str(python), "-m", "pip", "install", "--quiet", "--no-deps",
+                    str(source)], check=True, cwd=tmp_path)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    probe = ("import json, pipeline; from pipeline import load_robot, preset_names; "
+             "print(json.dumps({'file': pipeline.__file__, 'presets': preset_names(), "
+             "'flange': load_robot('gp7').fk([0] * 6)[:3, 3].tolist()}))")
+    result = subprocess.run([str(python), "-c", probe], cwd=elsewhere, capture_output=True, text=True, check=True)
+    found = json.loads(result.stdout)
+    assert found["file"].startswith(str(tmp_path / "venv")), found["file"]
+    assert found["presets"] == ["arm5", "arm6", "gp7", "irb1600", "lrmate200id"]
+    assert found["flange"] == pytest.approx([0.56, 0.0, 0.815], abs=1e-12)
+    job = source / "trajectories" / "jobs" / "gp7_pick_place.yaml"
+    run = subprocess.run([str(python), "-m", "pipeline", "run", str(job), "--out", str(elsewhere / "out")],
+                         cwd=elsewhere, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert (elsewhere / "out" / "report.json").is_file() and (elsewhere / "out" / "profile.csv").is_file()
+    assert json.loads((elsewhere / "out" / "report.json").read_text())["limits"]["passed"] is True
