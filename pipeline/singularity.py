@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import float_array
+from .arrays import MAX_MAGNITUDE, float_array
 from .errors import ConfigurationError
 
 #: A singular value below this (relative to the largest) counts as lost rank.
@@ -53,7 +53,7 @@ class SingularityReport:
 
 def compute_singularity(J: np.ndarray) -> SingularityReport:
     """Singularity measures of a (6, dof) Jacobian."""
-    J = float_array(J, "Jacobian", (6, None))
+    J = float_array(J, "Jacobian", (6, None), MAX_MAGNITUDE)
     if J.shape[1] == 0:
         raise ConfigurationError("Jacobian must have at least one column")
     U, s, Vt = np.linalg.svd(J)
