@@ -98,11 +98,11 @@ class _Converter:
 
     def value(self, node, path: Path_) -> Any:
         self.count += 1
+        self.lines.setdefault(path, node.start_mark.line + 1)
         if self.count > MAX_VALUES:
             self.fail(path, f"the file expands to more than {MAX_VALUES} values (aliases of aliases?)")
         if len(path) > MAX_DEPTH:
             self.fail(path, f"is nested more than {MAX_DEPTH} levels deep")
-        self.lines.setdefault(path, node.start_mark.line + 1)
         if isinstance(node, yaml.MappingNode):
             return self.mapping(node, path)
         if isinstance(node, yaml.SequenceNode):
