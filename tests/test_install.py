@@ -4,7 +4,8 @@ directory: the presets ship inside it and a demo job runs.
 The tracked files are copied to a temporary folder first (so no build/ or egg-info lands in the
 checkout) and installed there with `pip install --no-deps` into a fresh virtual environment; the
 dependencies come from this test's environment through a .pth file placed after the new environment's
-own site-packages, so `pipeline` is imported from the installed copy (asserted).
+own site-packages, so `pipeline` is imported from the installed copy (asserted). Everything lives in one
+temporary folder, removed at the end.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -41,6 +43,14 @@ def fresh_venv(folder: Path) -> Path:
     ours = sysconfig.get_paths()["purelib"]
     (site / "zz_test_dependencies.pth").write_text(ours + "\n")   # appended after the venv's own entries
     return python
+
+
+@pytest.fixture
+def tmp_path():
+    """A temporary folder removed when the test ends (pytest's own tmp_path keeps the last runs' folders,
+    here a virtual environment and a copy of the repository)."""
+    with tempfile.TemporaryDirectory(prefix="dh_pipeline_install_") as folder:
+        yield Path(folder).resolve()
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""NumPy reference kinematics: flange poses from robot_facts.md, joint axes, batch = single, shapes."""
+"""NumPy reference kinematics: flange poses from models/SOURCES.md, joint axes, batch = single, shapes."""
 
 from __future__ import annotations
 

@@ -228,7 +228,7 @@ def check_seed003(n: dict) -> None:
     assert n["equation_12_max_error"] > 0.1                      # eq. 12 as printed has two sign errors
     assert n["max_speeds_deg_s"] == pytest.approx([150, 160, 170, 320, 400, 450])
     assert 180 not in [round(v) for v in n["max_speeds_deg_s"]]  # the paper's "180 deg/s"
-    # Reach at the wrist centre from axis 1: a1 + a2 + d4 stretched; "about 1.2 m" (robot_facts, the paper).
+    # Reach at the wrist centre from axis 1: a1 + a2 + d4 stretched; "about 1.2 m" (the paper; models/SOURCES.md).
     assert n["reach_wrist_centre_stretched_m"] == pytest.approx(0.150 + 0.475 + 0.600, abs=1e-12)
     assert 1.1 <= n["reach_wrist_centre_stretched_m"] <= 1.3
     assert 1.2 <= n["reach_wrist_centre_sampled_m"] <= n["reach_wrist_centre_stretched_m"] + 1e-12

@@ -18,7 +18,9 @@ def python_blocks() -> list[str]:
 def test_the_readme_example_runs_as_pasted(tmp_path):
     blocks = python_blocks()
     assert blocks, "the README has no Python example"
-    (tmp_path / "trajectories").symlink_to(ROOT / "trajectories")
+    (tmp_path / "trajectories").mkdir()     # a real folder: only the job files are the repository's
+    (tmp_path / "trajectories" / "jobs").symlink_to(ROOT / "trajectories" / "jobs")
+    jobs_before = sorted(p.name for p in (ROOT / "trajectories" / "jobs").iterdir())
     for k, code in enumerate(blocks):
         script = tmp_path / f"block{k}.py"
         script.write_text(code)
@@ -28,3 +30,4 @@ def test_the_readme_example_runs_as_pasted(tmp_path):
     out = tmp_path / "out" / "gp7"
     assert (out / "report.json").is_file() and (out / "profile.csv").is_file()
     assert "PASS" in result.stdout
+    assert sorted(p.name for p in (ROOT / "trajectories" / "jobs").iterdir()) == jobs_before
