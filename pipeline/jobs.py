@@ -236,7 +236,7 @@ def load_job(path: str | Path) -> Job:
     """Read and validate a job file; relative robot paths in it are relative to the file."""
     path = Path(path)
     document = load_document(path, JobFileError)
-    return _read_job(document, path.parent, path.stem, path.read_bytes())
+    return _read_job(document, path.parent, path.stem, document.content)
 
 
 def _read_job(document: Document, base_dir: Path, name: str, job_bytes: bytes) -> Job:

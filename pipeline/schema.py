@@ -15,6 +15,7 @@ Units (``pipeline.units``) are converted by the readers once: everything after a
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import numbers
@@ -65,11 +66,13 @@ def field_name(path: Path_) -> str:
 
 @dataclass(frozen=True, eq=False)
 class Document:
-    """Plain data read from a file (or given as a mapping), with the 1-based line of each field path."""
+    """Plain data read from a file (or given as a mapping), with the 1-based line of each field path
+    and the file's bytes (``content``, empty for a mapping given in code)."""
 
     data: Any
     source: str
     lines: Mapping[Path_, int] = field(default_factory=dict)
+    content: bytes = b""
 
     def line(self, path: Path_) -> int | None:
         """The line of ``path``, or of its nearest ancestor the file shows (None for a mapping given in code)."""
@@ -147,8 +150,8 @@ class _Converter:
         return text
 
 
-def _read_text(path: Path, fail) -> str:
-    """The file's text: it must exist, be at most MAX_FILE_BYTES and be UTF-8."""
+def _read_bytes(path: Path, fail) -> bytes:
+    """The file's bytes: it must exist and be at most MAX_FILE_BYTES."""
     try:
         with open(path, "rb") as handle:
             raw = handle.read(MAX_FILE_BYTES + 1)
@@ -156,6 +159,11 @@ def _read_text(path: Path, fail) -> str:
         fail((), f"cannot read the file: {exc.strerror or exc}")
     if len(raw) > MAX_FILE_BYTES:
         fail((), f"the file is larger than {MAX_FILE_BYTES // 1024} KiB; is it the right file?")
+    return raw
+
+
+def _decode(raw: bytes, fail) -> str:
+    """UTF-8 text (a byte-order mark is allowed)."""
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -188,10 +196,12 @@ def parse_document(text: str, source: str, file_kind: type[FileFormatError]) -> 
 
 
 def load_document(path: str | Path, file_kind: type[FileFormatError]) -> Document:
-    """Read a YAML file into a Document; any problem is a ``file_kind`` error naming the file."""
+    """Read a YAML file into a Document (``content``: the bytes read); any problem is a ``file_kind``
+    error naming the file."""
     source = str(path)
-    text = _read_text(Path(path), functools.partial(_raise, file_kind, source))
-    return parse_document(text, source, file_kind)
+    fail = functools.partial(_raise, file_kind, source)
+    raw = _read_bytes(Path(path), fail)
+    return dataclasses.replace(parse_document(_decode(raw, fail), source, file_kind), content=raw)
 
 
 class Reader:
