@@ -78,9 +78,10 @@ def cmd_bench(args) -> int:
     if args.out:
         prepare_file_target(args.out)
     if args.suite == "timing":
-        from .bench.timing import ROBOTS, run_timing_benchmark
+        from .bench.timing import METHOD_KEYS, ROBOTS, run_timing_benchmark
 
-        report = run_timing_benchmark(_names(args.robots, ROBOTS), paths=args.paths, seed=args.seed)
+        report = run_timing_benchmark(_names(args.robots, ROBOTS), paths=args.paths, seed=args.seed,
+                                      methods=_names(args.methods, METHOD_KEYS))
     elif args.suite == "ik":
         from .bench.ik import METHODS, ROBOTS, run_ik_benchmark
 
@@ -150,7 +151,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6)")
     bench.add_argument("--paths", type=POSITIVE, default=5, help="timing: seeded random 10-waypoint paths per robot")
-    bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake)")
+    bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake); "
+                       "timing: rows to run (default toppra,raw,drake,topp3,ruckig; toppra always)")
     bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")
     bench.add_argument("--batch", type=POSITIVE, default=100_000, help="kinematics: configurations in the batch timing")
     bench.add_argument("--calls", type=POSITIVE, default=2000, help="kinematics: single calls timed per implementation")

@@ -6,9 +6,13 @@ from __future__ import annotations
 #: Inverse kinematics methods (``pipeline.ik``).
 IK_METHODS = ("auto", "analytic", "jacobian", "drake")
 #: Time parameterisation methods (``pipeline.timing``).
-TIMING_METHODS = ("toppra", "ruckig", "toppra+ruckig")
+TIMING_METHODS = ("toppra", "ruckig", "topp3")
+#: Older names still accepted for a timing method -> the method they now mean.
+TIMING_ALIASES = {"toppra+ruckig": "topp3"}
 #: Geometric joint path shapes through waypoints (``pipeline.path``).
-PATH_SHAPES = ("spline", "linear")
+PATH_SHAPES = ("monotone", "spline", "linear")
+#: The path shape unless a job or call says otherwise: it never leaves the limits the waypoints keep.
+DEFAULT_PATH_SHAPE = "monotone"
 #: Sample time of a timed profile unless a job or call says otherwise [s].
 DEFAULT_DT = 0.004
 #: Most samples a profile may have unless the caller allows more (500,000 x 6 joints x 4 quantities

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .choices import DEFAULT_DT, IK_METHODS, PATH_SHAPES, TIMING_METHODS
+from .choices import DEFAULT_DT, DEFAULT_PATH_SHAPE, IK_METHODS, PATH_SHAPES, TIMING_ALIASES, TIMING_METHODS
 from .errors import JobFileError, RobotNotFoundError
 from .robot import Robot, load_robot
 from .robot_spec import preset_names
@@ -186,7 +186,8 @@ class _JobReader(Reader):
 
     def job(self, robot: Robot, name: str, inputs_sha256: str) -> Job:
         waypoints, start = self.waypoints(robot)
-        timing = self.choice(("timing",), TIMING_METHODS, "toppra")
+        timing = self.choice(("timing",), TIMING_METHODS + tuple(TIMING_ALIASES), "toppra")
+        timing = TIMING_ALIASES.get(timing, timing)
         if timing == "ruckig" and self.has(("path",)):
             self.fail(("path",), "has no effect with timing ruckig, which times waypoint to waypoint; remove it")
         return Job(
@@ -197,7 +198,7 @@ class _JobReader(Reader):
             start=start,
             ik=self.choice(("ik",), IK_METHODS, "auto"),
             timing=timing,
-            path=None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, "spline"),
+            path=None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, DEFAULT_PATH_SHAPE),
             speed_scale=self.number(("speed_scale",), 1.0, low=0.0, high=1.0, low_open=True),
             dt=self.number(("dt",), DEFAULT_DT, *DT_RANGE, unit="s"),
             outputs=self.outputs(),

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import matplotlib
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from .profile import Profile
 
@@ -36,7 +37,8 @@ def _limit_lines(profile: Profile, quantity: str):
 
 def profile_figure(profile: Profile, revolute: Sequence[bool], title: str) -> Figure:
     """Stacked axes q, qd, qdd, jerk (and torque when the profile has it) against t [s], one line per
-    joint, its limits dashed in the same colour (q: min and max; the others: +-limit)."""
+    joint, its limits dashed in the same colour (q: min and max; the others: +-limit, the limits the
+    profile was timed against: the robot's x the speed scale, as the legend says)."""
     quantities = ("q", "qd", "qdd", "qddd") + (("tau",) if profile.tau is not None else ())
     figure = Figure(figsize=(10, 2.75 * len(quantities)), layout="constrained")
     axes = figure.subplots(len(quantities), 1, sharex=True)
@@ -54,7 +56,10 @@ def profile_figure(profile: Profile, revolute: Sequence[bool], title: str) -> Fi
         if bounds is None:
             ax.text(0.99, 0.95, "not limited", transform=ax.transAxes, ha="right", va="top", fontsize=8)
         ax.grid(True, linewidth=0.3)
-    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8, title="joint")
+    handles, _ = axes[0].get_legend_handles_labels()
+    scaled = "" if profile.speed_scale == 1.0 else f" (qd, qdd, jerk x speed scale {profile.speed_scale:g}^1,2,3)"
+    handles.append(Line2D([], [], color="grey", linestyle="--", linewidth=0.7, label="limits" + scaled))
+    axes[0].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8, title="joint")
     axes[-1].set_xlabel("t [s]")
     figure.suptitle(title)
     return figure

@@ -39,7 +39,9 @@ class Profile:
     ``method``: what timed it; ``limits``: the limits it was timed against (after any speed scale;
     ``qddd_max`` None when jerk was not limited); ``details``: what the back end did and changed;
     ``tau`` (N, dof) [N m or N]: joint torques from Drake's inverse dynamics, when torques are limited;
-    ``certificate``: the ``certify`` verdict ``retime`` attached (None on a profile made otherwise).
+    ``certificate``: the ``certify`` verdict ``retime`` attached (None on a profile made otherwise);
+    ``speed_scale`` and ``unscaled_limits``: the limits before the speed scale (the robot's own, unless
+    the caller gave others; None on a profile made otherwise).
     """
 
     t: np.ndarray
@@ -53,6 +55,8 @@ class Profile:
     details: TimingDetails | None = None
     tau: np.ndarray | None = None
     certificate: LimitReport | None = None
+    speed_scale: float = 1.0
+    unscaled_limits: Limits | None = None
 
     @property
     def duration(self) -> float:
@@ -127,6 +131,38 @@ def certify(profile: Profile, limits: Limits | None = None, tolerance: float = C
     worst = float(normalised[worst_quantity][index, joint])
     return LimitReport(ratios, worst_quantity, int(joint), int(index), float(profile.t[index]), worst,
                        bool(worst <= 1.0 + tolerance), tolerance)
+
+
+#: A jerk reversal is a swing from beyond +this fraction of the jerk limit to beyond -this fraction
+#: (or back): smaller wiggles around zero are not counted [1].
+REVERSAL_THRESHOLD = 0.1
+
+
+def jerk_reversal_rate(profile: Profile) -> np.ndarray:
+    """Jerk sign reversals per second of each joint (dof,) [1/s]: swings of qddd between beyond
+    +-REVERSAL_THRESHOLD x qddd_max (the limit the profile was timed against, else the largest |qddd|
+    of the joint). A chattering profile (bang-bang jerk at the sample rate) scores tens per second."""
+    scale = profile.limits.qddd_max if profile.limits.qddd_max is not None else np.abs(profile.qddd).max(axis=0)
+    level = np.sign(profile.qddd) * (np.abs(profile.qddd) >= REVERSAL_THRESHOLD * scale)
+    counts = [int(np.count_nonzero(np.diff(column[column != 0]))) for column in level.T]
+    return np.array(counts) / max(profile.duration, 1e-300)
+
+
+def limit_values(limits: Limits) -> dict:
+    """The limit arrays as JSON-ready lists (None where a quantity is not limited) [SI units]."""
+    return {name: None if value is None else np.asarray(value).tolist()
+            for name, value in dataclasses.asdict(limits).items()}
+
+
+def limits_summary(profile: Profile) -> dict:
+    """Both views of a certified profile's limits, JSON-ready: ``timed`` (the limits it was timed
+    against, i.e. the unscaled ones x speed scale) and ``unscaled`` (the robot's own, unless the caller
+    gave others), each with its values and peak/limit ratios, and the speed scale."""
+    timed = profile.certificate if profile.certificate is not None else certify(profile)
+    unscaled = profile.unscaled_limits if profile.unscaled_limits is not None else profile.limits
+    return {"speed_scale": profile.speed_scale,
+            "timed": {**timed.to_dict(), "values": limit_values(profile.limits)},
+            "unscaled": {**certify(profile, unscaled).to_dict(), "values": limit_values(unscaled)}}
 
 
 def scale_limits(limits: Limits, speed_scale: float) -> Limits:

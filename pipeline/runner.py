@@ -21,7 +21,7 @@ from .errors import ConfigurationError, JobFileError, TimingError
 from .ik import with_drake_model
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, JointWaypoint, load_job
-from .profile import QUANTITIES, LimitReport, Profile
+from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
 from .timing import DEFAULT_MAX_SAMPLES, retime
 from .versions import installed_version
 
@@ -30,7 +30,7 @@ log = logging.getLogger(__name__)
 #: Output kind -> file name inside the output directory.
 FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png",
               "html": "view.html", "arm_png": "arm.png"}
-VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "numpy", "scipy")
+VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "copp-py", "numpy", "scipy")
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,14 +67,21 @@ class JobOutcome:
 
     def summary(self) -> str:
         """A few lines: robot, method, duration, peak/limit ratios, files."""
-        ratios = ", ".join(f"{name} {self.limit_report.max_ratio(name):.4f}"
-                           for name in QUANTITIES if name in self.limit_report.ratios)
+        scale = self.job.speed_scale
         lines = [f"job {self.job.name}: robot {self.job.robot.name}, {len(self.job.waypoints)} waypoints, "
-                 f"timing {self.profile.method}, speed scale {self.job.speed_scale:g}",
+                 f"timing {self.profile.method}, speed scale {scale:g}",
                  f"duration {self.profile.duration:.4f} s, {len(self.profile.t)} samples every {self.job.dt:g} s",
-                 f"peak/limit: {ratios} ({'PASS' if self.limit_report.passed else 'FAIL'})"]
+                 f"peak/limit, limits x speed scale {scale:g}: {_ratios(self.limit_report)} "
+                 f"({'PASS' if self.limit_report.passed else 'FAIL'})"]
+        if scale != 1.0:
+            own = certify(self.profile, self.job.robot.limits)
+            lines.append(f"peak/limit, the robot's own limits: {_ratios(own)}")
         lines += [f"wrote {path}" for path in self.files]
         return "\n".join(lines)
+
+
+def _ratios(report: LimitReport) -> str:
+    return ", ".join(f"{name} {report.max_ratio(name):.4f}" for name in QUANTITIES if name in report.ratios)
 
 
 def solve_waypoints(job: Job) -> list[WaypointIk]:
@@ -112,7 +119,8 @@ def package_versions() -> dict[str, str | None]:
 
 def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile) -> dict:
     """The JSON report: inputs and their hash, methods (``path`` null for ruckig, which times waypoint
-    to waypoint), duration, peak/limit ratios from the profile's certificate, timing details."""
+    to waypoint), duration, the limits (values and peak/limit ratios, against the limits the profile was
+    timed against and against the robot's own, with the speed scale), timing details."""
     return {
         "job": job.name,
         "job_file": job.source,
@@ -125,7 +133,7 @@ def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile) -> dic
         "duration_s": profile.duration,
         "samples": int(len(profile.t)),
         "waypoints": [w.to_dict() for w in waypoints],
-        "limits": profile.certificate.to_dict(),
+        "limits": limits_summary(profile),
         "timing_details": profile.details.to_dict(),
         "versions": package_versions(),
     }

@@ -24,7 +24,9 @@ from pipeline.robot import load_robot
 
 #: Our gap on one path may exceed the issue's 0.5 % goal only in a tiny run's bad luck; 1 % is a bug.
 GAP_BOUND_PCT = 1.0
-GEOMETRY_TOLERANCE = 1e-9
+#: Drake's polynomials are ours interpolated through Chebyshev points: round-off relative to the
+#: largest |q|, |dq/ds|, |d2q/ds2| of the path (up to ~1e3-1e4).
+GEOMETRY_TOLERANCE = 1e-7
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +92,7 @@ def test_json_and_table(report):
 def test_drake_path_is_our_path():
     robot = load_robot("gp7")
     (path, redraws), = random_paths(robot, 1, np.random.default_rng(1))
-    assert redraws >= 0
+    assert redraws == 0                  # the default shape never leaves the limits
     assert max(drake_geometry_error(path, drake_path(path)).values()) < GEOMETRY_TOLERANCE
 
 

@@ -55,7 +55,7 @@ def test_joint_waypoints_are_converted_to_radians_once():
     job = parse_job(ARM5_JOB)
     assert all(isinstance(w, JointWaypoint) for w in job.waypoints)
     np.testing.assert_allclose(job.waypoints[1].q, np.deg2rad([40, 50, 20, 10, 30]), atol=1e-15)
-    assert (job.ik, job.timing, job.path, job.speed_scale, job.dt) == ("auto", "toppra", "spline", 0.8, 0.004)
+    assert (job.ik, job.timing, job.path, job.speed_scale, job.dt) == ("auto", "toppra", "monotone", 0.8, 0.004)
     assert job.outputs == ("csv", "json") and not job.has_poses
 
 

@@ -241,11 +241,11 @@ def check_seed003(n: dict) -> None:
     assert n["inverse_velocity_near_singular"] == {"regular": False, "zero": True}
     assert n["dependent_joints_at_zero"] == [[3, 5]]             # J4 and J6 aligned at q5 = 0
     waypoints = n["waypoints_rad"]
-    assert set(n["timing"]) == {"toppra", "ruckig", "toppra+ruckig"}
+    assert set(n["timing"]) == {"toppra", "ruckig", "topp3"}
     check_profile(n["timing"]["toppra"], waypoints, jerk_limited=False)
     check_profile(n["timing"]["ruckig"], waypoints, jerk_limited=True)
-    check_profile(n["timing"]["toppra+ruckig"], waypoints, jerk_limited=True)
-    assert n["toppra_ruckig_path_deviation"] <= n["toppra_ruckig_path_tolerance"]
+    check_profile(n["timing"]["topp3"], waypoints, jerk_limited=True)
+    assert n["topp3_path_deviation"] == 0.0 and n["jerk_reversals_per_s"]["topp3"] <= 5.0
     assert n["html_bytes"] > 10_000
 
 

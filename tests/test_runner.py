@@ -84,7 +84,7 @@ def test_outputs_hold_the_profile_and_the_report(tmp_path):
     report = json.loads((tmp_path / "arm5" / "report.json").read_text())
     assert report == json.loads(json.dumps(outcome.report))
     assert report["robot"]["name"] == "arm5" and report["duration_s"] == pytest.approx(profile.duration)
-    assert report["limits"]["passed"] and report["method"]["timing"] == "toppra"
+    assert report["limits"]["timed"]["passed"] and report["method"]["timing"] == "toppra"
     assert len(report["inputs_sha256"]) == 64 and report["versions"]["numpy"] == np.__version__
     assert (tmp_path / "arm5" / "profile.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     summary = outcome.summary()

@@ -1,10 +1,10 @@
-"""Time-parameterisation benchmark: our ``retime(method="toppra")`` beside raw toppra and Drake's Toppra.
+"""Time-parameterisation benchmark: our ``retime`` (toppra, topp3, ruckig) beside raw toppra and Drake's Toppra.
 
 Per robot, ``paths`` seeded random paths through ``WAYPOINTS`` = 10 waypoints drawn uniformly in the
 middle 80 % of every joint range (each robot draws from its own generator seeded with ``seed``). The
-path is our not-a-knot cubic spline over chord length, ``make_path(W, q_min, q_max)``; when the
-spline leaves the joint limits between waypoints (``PathError``) the waypoints are drawn again and
-the redraws are counted. Velocity and acceleration limits are the robot's, at rest at both ends.
+path is our default shape, ``make_path(W, q_min, q_max)`` (monotone: it never leaves the limits, so
+no draw is ever rejected; a ``PathError`` would be counted as a redraw). Velocity and acceleration
+limits are the robot's (and its jerk limits for the jerk-limited rows), at rest at both ends.
 
 Every method times the SAME geometric path:
 
@@ -17,10 +17,9 @@ Every method times the SAME geometric path:
   parameter range, + ``compute_trajectory(0, 0)`` with ``ParametrizeConstAccel``. No knots added,
   no check: toppra as a user calls it;
 * Drake's ``Toppra`` at 100 and 1000 grid points (``np.linspace(0, 1, n)``): the path is handed to
-  Drake as ``PiecewisePolynomial.CubicHermite`` with breaks at our knots and our spline's q and
-  dq/ds there. Our spline is one cubic per knot interval, and a cubic is fixed by its values and
-  slopes at both ends, so this IS our path (the largest difference of q, dq/ds and d2q/ds2 on dense
-  samples is reported; round-off, ~1e-12). Drake's plant (``build_drake_robot``) is built once per
+  Drake as a ``PiecewisePolynomial`` with breaks at our knots whose pieces are our septic pieces
+  (interpolated through 8 Chebyshev points each: the same polynomials up to round-off; the largest
+  difference of q, dq/ds and d2q/ds2 on dense samples is reported, ~1e-12 relative). Drake's plant (``build_drake_robot``) is built once per
   robot; ``AddJointVelocityLimit``, ``AddJointAccelerationLimit`` (default kInterpolation),
   ``SolvePathParameterization()``. A ``None`` is a failure; its reason is the message Drake logs;
 * the reference: raw toppra at ``REFERENCE_GRIDPOINTS`` = 10,000 grid points. Its duration is the
@@ -46,8 +45,19 @@ a violation when a ratio exceeds 1 + ``VIOLATION_TOLERANCE`` (the tolerance of `
 that the reference itself exceeds the limits slightly between its grid points (toppra checks
 them only at the grid points), so "the dense optimum" is a hair faster than feasible.
 
-Goals (from the issue): our largest gap <= 0.5 %, zero violations, and our compute time below raw
-toppra at 1000 grid points (median over all paths of the per-path ratio ours / raw toppra 1000).
+Jerk-limited rows, on the same paths, timed and evaluated like ours (jerk limits too):
+``retime(method="topp3")`` (jerk-limited path following) and ``retime(method="ruckig")`` (waypoint
+to waypoint, at rest at each). For each: the duration over our toppra's on the same path
+(``duration_ratios``), jerk sign reversals per joint per second (``jerk_reversal_rate``: swings
+beyond +-10 % of the jerk limit), and for topp3 the path deviation measured both ways: the largest
+distance from a profile sample to the path (each sample's nearest path point, found by Newton's
+method from the nearest of DEVIATION_POINTS path samples) and from a path point to the nearest
+sample (at most half the largest step between samples when the profile covers the path).
+
+Goals (from the issues): our toppra's largest gap <= 0.5 %, zero violations (every row of ours), our
+toppra compute time below raw toppra at 1000 grid points (median over all paths of the per-path
+ratio), and for topp3: duration <= 1.15x toppra's (median) and <= 1.3x (max), <= 5 jerk reversals
+per joint per second, path deviation <= 1e-6 rad.
 """
 
 from __future__ import annotations
@@ -63,13 +73,14 @@ import numpy as np
 from ..errors import ConfigurationError
 from ..progress import Progress
 from ..path import JointPath, PathError, make_path
-from ..profile import CERTIFY_TOLERANCE
+from ..profile import CERTIFY_TOLERANCE, jerk_reversal_rate
 from ..versions import version_table
 from ..robot import Robot, load_robot
 from ..robot_spec import Limits
 from ..timing import retime
 from ..timing import toppra_backend
 from ..timing.toppra_backend import GRIDPOINTS, toppra_instance
+from ..timing.topp3_backend import MAX_STATIONS, MIN_STATIONS
 
 ROBOTS = ("gp7", "lrmate200id", "irb1600", "arm6")
 WAYPOINTS = 10
@@ -80,10 +91,23 @@ VIOLATION_TOLERANCE = CERTIFY_TOLERANCE
 REFERENCE_GRIDPOINTS = 10_000
 RAW_GRIDPOINTS = (100, 1000)
 
+DRAKE_DEGREE = 7                    # the monotone shape's septic pieces (the spline's cubics fit too)
+DEVIATION_POINTS = 200_001          # path samples that seed the nearest-point search,
+DEVIATION_SEEDS = 8                 # how many of the nearest seed it,
+NEWTON_STEPS = 8                    # and its Newton steps
+
 GAP_GOAL_PCT = 0.5
 COMPUTE_GOAL_RATIO = 1.0
+TOPP3_MEDIAN_RATIO_GOAL = 1.15
+TOPP3_MAX_RATIO_GOAL = 1.3
+REVERSAL_GOAL = 5.0                 # jerk sign reversals per joint per second
+DEVIATION_GOAL = 1e-6               # [rad]
 
 OURS = f"ours: retime toppra ({GRIDPOINTS} grid points + knots, certified)"
+TOPP3 = f"ours: retime topp3 ({MIN_STATIONS}-{MAX_STATIONS} stations, jerk-limited path following)"
+RUCKIG = "ours: retime ruckig (jerk-limited, waypoint to waypoint)"
+#: ``--methods`` keys -> the rows they add (the reference always runs).
+METHOD_KEYS = ("toppra", "raw", "drake", "topp3", "ruckig")
 REFERENCE = f"toppra, {REFERENCE_GRIDPOINTS} grid points (reference)"
 
 
@@ -96,7 +120,8 @@ def drake_name(gridpoints: int) -> str:
 
 
 TOPPRA_1000 = toppra_name(1000)
-METHOD_NAMES = (OURS, *(toppra_name(n) for n in RAW_GRIDPOINTS), *(drake_name(n) for n in RAW_GRIDPOINTS), REFERENCE)
+METHOD_NAMES = (OURS, *(toppra_name(n) for n in RAW_GRIDPOINTS), *(drake_name(n) for n in RAW_GRIDPOINTS), TOPP3,
+                RUCKIG, REFERENCE)
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +130,9 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class MethodRun:
     """One method on one path. ``duration_s``, ``gap_pct`` (to the reference) and the peak ratios are
-    None when the method (or, for the gap, the reference) failed; ``failure`` says why."""
+    None when the method (or, for the gap, the reference) failed; ``failure`` says why. Jerk-limited
+    rows also have ``max_qddd_ratio``, ``reversals_per_s`` (the largest joint's) and, for topp3, the
+    path deviation [rad] both ways (profile to path, path to profile)."""
 
     duration_s: float | None
     gap_pct: float | None
@@ -114,12 +141,16 @@ class MethodRun:
     compute_ms: float
     samples: int
     failure: str = ""
+    max_qddd_ratio: float | None = None
+    reversals_per_s: float | None = None
+    deviation_to_path: float | None = None
+    deviation_from_path: float | None = None
 
     @property
     def violation(self) -> bool:
         """A ratio above 1 + VIOLATION_TOLERANCE (False when there is no trajectory: a failure)."""
-        return (self.max_qd_ratio is not None
-                and max(self.max_qd_ratio, self.max_qdd_ratio) > 1.0 + VIOLATION_TOLERANCE)
+        ratios = (self.max_qd_ratio, self.max_qdd_ratio, self.max_qddd_ratio)
+        return self.max_qd_ratio is not None and max(r for r in ratios if r is not None) > 1.0 + VIOLATION_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -138,7 +169,10 @@ class PathRecord:
 class TimingRow:
     """One method on one robot. Compute times [ms] per call, failed calls included; gaps [%] to the
     reference duration over the paths both solved; peak ratios over all solved paths; ``violations``:
-    solved paths with a ratio above 1 + VIOLATION_TOLERANCE; ``failures``: paths with no trajectory."""
+    solved paths with a ratio above 1 + VIOLATION_TOLERANCE; ``failures``: paths with no trajectory.
+    Jerk-limited rows: duration over our toppra's on the same path (median, max), jerk reversals per
+    joint per second (median and max over paths of the largest joint's), and for topp3 the largest
+    distance of a sample from the path and of a path point from the nearest sample [rad]."""
 
     name: str
     ours: bool
@@ -152,6 +186,12 @@ class TimingRow:
     violations: int
     failures: int
     first_failure: str = ""
+    duration_ratio_median: float | None = None
+    duration_ratio_max: float | None = None
+    reversals_median_per_s: float | None = None
+    reversals_max_per_s: float | None = None
+    deviation_max: float | None = None
+    coverage_max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -217,8 +257,11 @@ class TimingBenchReport:
         ]
         for robot in self.robots:
             lines += ["", f"{robot.robot_name} ({robot.dof} dof), {robot.paths} paths "
-                          f"({robot.redraws} waypoint draws rejected: the spline left the limits)",
+                          f"({robot.redraws} waypoint draws rejected: the path left the limits)",
                       *_table(robot.rows)]
+            jerk_rows = [row for row in robot.rows if row.duration_ratio_median is not None]
+            if jerk_rows:
+                lines += ["  jerk-limited (same paths):", *_jerk_table(jerk_rows)]
             lines.append(f"  ours / {TOPPRA_1000} compute time: median of per-path ratios {robot.compute_ratio:.3g}x "
                          f"(per path: {', '.join(f'{r:.3g}' for r in robot.compute_ratios)})")
             error = robot.drake_geometry_error
@@ -253,6 +296,19 @@ def _table(rows: tuple[TimingRow, ...]) -> list[str]:
     body = [(r.name, f"{r.compute_median_ms:.1f}", _fmt(r.gap_median_pct, "+.3f"), _fmt(r.gap_max_pct, "+.3f"),
              _fmt(r.max_qd_ratio, ".6f"), _fmt(r.max_qdd_ratio, ".6f"), str(r.violations), str(r.failures))
             for r in rows]
+    return _aligned(head, body)
+
+
+def _jerk_table(rows: list[TimingRow]) -> list[str]:
+    head = ("method", "x toppra median", "x toppra max", "jerk reversals/s median", "max",
+            "sample to path rad", "path to sample rad")
+    body = [(r.name, _fmt(r.duration_ratio_median, ".3f"), _fmt(r.duration_ratio_max, ".3f"),
+             _fmt(r.reversals_median_per_s, ".2f"), _fmt(r.reversals_max_per_s, ".2f"), _fmt(r.deviation_max, ".2g"),
+             _fmt(r.coverage_max, ".2g")) for r in rows]
+    return _aligned(head, body)
+
+
+def _aligned(head: tuple[str, ...], body: list[tuple[str, ...]]) -> list[str]:
     widths = [max(len(row[c]) for row in (head, *body)) for c in range(len(head))]
     return ["  " + "  ".join(v.ljust(w) if c == 0 else v.rjust(w) for c, (v, w) in enumerate(zip(row, widths)))
             for row in (head, *body)]
@@ -260,8 +316,8 @@ def _table(rows: tuple[TimingRow, ...]) -> list[str]:
 
 # -- the paths --------------------------------------------------------------------------------------
 def random_paths(robot: Robot, count: int, rng: np.random.Generator) -> list[tuple[JointPath, int]]:
-    """``count`` spline paths through WAYPOINTS random waypoints in the middle 80 % of the ranges,
-    each with the number of draws rejected before it (the spline left the limits)."""
+    """``count`` paths (default shape) through WAYPOINTS random waypoints in the middle 80 % of the
+    ranges, each with the number of draws rejected before it (the path left the limits)."""
     limits = robot.limits
     paths = []
     for _ in range(count):
@@ -275,7 +331,7 @@ def random_paths(robot: Robot, count: int, rng: np.random.Generator) -> list[tup
             break
         else:
             raise ConfigurationError(f"{robot.name}: {MAX_REDRAWS + 1} random draws of {WAYPOINTS} waypoints all "
-                                     "gave a spline that leaves the joint limits")
+                                     "gave a path that leaves the joint limits")
     return paths
 
 
@@ -284,13 +340,17 @@ def random_paths(robot: Robot, count: int, rng: np.random.Generator) -> list[tup
 class Evaluation:
     """A solved trajectory seen at its evaluation samples: duration [s], qd and qdd (n, dof);
     ``time_stretch``: the uniform slow-down our certification applied, ``duration_change``: the
-    relative change of duration from the timed profile to the dense one (ours only)."""
+    relative change of duration from the timed profile to the dense one (ours only); jerk-limited rows:
+    ``qddd``, ``reversals_per_s`` (largest joint) and for topp3 ``deviation`` (to, from the path) [rad]."""
 
     duration: float
     qd: np.ndarray
     qdd: np.ndarray
     time_stretch: float | None = None
     duration_change: float | None = None
+    qddd: np.ndarray | None = None
+    reversals_per_s: float | None = None
+    deviation: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -304,20 +364,48 @@ class Method:
     none_means: str = "returned None"
 
 
-def ours_method(robot: Robot) -> Method:
-    """``retime(robot, path, method="toppra")``, timed whole; evaluated by a dense second retime."""
+def ours_method(robot: Robot, timing: str = "toppra", name: str = OURS) -> Method:
+    """``retime(robot, path, method=timing)``, timed whole; evaluated by a dense second retime. The
+    jerk-limited methods also get their jerk reversals and (topp3) path deviation measured."""
+    waypoints_only = timing == "ruckig"
 
     def solve(path: JointPath):
-        return retime(robot, path, method="toppra")
+        return retime(robot, path.waypoints if waypoints_only else path, method=timing)
 
     def evaluate(path: JointPath, profile) -> Evaluation | str:
         # retime certifies the dense profile itself (and raises if it fails): the ratios below are
         # measured again, by the same formula as every other row's.
-        dense = retime(robot, path, method="toppra", dt=profile.duration / (SAMPLES - 1))
-        return Evaluation(dense.duration, dense.qd, dense.qdd, dense.details.time_stretch,
-                          dense.duration / profile.duration - 1.0)
+        dense = retime(robot, path.waypoints if waypoints_only else path, method=timing,
+                       dt=profile.duration / (SAMPLES - 1))
+        jerk = timing != "toppra"
+        return Evaluation(dense.duration, dense.qd, dense.qdd, getattr(dense.details, "time_stretch", None),
+                          dense.duration / profile.duration - 1.0, dense.qddd if jerk else None,
+                          float(jerk_reversal_rate(profile).max()) if jerk else None,
+                          path_deviation(path, dense.q) if timing == "topp3" else None)
 
-    return Method(OURS, solve, evaluate)
+    return Method(name, solve, evaluate)
+
+
+def path_deviation(path: JointPath, q: np.ndarray) -> tuple[float, float]:
+    """(largest distance from a sample q (n, dof) to the path, largest distance from a path point to
+    the nearest sample) [rad]. Each sample's nearest path point: Newton's method on
+    (q(s) - q) . q'(s) = 0 from each of the DEVIATION_SEEDS nearest of DEVIATION_POINTS path samples
+    (near a waypoint where the path turns back, both branches are close), the nearest result kept."""
+    from scipy.spatial import cKDTree
+
+    s_dense = np.linspace(0.0, 1.0, DEVIATION_POINTS)
+    dense = path(s_dense)
+    from_path = float(cKDTree(q).query(dense)[0].max())
+    seeds = cKDTree(dense).query(q, k=DEVIATION_SEEDS)[1]                       # (n, seeds)
+    targets = np.repeat(q, DEVIATION_SEEDS, axis=0)
+    s = s_dense[seeds.ravel()]
+    for _ in range(NEWTON_STEPS):
+        error, d1, d2 = path(s) - targets, path(s, 1), path(s, 2)
+        slope = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", error, d2)
+        step = np.einsum("ij,ij->i", error, d1) / np.where(slope > 0.0, slope, np.inf)
+        s = np.clip(s - step, 0.0, 1.0)
+    distance = np.linalg.norm(path(s) - targets, axis=1).reshape(len(q), DEVIATION_SEEDS).min(axis=1)
+    return float(distance.max()), from_path
 
 
 def toppra_geometry(path: JointPath) -> tuple[toppra_backend.ArcLengthPath, float]:
@@ -362,14 +450,21 @@ class _DrakeLog(logging.Handler):
 
 
 def drake_path(path: JointPath):
-    """Our spline as a Drake PiecewisePolynomial: cubic Hermite at our knots with our q and dq/ds there.
-
-    Exact up to round-off: each piece of our spline is a cubic, fixed by its end values and slopes.
-    """
+    """Our path as a Drake PiecewisePolynomial with breaks at our knots: each segment's polynomial
+    (degree DRAKE_DEGREE, which our pieces do not exceed) interpolated through that many + 1 Chebyshev
+    points of it, so it is our path up to round-off (the difference is reported)."""
+    from pydrake.polynomial import Polynomial
     from pydrake.trajectories import PiecewisePolynomial
 
-    s = path.s_waypoints
-    return PiecewisePolynomial.CubicHermite(s, path(s).T, path(s, 1).T)
+    knots = path.s_waypoints
+    count = DRAKE_DEGREE + 1
+    t = (1.0 - np.cos(np.pi * (np.arange(count) + 0.5) / count)) / 2.0
+    vandermonde = np.vander(t, count, increasing=True)
+    pieces = []
+    for start, length in zip(knots[:-1], np.diff(knots)):
+        coefficients = np.linalg.solve(vandermonde, path(start + length * t)) / length ** np.arange(count)[:, None]
+        pieces.append(np.array([[Polynomial(coefficients[:, j])] for j in range(path.dof)], dtype=object))
+    return PiecewisePolynomial(pieces, list(knots))
 
 
 def drake_geometry_error(path: JointPath, polynomial) -> dict[str, float]:
@@ -435,11 +530,17 @@ def _run_once(method: Method, path: JointPath) -> tuple[object, float, str]:
     return result, elapsed, failure
 
 
-def _row(name: str, runs: list[MethodRun]) -> TimingRow:
+def _row(name: str, runs: list[MethodRun], toppra_runs: list[MethodRun] | None = None) -> TimingRow:
     solved = [r for r in runs if r.duration_s is not None]
     gaps = [r.gap_pct for r in solved if r.gap_pct is not None]
     compute = [r.compute_ms for r in runs]
     failures = [r for r in runs if r.failure]
+    ratios = [r.duration_s / t.duration_s for r, t in zip(runs, toppra_runs or ())
+              if r.duration_s is not None and t.duration_s is not None]
+    reversals = [r.reversals_per_s for r in solved if r.reversals_per_s is not None]
+    deviations = [r.deviation_to_path for r in solved if r.deviation_to_path is not None]
+    coverage = [r.deviation_from_path for r in solved if r.deviation_from_path is not None]
+    jerk = bool(reversals)
     return TimingRow(
         name=name, ours=name == OURS, paths=len(runs),
         compute_median_ms=float(np.median(compute)), compute_max_ms=float(np.max(compute)),
@@ -448,23 +549,39 @@ def _row(name: str, runs: list[MethodRun]) -> TimingRow:
         max_qdd_ratio=max((r.max_qdd_ratio for r in solved), default=None),
         violations=sum(r.violation for r in solved), failures=len(failures),
         first_failure=failures[0].failure if failures else "",
+        duration_ratio_median=float(np.median(ratios)) if jerk and ratios else None,
+        duration_ratio_max=float(np.max(ratios)) if jerk and ratios else None,
+        reversals_median_per_s=float(np.median(reversals)) if jerk else None,
+        reversals_max_per_s=float(np.max(reversals)) if jerk else None,
+        deviation_max=max(deviations) if deviations else None,
+        coverage_max=max(coverage) if coverage else None,
     )
 
 
-def benchmark_robot(robot: Robot, paths: int, seed: int) -> TimingRobotReport:
-    """Every method on ``paths`` seeded random paths of one robot, interleaved."""
+def benchmark_robot(robot: Robot, paths: int, seed: int, methods: tuple[str, ...] = METHOD_KEYS) -> TimingRobotReport:
+    """The chosen ``methods`` (METHOD_KEYS) and the reference on ``paths`` seeded random paths of one
+    robot, interleaved."""
     from ..drake_model import build_drake_robot
 
     limits = robot.limits
     if limits.qdd_max is None:
         raise ConfigurationError(f"{robot.name}: the timing benchmark needs acceleration limits (qdd_max)")
+    unknown = sorted(set(methods) - set(METHOD_KEYS))
+    if unknown or "toppra" not in methods:
+        raise ConfigurationError(f"timing benchmark methods must include toppra and come from {', '.join(METHOD_KEYS)}, "
+                                 f"got {', '.join(methods)}")
     drawn = random_paths(robot, paths, np.random.default_rng(seed))
-    plant = build_drake_robot(robot.spec).plant
-    polynomials = {id(path): drake_path(path) for path, _ in drawn}
-    geometry = [drake_geometry_error(path, polynomials[id(path)]) for path, _ in drawn]
-
-    methods = [ours_method(robot), *(raw_toppra_method(limits, n) for n in RAW_GRIDPOINTS),
-               *(drake_toppra_method(robot, plant, n, polynomials) for n in RAW_GRIDPOINTS),
+    polynomials, geometry, drake_rows = {}, [], []
+    if "drake" in methods:
+        plant = build_drake_robot(robot.spec).plant
+        polynomials = {id(path): drake_path(path) for path, _ in drawn}
+        geometry = [drake_geometry_error(path, polynomials[id(path)]) for path, _ in drawn]
+        drake_rows = [drake_toppra_method(robot, plant, n, polynomials) for n in RAW_GRIDPOINTS]
+    methods = [ours_method(robot),
+               *((raw_toppra_method(limits, n) for n in RAW_GRIDPOINTS) if "raw" in methods else ()),
+               *drake_rows,
+               *((ours_method(robot, "topp3", TOPP3),) if "topp3" in methods else ()),
+               *((ours_method(robot, "ruckig", RUCKIG),) if "ruckig" in methods else ()),
                raw_toppra_method(limits, REFERENCE_GRIDPOINTS, REFERENCE)]
     for method in methods:                                  # warm-up: imports, caches; not counted
         _run_once(method, drawn[0][0])
@@ -503,17 +620,23 @@ def benchmark_robot(robot: Robot, paths: int, seed: int) -> TimingRobotReport:
             else:
                 qd_ratio, qdd_ratio = _peak_ratios(evaluation, limits)
                 gap = None if ref_duration is None else 100.0 * (evaluation.duration / ref_duration - 1.0)
-                run = MethodRun(evaluation.duration, gap, qd_ratio, qdd_ratio, compute_ms, len(evaluation.qd))
+                qddd_ratio = (None if evaluation.qddd is None
+                              else float((np.abs(evaluation.qddd) / limits.qddd_max).max()))
+                to_path, from_path = evaluation.deviation or (None, None)
+                run = MethodRun(evaluation.duration, gap, qd_ratio, qdd_ratio, compute_ms, len(evaluation.qd),
+                                max_qddd_ratio=qddd_ratio, reversals_per_s=evaluation.reversals_per_s,
+                                deviation_to_path=to_path, deviation_from_path=from_path)
             runs[method.name] = run
             runs_by_method[method.name].append(run)
         records.append(PathRecord(p, redraws, path.length, path.waypoints.tolist(), runs))
 
-    ratios = [o.compute_ms / t.compute_ms for o, t in zip(runs_by_method[OURS], runs_by_method[TOPPRA_1000])]
+    peer = runs_by_method.get(TOPPRA_1000) or runs_by_method[REFERENCE]
+    ratios = [o.compute_ms / t.compute_ms for o, t in zip(runs_by_method[OURS], peer)]
     return TimingRobotReport(
         robot_name=robot.name, dof=robot.dof, paths=paths, redraws=sum(r for _, r in drawn),
-        rows=tuple(_row(m.name, runs_by_method[m.name]) for m in methods),
+        rows=tuple(_row(m.name, runs_by_method[m.name], runs_by_method[OURS]) for m in methods),
         compute_ratio=float(np.median(ratios)), compute_ratios=ratios,
-        drake_geometry_error={key: max(g[key] for g in geometry) for key in geometry[0]},
+        drake_geometry_error={key: max(g[key] for g in geometry) for key in geometry[0]} if geometry else {},
         our_time_stretch=max(stretches, default=None),
         our_dense_duration_change=max(changes, key=abs, default=None),
         records=tuple(records),
@@ -530,29 +653,62 @@ def evaluate_goals(robots: tuple[TimingRobotReport, ...]) -> tuple[Goal, ...]:
     ratios = [ratio for robot in robots for ratio in robot.compute_ratios]
     gap_max = max(gaps, default=None)
     ratio = float(np.median(ratios))
+    return (*_toppra_goals(gap_max, unmeasured, violations, failures, len(ours), ratio), *_topp3_goals(robots))
+
+
+def _toppra_goals(gap_max, unmeasured, violations, failures, count, ratio) -> tuple[Goal, ...]:
     return (
         Goal("our largest duration gap to the dense optimum [%]", gap_max,
              f"<= {GAP_GOAL_PCT} %" + (f"; {unmeasured} path(s) without a gap" if unmeasured else ""),
              gap_max is not None and unmeasured == 0 and gap_max <= GAP_GOAL_PCT),
         Goal("our limit violations (paths; failures count too)", float(violations + failures),
-             f"= 0 over {len(ours)} paths ({failures} failed)", violations + failures == 0),
+             f"= 0 over {count} paths ({failures} failed)", violations + failures == 0),
         Goal(f"our compute time / {TOPPRA_1000} (median of per-path ratios)", ratio,
              f"< {COMPUTE_GOAL_RATIO:g}", ratio < COMPUTE_GOAL_RATIO),
     )
 
 
-def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0) -> TimingBenchReport:
-    """Ours beside raw toppra (100, 1000 grid points) and Drake's Toppra (100, 1000) on each robot.
+def _topp3_goals(robots: tuple[TimingRobotReport, ...]) -> tuple[Goal, ...]:
+    """topp3's goals over all robots and paths (none when topp3 did not run)."""
+    runs = [(record.runs[TOPP3], record.runs[OURS]) for robot in robots for record in robot.records
+            if TOPP3 in record.runs]
+    if not runs:
+        return ()
+    solved = [(r, t) for r, t in runs if r.duration_s is not None and t.duration_s is not None]
+    ratios = [r.duration_s / t.duration_s for r, t in solved]
+    bad = sum(r.violation for r, _ in runs) + sum(r.duration_s is None for r, _ in runs)
+    reversals = max((r.reversals_per_s for r, _ in solved), default=None)
+    deviation = max((r.deviation_to_path for r, _ in solved),
+                    default=None)
+    median, largest = (float(np.median(ratios)), float(np.max(ratios))) if ratios else (None, None)
+    return (
+        Goal("topp3 duration / our toppra's (median)", median, f"<= {TOPP3_MEDIAN_RATIO_GOAL}",
+             median is not None and median <= TOPP3_MEDIAN_RATIO_GOAL),
+        Goal("topp3 duration / our toppra's (max)", largest, f"<= {TOPP3_MAX_RATIO_GOAL}",
+             largest is not None and largest <= TOPP3_MAX_RATIO_GOAL),
+        Goal("topp3 jerk reversals per joint per second (max)", reversals, f"<= {REVERSAL_GOAL:g}",
+             reversals is not None and reversals <= REVERSAL_GOAL),
+        Goal("topp3 distance of a sample from the path [rad] (max)", deviation, f"<= {DEVIATION_GOAL:g}",
+             deviation is not None and deviation <= DEVIATION_GOAL),
+        Goal("topp3 violations and failures (paths)", float(bad), f"= 0 over {len(runs)} paths", bad == 0),
+    )
+
+
+def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0,
+                         methods: tuple[str, ...] = METHOD_KEYS) -> TimingBenchReport:
+    """Ours (toppra, topp3, ruckig) beside raw toppra (100, 1000 grid points) and Drake's Toppra
+    (100, 1000) on each robot.
 
     ``robots``: preset names or robot files; ``paths``: seeded random 10-waypoint paths per robot;
-    ``seed``: of the waypoints (each robot draws from its own generator seeded with it).
+    ``seed``: of the waypoints (each robot draws from its own generator seeded with it); ``methods``:
+    which rows run (METHOD_KEYS; toppra always, and the reference).
     """
     if paths < 1:
         raise ConfigurationError(f"paths must be >= 1, got {paths}")
     robots = (robots,) if isinstance(robots, str) else tuple(robots)
     if not robots:
         raise ConfigurationError("no robots to benchmark")
-    reports = tuple(benchmark_robot(load_robot(name), paths, seed) for name in robots)
-    versions = version_table("numpy", "scipy", "toppra", "drake")
+    reports = tuple(benchmark_robot(load_robot(name), paths, seed, tuple(methods)) for name in robots)
+    versions = version_table("numpy", "scipy", "toppra", "drake", "ruckig", "copp-py")
     return TimingBenchReport(paths=paths, seed=seed, waypoints=WAYPOINTS, samples=SAMPLES, robots=reports,
                              goals=evaluate_goals(reports), versions=versions)

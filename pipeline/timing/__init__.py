@@ -1,8 +1,9 @@
 """Time parameterisation behind one function: ``retime(robot, path_or_waypoints, method=...)``.
 
 Methods: ``toppra`` (time-optimal along the path, velocity and acceleration limits), ``ruckig``
-(jerk-limited, waypoint to waypoint), ``toppra+ruckig`` (jerk-limited and following the path within
-a stated tolerance). Every profile is certified by ``pipeline.profile.certify`` before it is
+(jerk-limited, waypoint to waypoint, exact), ``topp3`` (jerk-limited path following: a third-order
+time parameterisation of the path itself, so every sample is on the path; ``toppra+ruckig`` is its
+older name). Every profile is certified by ``pipeline.profile.certify`` before it is
 returned, with the verdict attached (``profile.certificate``): a profile that fails is an error,
 never a result. A profile that would have more than ``max_samples`` samples is refused before they
 are made (ProfileSizeError).
@@ -14,7 +15,7 @@ import dataclasses
 
 import numpy as np
 
-from ..choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, TIMING_METHODS
+from ..choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, DEFAULT_PATH_SHAPE, TIMING_ALIASES, TIMING_METHODS
 from ..errors import ConfigurationError, TimingError
 from ..path import JointPath, make_path
 from ..profile import Profile, certify, scale_limits
@@ -24,7 +25,7 @@ METHODS = TIMING_METHODS
 
 
 def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
-           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = "spline",
+           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = DEFAULT_PATH_SHAPE,
            max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, **options) -> Profile:
     """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits.
 
@@ -37,13 +38,15 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
     duration is known, before they are made. ``drake``: the robot's DrakeRobot for the inverse
     dynamics (built here when torques are limited and none is given; pass one to reuse it).
     """
+    method = TIMING_ALIASES.get(method, method)
     if method not in METHODS:
         raise ConfigurationError(f"unknown timing method {method!r}; choose one of {', '.join(METHODS)}")
     if not np.isfinite(dt) or dt <= 0.0:
         raise ConfigurationError(f"dt must be a positive number of seconds, got {dt}")
     if isinstance(max_samples, bool) or not isinstance(max_samples, (int, np.integer)) or max_samples < 2:
         raise ConfigurationError(f"max_samples must be an integer of at least 2, got {max_samples!r}")
-    limits = scale_limits(robot.limits if limits is None else limits, speed_scale)
+    unscaled = robot.limits if limits is None else limits
+    limits = scale_limits(unscaled, speed_scale)
     names = tuple(robot.joint_names)
     inverse_dynamics = None
     if limits.tau_max is not None:
@@ -65,15 +68,16 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
             profile = retime_toppra(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
                                     max_samples=max_samples, **options)
         else:
-            from .ruckig_backend import retime_toppra_ruckig
+            from .topp3_backend import retime_topp3
 
-            profile = retime_toppra_ruckig(path, limits, dt, names, max_samples=max_samples, **options)
+            profile = retime_topp3(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
+                                   max_samples=max_samples, **options)
     if inverse_dynamics is not None:
         profile = dataclasses.replace(profile, tau=inverse_dynamics(profile.q, profile.qd, profile.qdd))
     report = certify(profile)
     if not report.passed:
         raise TimingError(f"{method} profile failed certification: {report}")
-    return dataclasses.replace(profile, certificate=report)
+    return dataclasses.replace(profile, certificate=report, speed_scale=float(speed_scale), unscaled_limits=unscaled)
 
 
 __all__ = ["DEFAULT_MAX_SAMPLES", "METHODS", "retime"]

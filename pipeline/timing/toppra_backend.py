@@ -5,9 +5,13 @@ acceleration ``u_i`` on each interval, and checks the limits only at the grid po
 the joint acceleration ``q'(s) u + q''(s) sd^2`` drifts past the limit (measured: up to 1.7 % at 100
 grid points). We take its grid solution and evaluate that constant-acceleration parameterisation
 ourselves, exactly and vectorised (``s = s_i + sd_i tau + u_i tau^2 / 2``), sample every interval
-densely, and when a sample exceeds a limit slow the whole trajectory uniformly by the smallest
-factor k that brings every sample back (velocity / k, acceleration / k^2), and report k. If toppra
-fails, the grid is refined and the solve retried, and that is reported too.
+densely, and where a grid interval exceeds a limit we split it and solve again (toppra then
+constrains the new grid points), up to REFINE_ROUNDS times; whatever excess is left is removed by
+slowing the whole trajectory uniformly by the smallest factor k that brings every sample back
+(velocity / k, acceleration / k^2), and k is reported. If toppra fails, the grid is refined and the
+solve retried, and that is reported too. Limits are normalised to a median velocity limit of 1
+before toppra sees them (a speed scale of 0.001 would otherwise leave it with 1e-6 accelerations),
+and the result scaled back exactly.
 """
 
 from __future__ import annotations
@@ -25,8 +29,8 @@ from ..robot_spec import Limits
 
 #: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
 #: benchmark paths, see ``python -m pipeline bench timing``), and of the retries.
-GRIDPOINTS = 600
-RETRY_GRIDPOINTS = (1000, 3000)
+GRIDPOINTS = 1500
+RETRY_GRIDPOINTS = (3000, 6000)
 #: Grid density floors: uniform points per waypoint segment, and points per smooth piece of the path.
 POINTS_PER_SEGMENT = 60
 POINTS_PER_PIECE = 8
@@ -34,6 +38,13 @@ POINTS_PER_PIECE = 8
 CHECK_SAMPLES_PER_INTERVAL = 16
 #: Slow down by this much more than the measured excess, so the check passes with room [1].
 STRETCH_MARGIN = 1e-9
+#: Rounds of splitting the grid intervals whose dense check exceeds a limit by more than
+#: REFINE_EXCESS (smaller excesses are left to the uniform slow-down), the pieces each is split into,
+#: and the largest grid refining may make, in multiples of the first grid.
+REFINE_ROUNDS = 3
+REFINE_EXCESS = 5e-4
+REFINE_SPLIT = 4
+REFINE_GROWTH = 4
 
 
 class ArcLengthPath:
@@ -145,13 +156,58 @@ class GridTiming:
         return (self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel()
 
 
-def solve_grid_timing(path: ArcLengthPath, limits: Limits, gridpoints: int, inverse_dynamics=None) -> GridTiming | None:
-    """toppra's grid solution as a GridTiming, or None when toppra fails on this grid."""
-    grid = path.gridpoints(gridpoints)
+def solve_grid_timing(path: ArcLengthPath, limits: Limits, grid, inverse_dynamics=None) -> GridTiming | None:
+    """toppra's solution on ``grid`` (an array of path positions, or a point count for
+    ``path.gridpoints``) as a GridTiming, or None when toppra fails on it."""
+    grid = path.gridpoints(grid) if np.isscalar(grid) else grid
     _, sd, _ = toppra_instance(path, limits, grid, inverse_dynamics).compute_parameterization(0.0, 0.0)
     if sd is None or not np.all(np.isfinite(sd)):
         return None
     return GridTiming.from_grid(grid, sd)
+
+
+def in_velocity_unit(limits: Limits, unit: float) -> Limits:
+    """The limits with time in units of 1 / ``unit`` [rad/s]: qd / unit, qdd / unit^2, qddd / unit^3."""
+    return Limits(limits.q_min, limits.q_max, limits.qd_max / unit, limits.qdd_max / unit**2,
+                  None if limits.qddd_max is None else limits.qddd_max / unit**3, limits.tau_max)
+
+
+def _refined(timing: GridTiming, path: ArcLengthPath, limits: Limits) -> np.ndarray | None:
+    """The grid with every interval whose dense check exceeds a limit by more than REFINE_EXCESS split
+    in REFINE_SPLIT (None: no interval does)."""
+    _, qd, qdd = timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL))
+    ratios = np.maximum(np.abs(qd) / limits.qd_max, np.abs(qdd) / limits.qdd_max).max(axis=1)
+    over = ratios.reshape(len(timing.u), CHECK_SAMPLES_PER_INTERVAL + 1).max(axis=1) > 1.0 + REFINE_EXCESS
+    if not over.any():
+        return None
+    lo, width = timing.s[:-1][over], np.diff(timing.s)[over]
+    added = lo[:, None] + width[:, None] * np.arange(1, REFINE_SPLIT) / REFINE_SPLIT
+    return np.unique(np.concatenate([timing.s, added.ravel()]))
+
+
+def _solve_refined(path: ArcLengthPath, limits: Limits, gridpoints: int, inverse_dynamics=None):
+    """(GridTiming, retried grid sizes) with REFINE_ROUNDS of interval splitting; TimingError when toppra
+    fails on every grid. Limits without torques are solved in units of the median velocity limit and the
+    timing scaled back."""
+    unit = 1.0 if limits.tau_max is not None else float(np.median(limits.qd_max))
+    scaled = in_velocity_unit(limits, unit)
+    attempts = [gridpoints, *[g for g in RETRY_GRIDPOINTS if g > gridpoints]]
+    for used in attempts:
+        timing = solve_grid_timing(path, scaled, used, inverse_dynamics)
+        if timing is not None:
+            break
+    else:
+        raise TimingError(f"toppra found no feasible time parameterisation on {attempts} grid points "
+                          f"(path through {len(path.path.waypoints)} waypoints)")
+    largest = REFINE_GROWTH * len(timing.s)
+    for _ in range(REFINE_ROUNDS if inverse_dynamics is None else 0):
+        grid = _refined(timing, path, scaled)
+        refined = None if grid is None or len(grid) > largest else solve_grid_timing(path, scaled, grid)
+        if refined is None:
+            break
+        timing = refined
+    real = GridTiming(timing.s, timing.sd * unit, timing.u * unit**2, timing.t / unit)
+    return real, tuple(attempts[: attempts.index(used)])
 
 
 @dataclass(frozen=True)
@@ -204,22 +260,14 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
     path = ArcLengthPath(path)
     if torques is not None:
         q_grid = path(path.gridpoints(gridpoints))
-        _check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
-    attempts = [gridpoints, *[g for g in RETRY_GRIDPOINTS if g > gridpoints]]
-    for used in attempts:
-        timing = solve_grid_timing(path, limits, used, torques)
-        if timing is not None:
-            break
-    else:
-        raise TimingError(f"toppra found no feasible time parameterisation on {attempts} grid points "
-                          f"(path through {len(path.path.waypoints)} waypoints)")
+        check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
+    timing, retried = _solve_refined(path, limits, gridpoints, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
     peaks = _peak_ratios(timing, path, check_t, limits, 1.0)
     stretch = _stretch_for(*peaks, 1.0)
     if torques is not None:
-        stretch = max(stretch, _torque_stretch(timing, path, check_t, limits, torques))
-    return ToppraSolution(path, timing, stretch, tuple(attempts[: attempts.index(used)]), int(check_t.size), peaks,
-                          time.perf_counter() - start)
+        stretch = max(stretch, torque_stretch(*timing.at(path, check_t), limits, torques))
+    return ToppraSolution(path, timing, stretch, retried, int(check_t.size), peaks, time.perf_counter() - start)
 
 
 def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_names: tuple[str, ...],
@@ -264,7 +312,7 @@ def _peak_ratios(timing: GridTiming, path: ArcLengthPath, t: np.ndarray, limits:
     return _ratios(qd, qdd, limits)
 
 
-def _check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) -> None:
+def check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) -> None:
     """Raise TimingError if the gravity torque alone at some sample exceeds tau_max."""
     over = np.abs(static) >= limits.tau_max
     if over.any():
@@ -273,15 +321,14 @@ def _check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) ->
                           f"{np.round(q[k], 4).tolist()} rad, over its torque limit {limits.tau_max[j]:.4g} N m")
 
 
-def _torque_stretch(timing: GridTiming, path: ArcLengthPath, t: np.ndarray, limits: Limits, torques) -> float:
+def torque_stretch(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limits, torques) -> float:
     """The time stretch k that keeps every torque sample within tau_max [1].
 
     Slowing by k scales the velocity-dependent and inertial torques d by 1/k^2 and leaves the
     static (gravity) torque g alone, so k^2 >= d / (tau_max - g) where d > 0, -d / (tau_max + g) where d < 0.
     """
-    q, qd, qdd = timing.at(path, t)
     static = torques(q, np.zeros_like(q), np.zeros_like(q))
-    _check_holding_torques(q, static, limits)
+    check_holding_torques(q, static, limits)
     dynamic = torques(q, qd, qdd) - static
     room = np.where(dynamic > 0.0, limits.tau_max - static, limits.tau_max + static)
     k_squared = float(np.max(np.abs(dynamic) / room))

@@ -1,0 +1,263 @@
+"""Jerk-limited path following: a third-order time parameterisation s(t) of the path itself (TOPP3).
+
+The joint velocity, acceleration and jerk along a path q(s) are, by the chain rule,
+``qd = q' sd``, ``qdd = q' sdd + q'' sd^2``, ``qddd = q' sddd + 3 q'' sd sdd + q''' sd^3``. copp-py
+(Wang et al., TOPP3 as a second-order cone programme solved by Clarabel) finds the fastest s(t)
+within the velocity, acceleration and jerk limits on a grid of stations: a TOPP2 (reachability
+analysis) profile first, then TOPP3 linearised around it and once more around its own answer. The
+profile follows the geometric path exactly: every sample is q(s(t)) on the path.
+
+Between stations copp's profile has ``b = sdd`` linear in s and ``a = sd^2`` quadratic (``a' = 2 b``);
+near a stop ``s - s0`` grows like ``c t^3``. We evaluate exactly that parameterisation ourselves
+(so q, qd, qdd and qddd are consistent), check it densely between stations and slow the whole
+trajectory uniformly by the smallest factor k that brings every sample within the limits (velocity
+/ k, acceleration / k^2, jerk / k^3), and report k.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..choices import DEFAULT_MAX_SAMPLES
+from ..errors import TimingError
+from ..path import JointPath
+from ..profile import Profile, TimingDetails
+from ..robot_spec import Limits
+from .ruckig_backend import require_jerk_limits
+from .toppra_backend import in_velocity_unit, sample_times, torque_stretch
+
+#: Stations per waypoint segment, and the fewest and most stations of a path (the solve time grows
+#: about linearly with them: ~1 s for 370 stations on a 2-core machine).
+STATIONS_PER_SEGMENT = 60
+MIN_STATIONS = 201
+MAX_STATIONS = 4001
+#: Weight of the total variation of the joint accelerations (each over its limit) against the
+#: duration [s]: without it the time-optimal jerk flips between its limits at the station rate.
+SMOOTHING_WEIGHT = 0.25
+#: Rounds of tightening the jerk limit at stations next to intervals whose jerk exceeds it by more
+#: than TIGHTEN_EXCESS between stations (each round one more solve) [1].
+TIGHTEN_ROUNDS = 3
+TIGHTEN_EXCESS = 2e-3
+#: The station just before a breakpoint, in units of the uniform station spacing [1].
+BREAKPOINT_GAP = 1e-3
+#: Samples per station interval in the dense limit check; rounds of checking the output samples (a
+#: slow-down moves them), and how much more than the measured excess each slow-down takes [1]
+#: (certify allows 1e-6).
+CHECK_SAMPLES_PER_INTERVAL = 16
+OUTPUT_ROUNDS = 5
+OUTPUT_MARGIN = 1e-7
+
+
+@dataclass(frozen=True)
+class Topp3Details(TimingDetails):
+    """What the TOPP3 back end did: ``stations`` of the grid; ``topp2_s`` [s] the duration without a
+    jerk limit on that grid and ``topp3_s`` [s] with it, before the slow-down; ``check_samples`` of the
+    dense check, which found peaks ``station_peak_qd_ratio``, ``station_peak_qdd_ratio`` and
+    ``station_peak_qddd_ratio`` [1] between stations; ``time_stretch`` [1] the uniform slow-down applied
+    (1: none); ``path_deviation`` [rad or m]: 0, every sample is on the path; ``compute_s`` [s];
+    ``jerk_exact`` True: qddd is the chain-rule jerk of the parameterisation, not a finite difference."""
+
+    stations: int
+    topp2_s: float
+    topp3_s: float
+    check_samples: int
+    station_peak_qd_ratio: float
+    station_peak_qdd_ratio: float
+    station_peak_qddd_ratio: float
+    time_stretch: float
+    path_deviation: float
+    compute_s: float
+    jerk_exact: bool = True
+
+
+def stations_for(path: JointPath) -> np.ndarray:
+    """The station grid in s: uniform, STATIONS_PER_SEGMENT per waypoint segment within [MIN_STATIONS,
+    MAX_STATIONS], with a station on every breakpoint of the path and, where d3q/ds3 jumps there (a C2
+    path), one just before it: each side's value must be limited at a station."""
+    count = int(np.clip(STATIONS_PER_SEGMENT * (len(path.waypoints) - 1) + 1, MIN_STATIONS, MAX_STATIONS))
+    uniform = np.linspace(0.0, 1.0, count)
+    inner = path.breakpoints[1:-1]
+    before = inner - BREAKPOINT_GAP / (count - 1) if path.continuity < 3 else inner[:0]
+    keep = np.abs(uniform[:, None] - np.concatenate([inner, before])[None, :]).min(axis=1, initial=np.inf) \
+        > 2.0 * BREAKPOINT_GAP / (count - 1)
+    return np.unique(np.concatenate([uniform[keep], [0.0, 1.0], inner, before]))
+
+
+@dataclass(frozen=True, eq=False)
+class PathTiming:
+    """copp's third-order profile on stations ``s`` (n,): ``a = sd^2`` (n,), ``b = sdd`` (n,), station
+    times ``t`` (n,) [s], and ``stationary`` (start, end) intervals where s moves like c t^3."""
+
+    s: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    t: np.ndarray
+    stationary: tuple[int, int]
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+    def at(self, t: np.ndarray, stretch: float = 1.0):
+        """s, sd, sdd, sddd at times t [s] of the profile slowed by ``stretch``."""
+        import copp_py as copp
+
+        tau = np.clip(np.asarray(t, dtype=float) / stretch, 0.0, self.duration)
+        profile = copp.Profile3rd(self.a, self.b, self.stationary)
+        inside = tau < self.duration
+        s = np.full(tau.shape, self.s[-1])
+        if inside.any():                             # copp wants strictly increasing times
+            unique, back = np.unique(tau[inside], return_inverse=True)
+            s[inside] = copp.interpolation.t_to_s_topp3_samples(self.s, profile, self.t, unique)[back]
+        s = np.clip(s, self.s[0], self.s[-1])
+        k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
+        x = s - self.s[k]
+        slope = (self.b[k + 1] - self.b[k]) / np.diff(self.s)[k]
+        sd = np.sqrt(np.maximum(self.a[k] + 2.0 * self.b[k] * x + slope * x**2, 0.0))
+        sdd = self.b[k] + slope * x
+        sddd = slope * sd
+        head, tail = self.stationary
+        if head:                                     # s = s0 + c t^3
+            c = (self.s[head] - self.s[0]) / self.t[head] ** 3
+            near = tau <= self.t[head]
+            sd[near], sdd[near], sddd[near] = 3.0 * c * tau[near] ** 2, 6.0 * c * tau[near], 6.0 * c
+        if tail:                                     # s = s_end - c (T - t)^3
+            c = (self.s[-1] - self.s[-1 - tail]) / (self.duration - self.t[-1 - tail]) ** 3
+            near = tau >= self.t[-1 - tail]
+            left = self.duration - tau[near]
+            sd[near], sdd[near], sddd[near] = 3.0 * c * left**2, -6.0 * c * left, 6.0 * c
+        return s, sd / stretch, sdd / stretch**2, sddd / stretch**3
+
+    def dense_times(self, per_interval: int) -> np.ndarray:
+        fractions = np.arange(per_interval) / per_interval
+        return np.append((self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel(), self.duration)
+
+
+def joint_motion(path: JointPath, s, sd, sdd, sddd):
+    """q, qd, qdd, qddd (n, dof) of the path at s moving with sd, sdd, sddd (the chain rule)."""
+    d1, d2, d3 = path(s, 1), path(s, 2), path(s, 3)
+    qd = d1 * sd[:, None]
+    qdd = d1 * sdd[:, None] + d2 * (sd**2)[:, None]
+    qddd = d1 * sddd[:, None] + 3.0 * d2 * (sd * sdd)[:, None] + d3 * (sd**3)[:, None]
+    return path(s), qd, qdd, qddd
+
+
+def _peak_ratios(qd, qdd, qddd, limits: Limits) -> tuple[float, float, float]:
+    return (float((np.abs(qd) / limits.qd_max).max()), float((np.abs(qdd) / limits.qdd_max).max()),
+            float((np.abs(qddd) / limits.qddd_max).max()))
+
+
+def _stretch_for(ratios: tuple[float, float, float], stretch: float) -> float:
+    """The uniform slow-down that brings peak ratios measured at ``stretch`` to 1 (at least ``stretch``)."""
+    factor = max(1.0, ratios[0], float(np.sqrt(ratios[1])), float(np.cbrt(ratios[2])))
+    return stretch * factor * (1.0 + OUTPUT_MARGIN) if factor > 1.0 else stretch
+
+
+def _profile_timing(copp, s: np.ndarray, profile) -> PathTiming:
+    _, t = copp.interpolation.s_to_t_topp3(s, profile, 0.0)
+    timing = PathTiming(s, profile.a, profile.b, np.asarray(t), tuple(profile.num_stationary))
+    if not np.all(np.isfinite(timing.t)) or np.any(np.diff(timing.t) <= 0.0):
+        raise TimingError(f"jerk-limited path timing (copp TOPP3) returned station times that do not increase "
+                          f"({len(s)} stations)")
+    return timing
+
+
+def interval_jerk_ratios(timing: PathTiming, path: JointPath, limits: Limits) -> np.ndarray:
+    """The peak |qddd| / qddd_max in each station interval, per joint (n - 1, dof), on
+    CHECK_SAMPLES_PER_INTERVAL + 1 samples each."""
+    fractions = np.arange(CHECK_SAMPLES_PER_INTERVAL + 1) / CHECK_SAMPLES_PER_INTERVAL
+    t = (timing.t[:-1, None] + np.diff(timing.t)[:, None] * fractions).ravel()
+    qddd = joint_motion(path, *timing.at(np.minimum(t, timing.duration)))[3]
+    return (np.abs(qddd) / limits.qddd_max).reshape(len(timing.s) - 1, fractions.size, -1).max(axis=1)
+
+
+def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: Limits, torques, stretch: float) -> float:
+    """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
+    slowed by ``stretch`` within the limits, torques included when ``torques`` is given."""
+    q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
+    slowed = _stretch_for(_peak_ratios(qd, qdd, qddd, limits), stretch)
+    if torques is not None:
+        slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits, torques)
+    return slowed
+
+
+def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None) -> tuple[PathTiming, float]:
+    """copp's TOPP2, then TOPP3 with a small total-variation penalty on the joint accelerations (COPP3,
+    an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times) around its own answer with the
+    jerk limit of every station next to an interval whose jerk exceeds it between stations tightened
+    by that excess, on ``stations_for(path)``. Torques are limited too when ``limits.tau_max`` and
+    ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given; without them the limits are solved in
+    units of the median velocity limit and the timing scaled back exactly. Returns (timing, TOPP2
+    duration [s]); TimingError when copp fails."""
+    import copp_py as copp
+
+    unit = 1.0 if inverse_dynamics is not None else float(np.median(limits.qd_max))
+    limits = in_velocity_unit(limits, unit)
+    s = stations_for(path)
+    n = len(s)
+    robot = copp.Robot(path.dof, capacity=n, inverse_dynamics=None if inverse_dynamics is None else
+                       (lambda q, qd, qdd: inverse_dynamics(q[None], qd[None], qdd[None])[0]))
+    robot.append_s(s)
+    robot.set_q(path(s), path(s, 1), path(s, 2), 0, dddq=path(s, 3))
+    robot.add_velocity_limits(limits.qd_max, -limits.qd_max, start_idx_s=0, length=n)
+    robot.add_acceleration_limits(limits.qdd_max, -limits.qdd_max, start_idx_s=0, length=n)
+    robot.add_jerk_limits(limits.qddd_max, -limits.qddd_max, start_idx_s=0, length=n)
+    if inverse_dynamics is not None:
+        robot.add_torque_limits(limits.tau_max, -limits.tau_max, start_idx_s=0, length=n)
+    constraints = robot.constraints
+    objectives = [copp.objective.Time(1.0), copp.objective.TotalVariationTorque(SMOOTHING_WEIGHT, 1.0 / limits.qdd_max)]
+    options = copp.solver.copp3_socp.Options(allow_almost_solved=True, allow_insufficient_progress=True)
+    try:
+        a2 = copp.solver.topp2_ra.solve(copp.solver.topp2_ra.Problem(constraints, idx_s_interval=(0, n - 1),
+                                                                     a_boundary=(0.0, 0.0)),
+                                        copp.solver.topp2_ra.Options())
+        topp2_s, _ = copp.interpolation.s_to_t_topp2(s, a2, 0.0)
+        constraints.amax_substitute(a2, 0)
+        profile = copp.solver.copp3_socp.solve(copp.solver.copp3_socp.Problem(robot, objectives, a2), options)
+        jerk_max = np.tile(limits.qddd_max, (n, 1))
+        for _ in range(TIGHTEN_ROUNDS):
+            excess = interval_jerk_ratios(_profile_timing(copp, s, profile), path, limits)
+            station_excess = np.maximum(np.vstack([excess, excess[-1:]]), np.vstack([excess[:1], excess]))
+            if station_excess.max() <= 1.0 + TIGHTEN_EXCESS:
+                break
+            jerk_max = np.minimum(jerk_max, jerk_max / np.maximum(station_excess, 1.0))
+            robot.add_jerk_limits(jerk_max, -jerk_max, start_idx_s=0, length=n)
+            profile = copp.solver.copp3_socp.solve(
+                copp.solver.copp3_socp.Problem(robot, objectives, profile.a, b_linearization=profile.b), options)
+    except copp.CoppError as exc:
+        raise TimingError(f"jerk-limited path timing (copp TOPP3) failed on {n} stations: {exc}") from exc
+    timing = _profile_timing(copp, s, profile)
+    real = PathTiming(s, timing.a * unit**2, timing.b * unit**2, timing.t / unit, timing.stationary)
+    return real, float(topp2_s) / unit
+
+
+def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
+                 inverse_dynamics=None, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+    """Time-optimal jerk-limited profile along ``path`` (C2), at rest at both ends, sampled every
+    ``dt`` [s] and at the end; torques limited too with ``inverse_dynamics`` and ``limits.tau_max``."""
+    require_jerk_limits(limits, "topp3")
+    if path.continuity < 2:
+        raise TimingError(f"jerk-limited path following needs a C2 path (monotone or spline); the {path.shape} "
+                          "path's d2q/ds2 jumps at its corners")
+    start = time.perf_counter()
+    torques = inverse_dynamics if limits.tau_max is not None else None
+    timing, topp2_s = solve_topp3(path, limits, torques)
+    check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
+    peaks = _peak_ratios(*joint_motion(path, *timing.at(check_t))[1:], limits)
+    stretch = _slowed(timing, path, check_t, limits, torques, 1.0)
+    t = sample_times(timing.duration * stretch, dt, max_samples)
+    for _ in range(OUTPUT_ROUNDS):             # the output samples are judged too: slow a little more
+        output_stretch = _slowed(timing, path, t, limits, torques, stretch)
+        if output_stretch <= stretch:
+            break
+        stretch = output_stretch
+        t = sample_times(timing.duration * stretch, dt, max_samples)
+    q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
+    details = Topp3Details(
+        stations=len(timing.s), topp2_s=topp2_s, topp3_s=timing.duration, check_samples=int(check_t.size),
+        station_peak_qd_ratio=peaks[0], station_peak_qdd_ratio=peaks[1], station_peak_qddd_ratio=peaks[2],
+        time_stretch=stretch, path_deviation=0.0, compute_s=time.perf_counter() - start)
+    return Profile(t, q, qd, qdd, qddd, "topp3", limits, joint_names, details)

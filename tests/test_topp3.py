@@ -1,0 +1,105 @@
+"""Jerk-limited path following (topp3): on the path, within every limit, smooth, and not much slower
+than toppra; its own evaluation consistent (q, qd, qdd, qddd agree)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from pipeline.errors import TimingError
+from pipeline.path import make_path
+from pipeline.profile import certify, jerk_reversal_rate
+from pipeline.robot import load_robot
+from pipeline.timing import retime
+
+from .conftest import DATA_DIR
+
+#: The issue's bounds: jerk reversals per joint per second, and duration over toppra's on the same path.
+MAX_REVERSALS_PER_S = 5.0
+MAX_DURATION_RATIO = 1.3
+
+
+def random_waypoints(robot, seed: int, count: int = 6) -> np.ndarray:
+    return robot.random_configurations(np.random.default_rng(seed), count, margin=0.1)
+
+
+@pytest.fixture(scope="module")
+def gp7_run():
+    robot = load_robot("gp7")
+    waypoints = random_waypoints(robot, 11)
+    return robot, waypoints, retime(robot, waypoints, method="topp3", dt=0.002)
+
+
+def test_every_sample_is_on_the_path(gp7_run):
+    robot, waypoints, profile = gp7_run
+    path = make_path(waypoints, robot.limits.q_min, robot.limits.q_max)
+    dense = path(np.linspace(0.0, 1.0, 400_001))
+    half_spacing = np.linalg.norm(np.diff(dense, axis=0), axis=1).max() / 2.0
+    assert cKDTree(dense).query(profile.q)[0].max() <= half_spacing + 1e-12
+    # and the path is covered: every dense point is near a sample (both ways)
+    step = np.linalg.norm(np.diff(profile.q, axis=0), axis=1).max()
+    assert cKDTree(profile.q).query(dense[::50])[0].max() <= step
+    assert profile.details.path_deviation == 0.0
+    np.testing.assert_allclose(profile.q[[0, -1]], waypoints[[0, -1]], atol=1e-9)
+
+
+def test_within_every_limit_and_smooth(gp7_run):
+    robot, waypoints, profile = gp7_run
+    report = certify(profile, robot.limits)
+    assert report.passed and report.max_ratio("qddd") <= 1.0 + 1e-6, str(report)
+    assert report.max_ratio("qddd") > 0.9           # the jerk limit is used, not avoided
+    ruckig = retime(robot, waypoints, method="ruckig", dt=0.002)
+    assert jerk_reversal_rate(profile).max() <= MAX_REVERSALS_PER_S
+    assert jerk_reversal_rate(ruckig).max() > 0.0   # the measure sees Ruckig's own bang-bang jerk
+
+
+def test_columns_agree_with_each_other(gp7_run):
+    """Trapezoidal integration of qd, qdd, qddd reproduces q, qd, qdd to second order in dt."""
+    _, _, profile = gp7_run
+    t = profile.t
+    dt = np.diff(t)[:, None]
+    limits = profile.limits
+    for low, high, bound in ((profile.q, profile.qd, limits.qdd_max), (profile.qd, profile.qdd, limits.qddd_max)):
+        integrated = np.diff(low, axis=0) - dt * (high[1:] + high[:-1]) / 2.0
+        # trapezoid error per step <= dt^3 / 12 x max |third derivative|; bound it by dt^2 x the next limit
+        assert np.abs(integrated).max() <= (dt.max() ** 2 * bound).max()
+
+
+def test_not_much_slower_than_toppra():
+    robot = load_robot("irb1600")
+    ratios = []
+    for seed in range(3):
+        waypoints = random_waypoints(robot, seed, 8)
+        ratios.append(retime(robot, waypoints, method="topp3").duration
+                      / retime(robot, waypoints, method="toppra").duration)
+    assert 1.0 <= min(ratios) and max(ratios) <= MAX_DURATION_RATIO, ratios
+
+
+def test_back_and_forth_path_and_old_name():
+    robot = load_robot("lrmate200id")
+    a, b = np.radians([0, 0, 0, 0, 0, 0]), np.radians([30, 20, -10, 40, 30, 90])
+    waypoints = np.array([a, b] * 4 + [a])
+    profile = retime(robot, waypoints, method="toppra+ruckig", dt=0.004)
+    assert profile.method == "topp3" and profile.certificate.passed
+    np.testing.assert_allclose(profile.q[-1], a, atol=1e-9)
+    # it turns at every waypoint: each is reached within a sample's travel
+    step = np.linalg.norm(np.diff(profile.q, axis=0), axis=1).max()
+    for w in waypoints:
+        assert np.linalg.norm(profile.q - w, axis=1).min() <= step
+
+
+def test_torques_are_limited_too():
+    robot = load_robot(DATA_DIR / "arm2_dynamics.yaml")
+    limits = dataclasses.replace(robot.limits, qddd_max=np.array([900.0, 900.0]))
+    profile = retime(robot, random_waypoints(robot, 2, 4), method="topp3", limits=limits)
+    report = profile.certificate
+    assert report.passed and report.max_ratio("tau") > 0.9, str(report)
+
+
+def test_refuses_a_path_with_corners():
+    robot = load_robot("gp7")
+    with pytest.raises(TimingError, match="needs a C2 path"):
+        retime(robot, random_waypoints(robot, 3), method="topp3", shape="linear")
