@@ -5,6 +5,12 @@ from __future__ import annotations
 
 #: Inverse kinematics methods (``pipeline.ik``).
 IK_METHODS = ("auto", "analytic", "jacobian", "drake")
+#: What an IK target asks for (``pipeline.ik``): position and full orientation (6 constraints),
+#: position and the end frame's z axis (5), position only (3).
+FULL_POSE = "pose"
+POSITION_AND_AXIS = "position+axis"
+POSITION_ONLY = "position"
+TARGET_KINDS = (FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY)
 #: Time parameterisation methods (``pipeline.timing``).
 TIMING_METHODS = ("toppra", "ruckig", "topp3")
 #: Older names still accepted for a timing method -> the method they now mean.

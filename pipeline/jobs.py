@@ -18,8 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from .choices import DEFAULT_DT, DEFAULT_PATH_SHAPE, IK_METHODS, PATH_SHAPES, TIMING_ALIASES, TIMING_METHODS
-from .errors import JobFileError, RobotNotFoundError
+from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, FULL_POSE, IK_METHODS, PATH_SHAPES, TARGET_KINDS,
+                      TIMING_ALIASES, TIMING_METHODS)
+from .errors import ConfigurationError, JobFileError, RobotNotFoundError
+from .configurations import parse_configuration
 from .robot import Robot, load_robot
 from .robot_spec import preset_names
 from .schema import Document, Reader, document_from_data, load_document
@@ -37,7 +39,9 @@ REACH_SAMPLES = 4096
 
 _REQUIRED = ("robot", "waypoints")
 _OPTIONAL = ("description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
-             "dt", "outputs")
+             "dt", "outputs", "allow_branch_change")
+#: The keys of a pose waypoint besides its pose: what IK must match, and the configuration it must have.
+_POSE_EXTRA = ("target", "config")
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,9 +53,13 @@ class JointWaypoint:
 
 @dataclass(frozen=True, eq=False)
 class PoseWaypoint:
-    """A waypoint given as an end-frame pose: ``X_BE`` (4, 4), base frame [m]."""
+    """A waypoint given as an end-frame pose: ``X_BE`` (4, 4), base frame [m]; ``target``: what IK must
+    match (pose, position+axis, position); ``config``: the configuration it must have (parts of
+    shoulder/elbow/wrist; None: the rule of ``pipeline.ik.branches`` picks)."""
 
     X_BE: np.ndarray
+    target: str = FULL_POSE
+    config: dict | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,7 +71,8 @@ class Job:
     waypoint; ``ik``, ``timing``: method names; ``path``: the path shape (None with ``ruckig``, which
     times waypoint to waypoint); ``speed_scale`` in (0, 1]; ``dt`` [s];
     ``outputs``: which of csv, npz, json, png, html, arm_png to write; ``inputs_sha256``: hash of the
-    job file bytes followed by the robot file bytes.
+    job file bytes followed by the robot file bytes; ``allow_branch_change``: a change of IK branch
+    between consecutive pose waypoints is reported instead of refused.
     """
 
     name: str
@@ -79,6 +88,7 @@ class Job:
     outputs: tuple[str, ...]
     inputs_sha256: str
     description: str = ""
+    allow_branch_change: bool = False
 
     @property
     def has_poses(self) -> bool:
@@ -143,10 +153,23 @@ class _JobReader(Reader):
                       f"[{limits.q_min[j] / scales[j]:.6g}, {limits.q_max[j] / scales[j]:.6g}] (file units){hint}")
         return q
 
+    def pose_waypoint(self, path, robot: Robot, length_scale: float, angle_scale: float | None,
+                      reach: tuple[float, float]) -> PoseWaypoint:
+        """A pose waypoint: its pose (within the arm's reach), target kind and configuration."""
+        X = self.pose_target(path, robot, length_scale, angle_scale, reach)
+        target = self.choice((*path, "target"), TARGET_KINDS, FULL_POSE)
+        config = None
+        if self.has((*path, "config")):
+            try:
+                config = parse_configuration(self.get((*path, "config")))
+            except ConfigurationError as exc:
+                self.fail((*path, "config"), str(exc), self.get((*path, "config")))
+        return PoseWaypoint(X, target, config)
+
     def pose_target(self, path, robot: Robot, length_scale: float, angle_scale: float | None,
                     reach: tuple[float, float]) -> np.ndarray:
-        """A pose waypoint -> X_BE (4, 4) [m], its position within the arm's reach."""
-        X = self.pose(path, length_scale, angle_scale)
+        """A pose waypoint's pose -> X_BE (4, 4) [m], its position within the arm's reach."""
+        X = self.pose(path, length_scale, angle_scale, extra=_POSE_EXTRA)
         distance = math.hypot(*X[:3, 3])
         inner, outer = reach
         unit = self.get(("length_unit",))
@@ -167,7 +190,7 @@ class _JobReader(Reader):
         raw = self.get(("waypoints",))
         reach = _reach_interval(robot) if any(isinstance(w, dict) for w in raw) else (0.0, math.inf)
         waypoints = tuple(
-            PoseWaypoint(self.pose_target(("waypoints", k), robot, length_scale, angle_scale, reach))
+            self.pose_waypoint(("waypoints", k), robot, length_scale, angle_scale, reach)
             if isinstance(w, dict) else JointWaypoint(self.joint_values(("waypoints", k), robot, scales))
             for k, w in enumerate(raw))
         start = self.joint_values(("start",), robot, scales) if self.has(("start",)) else None
@@ -204,6 +227,7 @@ class _JobReader(Reader):
             outputs=self.outputs(),
             inputs_sha256=inputs_sha256,
             description=self.text(("description",), max_chars=10_000) if self.has(("description",)) else "",
+            allow_branch_change=self.flag(("allow_branch_change",)),
         )
 
 

@@ -90,9 +90,10 @@ class JointPath:
         return self._pieces(np.clip(s, 0.0, 1.0), order)
 
 
-def merge_duplicates(waypoints: np.ndarray) -> np.ndarray:
-    """Drop waypoints within DUPLICATE_DISTANCE of the last one kept; the last waypoint is always kept
-    (replacing the last one kept, unless that is the first, when they are that close)."""
+def kept_indices(waypoints: np.ndarray) -> np.ndarray:
+    """The indices of the waypoints duplicate merging keeps: those beyond DUPLICATE_DISTANCE of the last
+    one kept, and always the last waypoint (replacing the last one kept when they are that close, unless
+    that is the first; then kept beside it unless within NO_MOTION_DISTANCE)."""
     keep = [0]
     for i in range(1, len(waypoints)):
         if np.linalg.norm(waypoints[i] - waypoints[keep[-1]]) > DUPLICATE_DISTANCE:
@@ -103,7 +104,12 @@ def merge_duplicates(waypoints: np.ndarray) -> np.ndarray:
             keep[-1] = last
         elif np.linalg.norm(waypoints[last] - waypoints[0]) > NO_MOTION_DISTANCE:
             keep.append(last)
-    return waypoints[keep]
+    return np.array(keep)
+
+
+def merge_duplicates(waypoints: np.ndarray) -> np.ndarray:
+    """The waypoints ``kept_indices`` keeps."""
+    return waypoints[kept_indices(waypoints)]
 
 
 def check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndarray:
@@ -186,9 +192,11 @@ def _monotone_pieces(s_knots: np.ndarray, waypoints: np.ndarray):
     m, a = monotone_knots(s_knots, waypoints)
     h = np.diff(s_knots)[:, None]
     zero = np.zeros_like(h * m[:-1])
-    ends = np.stack([waypoints[:-1], m[:-1] * h, a[:-1] * h**2, zero,
-                     waypoints[1:], m[1:] * h, a[1:] * h**2, zero])             # (8, K-1, dof), in t = x / h
+    # Relative to each segment's start value (the rise, not two large values, enters the polynomial).
+    ends = np.stack([zero, m[:-1] * h, a[:-1] * h**2, zero,
+                     np.diff(waypoints, axis=0), m[1:] * h, a[1:] * h**2, zero])  # (8, K-1, dof), in t = x / h
     in_t = np.einsum("nk,kij->nij", SEPTIC, ends)                               # coefficient of t^n
+    in_t[0] += waypoints[:-1]
     in_x = in_t / h[None] ** np.arange(8)[:, None, None]
     derivatives = _polynomial_pieces(PPoly(in_x[::-1], s_knots))
     low, high = np.minimum(waypoints[:-1], waypoints[1:]), np.maximum(waypoints[:-1], waypoints[1:])

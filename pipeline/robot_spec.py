@@ -218,9 +218,7 @@ class _RobotReader(Reader):
                     self.fail((*path, key), f"is {abs(value):.4g} m, longer than any axis ({MAX_LENGTH_M:g} m): "
                               f"is length_unit: {self.length_unit} right?", self.get((*path, key)))
             return q_min, q_max
-        continuous = self.get((*path, "continuous"), False)
-        if not isinstance(continuous, bool):
-            self.fail((*path, "continuous"), "must be true or false", continuous)
+        continuous = self.flag((*path, "continuous"))
         if max(abs(q_min), abs(q_max)) > MAX_TURNS * 2.0 * math.pi:
             self.fail((*path, "q_max"), f"is more than {MAX_TURNS} turns from zero", self.get((*path, "q_max")))
         if q_max - q_min > MAX_RANGE_RAD + 1e-9 and not continuous:

@@ -19,6 +19,7 @@ import numpy as np
 
 from .errors import ConfigurationError, JobFileError, TimingError
 from .ik import with_drake_model
+from .ik.branches import branch_change_reason, choose_solution
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, JointWaypoint, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
@@ -36,18 +37,27 @@ VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "copp-py", "nu
 @dataclass(frozen=True, eq=False)
 class WaypointIk:
     """How one waypoint became joint values: ``q`` [rad or m]; for a pose, the IK method that solved
-    it, its errors [m, rad] and the number of in-limit solutions it chose from (all None for joints)."""
+    it, its errors [m, rad], the number of in-limit solutions it chose from, the target kind and the
+    components matched, the configuration asked for, the branch kept and whether that is a change from
+    the previous pose waypoint's (None for joint waypoints)."""
 
     q: np.ndarray
     method: str | None = None
     position_error: float | None = None
     rotation_error: float | None = None
     solutions: int | None = None
+    target: str | None = None
+    matched: tuple[str, ...] | None = None
+    config: dict | None = None
+    branch: str | None = None
+    branch_changed: bool | None = None
 
     def to_dict(self) -> dict:
         return {"q": self.q.tolist(), "given_as": "joints" if self.method is None else "pose",
                 "ik_method": self.method, "position_error_m": self.position_error,
-                "rotation_error_rad": self.rotation_error, "solutions": self.solutions}
+                "rotation_error_rad": self.rotation_error, "solutions": self.solutions, "target": self.target,
+                "matched": None if self.matched is None else list(self.matched), "config": self.config,
+                "branch": self.branch or None, "branch_changed": self.branch_changed}
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,28 +97,41 @@ def _ratios(report: LimitReport) -> str:
 def solve_waypoints(job: Job) -> list[WaypointIk]:
     """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
     previous waypoint's joint values (the first: ``job.start`` or the middle of the limits), and of its
-    in-limit solutions the one nearest the previous joint values is kept. An unreachable pose raises a
-    JobFileError naming the waypoint and the IK reason."""
+    in-limit solutions one is kept by the rule of ``pipeline.ik.branches`` (the configuration the
+    waypoint names, else the previous pose's branch, nearest the previous joint values). A JobFileError
+    names the waypoint when a pose is unreachable, has no solution of the configuration asked for, or
+    changes branch from the previous pose waypoint (naming both branches and the joint that forces it)
+    unless the job allows branch changes."""
     robot = job.robot
     limits = robot.limits
     previous = job.start if job.start is not None else (limits.q_min + limits.q_max) / 2.0
+    previous_branch = ""
     options = with_drake_model(robot, job.ik, {}) if job.has_poses else {}
     solved = []
     for k, waypoint in enumerate(job.waypoints):
         if isinstance(waypoint, JointWaypoint):
             solved.append(WaypointIk(waypoint.q))
-        else:
-            result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, **options)
-            if not result.success:
-                raise JobFileError(job.source, f"waypoints[{k}]", f"pose is unreachable with IK method "
-                                   f"{job.ik!r} ({result.method}): {result.reason}")
-            candidates = [s.q for s in result.solutions] or [result.q]
-            q = min(candidates, key=lambda c: float(np.linalg.norm(c - previous)))
-            log.debug("waypoint %d: %d IK solution(s), kept the one %.4g from the previous", k, len(candidates),
-                      float(np.linalg.norm(q - previous)))
-            solved.append(WaypointIk(np.asarray(q, dtype=float), result.method, result.position_error,
-                                     result.rotation_error, len(candidates)))
-        previous = solved[-1].q
+            previous = waypoint.q
+            continue
+        field = f"waypoints[{k}]"
+        result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, target_kind=waypoint.target, **options)
+        if not result.success:
+            raise JobFileError(job.source, field, f"pose is unreachable with IK method {job.ik!r} ({result.method}, "
+                               f"target {waypoint.target}): {result.reason}")
+        choice = choose_solution(robot, result, previous, previous_branch, waypoint.config)
+        if choice.q is None:
+            raise JobFileError(job.source, f"{field}.config", choice.reason)
+        if choice.changed and not job.allow_branch_change:
+            raise JobFileError(job.source, field, f"the IK branch changes from '{choice.previous}' to '{choice.branch}': "
+                               f"{branch_change_reason(robot, choice, waypoint.X_BE, previous)}. Name the configuration "
+                               "(config:), add waypoints, or allow the change (allow_branch_change: true)")
+        if choice.changed:
+            log.warning("%s: %s: branch changes from %s to %s (allowed)", job.source, field, choice.previous,
+                        choice.branch)
+        solved.append(WaypointIk(choice.q, result.method, result.position_error, result.rotation_error,
+                                 choice.solutions, waypoint.target, result.matched, waypoint.config, choice.branch,
+                                 choice.changed))
+        previous, previous_branch = choice.q, choice.branch
     return solved
 
 

@@ -251,6 +251,13 @@ class Reader:
                 self.fail((*path, key), "required key is missing", kind=MissingFieldError)
         return value
 
+    def flag(self, path: Path_, default: bool = False) -> bool:
+        """A boolean: ``true`` or ``false`` (``default`` when absent)."""
+        value = self.get(path, default)
+        if not isinstance(value, bool):
+            self.fail(path, "must be true or false", value)
+        return value
+
     def has(self, path: Path_) -> bool:
         """Whether the key at the end of ``path`` is present (and not null)."""
         return self.get(path) is not None
@@ -327,12 +334,13 @@ class Reader:
         return units[self.choice(path, tuple(units))]
 
     def pose(self, path: Path_, length_scale: float, angle_scale: float | None, complete: bool = True,
-             max_length_m: float = math.inf) -> np.ndarray:
+             max_length_m: float = math.inf, extra: tuple[str, ...] = ()) -> np.ndarray:
         """``{xyz, rpy}`` or ``{xyz, quaternion: [w, x, y, z]}`` -> X (4, 4) [m]. ``complete``: xyz and one
         rotation are required; otherwise each part is optional (zero, identity). ``max_length_m``
-        bounds |xyz| [m]: farther is a unit mistake. ``angle_scale`` None: the file gave no angle unit."""
-        value = self.mapping(path, ("xyz",) if complete else (), ("rpy", "quaternion") if complete
-                             else ("xyz", "rpy", "quaternion"))
+        bounds |xyz| [m]: farther is a unit mistake. ``angle_scale`` None: the file gave no angle unit.
+        ``extra``: more keys the mapping may have (the caller reads them)."""
+        value = self.mapping(path, ("xyz",) if complete else (), (*(("rpy", "quaternion") if complete
+                                                                    else ("xyz", "rpy", "quaternion")), *extra))
         if ("rpy" in value and "quaternion" in value) or (complete and "rpy" not in value
                                                            and "quaternion" not in value):
             self.fail(path, "give exactly one of rpy or quaternion")

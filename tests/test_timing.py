@@ -111,10 +111,11 @@ def test_toppra_is_near_optimal_and_reports_what_it_changed():
     assert details.retried_gridpoints == () and not details.jerk_exact
     # the dense optimum (toppra on 10,000 points) is at most 0.5 % shorter
     from pipeline.path import make_path
-    from pipeline.timing.toppra_backend import ArcLengthPath, solve_grid_timing
+    from pipeline.timing.toppra_backend import ScaledPath, solve_grid_timing
 
     path = make_path(waypoints, robot.limits.q_min, robot.limits.q_max)
-    optimum = solve_grid_timing(ArcLengthPath(path), robot.limits, 10_000).duration
+    view = ScaledPath(path, path.length)
+    optimum = solve_grid_timing(view, view.limits(robot.limits, 1.0), 10_000).duration
     assert optimum <= profile.duration <= optimum * 1.005
     # at least one limit is active somewhere: a time-optimal profile saturates qd or qdd
     report = certify(profile)

@@ -8,13 +8,16 @@ applies, else jacobian).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..choices import IK_METHODS
 from ..arrays import float_array
 from ..errors import ConfigurationError
 from ..progress import Progress
-from .result import FULL_POSE, IkResult, IkTarget, Solution, make_target
+from .result import (FULL_POSE, MATCHED_COMPONENTS, POSITION_AND_AXIS, POSITION_ONLY, IkResult, IkTarget, Solution,
+                     make_target)
 
 METHODS = IK_METHODS
 #: The options each method takes (``solve_jacobian``, ``solve_drake``); a call may give any of them.
@@ -38,14 +41,21 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     if method == "analytic":
         from .analytic import solve_analytic
 
-        return solve_analytic(robot, target, seed)
-    if method == "jacobian":
+        result = solve_analytic(robot, target, seed)
+    elif method == "jacobian":
         from .jacobian import solve_jacobian
 
-        return solve_jacobian(robot, target, seed, **options)
-    from .drake_ik import solve_drake
+        result = solve_jacobian(robot, target, seed, **options)
+    else:
+        from .drake_ik import solve_drake
 
-    return solve_drake(robot, target, seed, **options)
+        result = solve_drake(robot, target, seed, **options)
+    if not result.success and robot.dof < 6 and target.kind == FULL_POSE:
+        result = dataclasses.replace(result, reason=f"{result.reason}; {robot.name} has {robot.dof} joints and cannot "
+                                     "match a full pose (6 components) in general: ask for "
+                                     f"{', '.join(MATCHED_COMPONENTS[POSITION_AND_AXIS])} (target_kind='position+axis') "
+                                     f"or {', '.join(MATCHED_COMPONENTS[POSITION_ONLY])} (target_kind='position')")
+    return result
 
 
 def with_drake_model(robot, method: str, options: dict) -> dict:

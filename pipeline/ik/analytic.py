@@ -278,6 +278,15 @@ def _labels(solver: AnalyticSolver, Q: np.ndarray, p_wrist: np.ndarray) -> np.nd
     return names
 
 
+def configuration_labels_of(robot, solver: AnalyticSolver, Q: np.ndarray) -> list[str]:
+    """The branch label of each configuration Q (N, 6) of a robot the closed form fits (from any IK
+    method): its wrist centre by our FK, then ``_labels``."""
+    X = robot.fk_batch(Q)
+    c_in_end = solver.X_BE0[:3, :3].T @ (solver.wrist_centre - solver.X_BE0[:3, 3])
+    p_wrist = np.einsum("nij,j->ni", X[:, :3, :3], c_in_end) + X[:, :3, 3]
+    return list(_labels(solver, _wrap(Q)[:, None, :], p_wrist)[:, 0])
+
+
 def _unit_rows(v: np.ndarray) -> np.ndarray:
     norm = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(norm > 0.0, norm, 1.0)

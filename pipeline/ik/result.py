@@ -13,6 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..choices import FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY, TARGET_KINDS
 from ..errors import ConfigurationError
 from ..poses import check_pose
 
@@ -20,11 +21,6 @@ POSITION_TOLERANCE = 1e-6   # [m]
 ROTATION_TOLERANCE = 1e-6   # [rad]
 TWO_PI = 2.0 * math.pi
 
-#: Which parts of the pose a target asks for.
-FULL_POSE = "pose"          # position and full orientation (6 constraints)
-POSITION_AND_AXIS = "position+axis"   # position and the end frame's z axis (5 constraints)
-POSITION_ONLY = "position"  # 3 constraints
-TARGET_KINDS = (FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY)
 MATCHED_COMPONENTS = {
     FULL_POSE: ("x", "y", "z", "roll", "pitch", "yaw"),
     POSITION_AND_AXIS: ("x", "y", "z", "axis_z"),

@@ -27,16 +27,17 @@ from ..path import JointPath
 from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 from .ruckig_backend import require_jerk_limits
-from .toppra_backend import in_velocity_unit, sample_times, torque_stretch
+from .toppra_backend import ScaledPath, sample_times, scaled_inverse_dynamics, time_unit, torque_stretch
 
 #: Stations per waypoint segment, and the fewest and most stations of a path (the solve time grows
 #: about linearly with them: ~1 s for 370 stations on a 2-core machine).
 STATIONS_PER_SEGMENT = 60
 MIN_STATIONS = 201
 MAX_STATIONS = 4001
-#: Weight of the total variation of the joint accelerations (each over its limit) against the
-#: duration [s]: without it the time-optimal jerk flips between its limits at the station rate.
-SMOOTHING_WEIGHT = 0.25
+#: Weight of the total variation of the joint accelerations (each over its limit, summed over the
+#: stations) against the duration, in units of the mean duration of a waypoint segment without a jerk
+#: limit: without it the time-optimal jerk flips between its limits at the station rate.
+SMOOTHING_SHARE = 0.05
 #: Rounds of tightening the jerk limit at stations next to intervals whose jerk exceeds it by more
 #: than TIGHTEN_EXCESS between stations (each round one more solve) [1].
 TIGHTEN_ROUNDS = 3
@@ -189,26 +190,33 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None) -> tuple
     an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times) around its own answer with the
     jerk limit of every station next to an interval whose jerk exceeds it between stations tightened
     by that excess, on ``stations_for(path)``. Torques are limited too when ``limits.tau_max`` and
-    ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given; without them the limits are solved in
-    units of the median velocity limit and the timing scaled back exactly. Returns (timing, TOPP2
-    duration [s]); TimingError when copp fails."""
+    ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given. copp sees the path in units of its
+    length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
+    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. Returns (timing, TOPP2 duration [s]); TimingError when copp fails."""
     import copp_py as copp
 
-    unit = 1.0 if inverse_dynamics is not None else float(np.median(limits.qd_max))
-    limits = in_velocity_unit(limits, unit)
+    distance = max(path.length, 1e-300)
+    unit = time_unit(limits, distance)
+    view = ScaledPath(path, distance)
+    scaled = view.limits(limits, unit)
     s = stations_for(path)
     n = len(s)
-    robot = copp.Robot(path.dof, capacity=n, inverse_dynamics=None if inverse_dynamics is None else
-                       (lambda q, qd, qdd: inverse_dynamics(q[None], qd[None], qdd[None])[0]))
+    robot = copp.Robot(view.dof, capacity=n, inverse_dynamics=None if inverse_dynamics is None else
+                       scaled_inverse_dynamics(inverse_dynamics, view, unit))
     robot.append_s(s)
-    robot.set_q(path(s), path(s, 1), path(s, 2), 0, dddq=path(s, 3))
-    robot.add_velocity_limits(limits.qd_max, -limits.qd_max, start_idx_s=0, length=n)
-    robot.add_acceleration_limits(limits.qdd_max, -limits.qdd_max, start_idx_s=0, length=n)
-    robot.add_jerk_limits(limits.qddd_max, -limits.qddd_max, start_idx_s=0, length=n)
+    robot.set_q(view(s), view(s, 1), view(s, 2), 0, dddq=view(s, 3))
+    robot.add_velocity_limits(scaled.qd_max, -scaled.qd_max, start_idx_s=0, length=n)
+    robot.add_acceleration_limits(scaled.qdd_max, -scaled.qdd_max, start_idx_s=0, length=n)
+    robot.add_jerk_limits(scaled.qddd_max, -scaled.qddd_max, start_idx_s=0, length=n)
     if inverse_dynamics is not None:
-        robot.add_torque_limits(limits.tau_max, -limits.tau_max, start_idx_s=0, length=n)
+        tau_max = np.append(limits.tau_max, 1.0)
+        robot.add_torque_limits(tau_max, -tau_max, start_idx_s=0, length=n)
+
+    def real(profile) -> PathTiming:
+        timing = _profile_timing(copp, s, profile)
+        return PathTiming(s, timing.a * unit**2, timing.b * unit**2, timing.t / unit, timing.stationary)
+
     constraints = robot.constraints
-    objectives = [copp.objective.Time(1.0), copp.objective.TotalVariationTorque(SMOOTHING_WEIGHT, 1.0 / limits.qdd_max)]
     options = copp.solver.copp3_socp.Options(allow_almost_solved=True, allow_insufficient_progress=True)
     try:
         a2 = copp.solver.topp2_ra.solve(copp.solver.topp2_ra.Problem(constraints, idx_s_interval=(0, n - 1),
@@ -216,22 +224,23 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None) -> tuple
                                         copp.solver.topp2_ra.Options())
         topp2_s, _ = copp.interpolation.s_to_t_topp2(s, a2, 0.0)
         constraints.amax_substitute(a2, 0)
+        weight = SMOOTHING_SHARE * topp2_s / (len(path.waypoints) - 1)
+        objectives = [copp.objective.Time(1.0),
+                      copp.objective.TotalVariationTorque(weight, np.append(1.0 / scaled.qdd_max[:-1], 0.0))]
         profile = copp.solver.copp3_socp.solve(copp.solver.copp3_socp.Problem(robot, objectives, a2), options)
-        jerk_max = np.tile(limits.qddd_max, (n, 1))
+        jerk_max = np.tile(scaled.qddd_max, (n, 1))
         for _ in range(TIGHTEN_ROUNDS):
-            excess = interval_jerk_ratios(_profile_timing(copp, s, profile), path, limits)
+            excess = interval_jerk_ratios(real(profile), path, limits)
             station_excess = np.maximum(np.vstack([excess, excess[-1:]]), np.vstack([excess[:1], excess]))
             if station_excess.max() <= 1.0 + TIGHTEN_EXCESS:
                 break
-            jerk_max = np.minimum(jerk_max, jerk_max / np.maximum(station_excess, 1.0))
+            jerk_max[:, :-1] /= np.maximum(station_excess, 1.0)
             robot.add_jerk_limits(jerk_max, -jerk_max, start_idx_s=0, length=n)
             profile = copp.solver.copp3_socp.solve(
                 copp.solver.copp3_socp.Problem(robot, objectives, profile.a, b_linearization=profile.b), options)
     except copp.CoppError as exc:
         raise TimingError(f"jerk-limited path timing (copp TOPP3) failed on {n} stations: {exc}") from exc
-    timing = _profile_timing(copp, s, profile)
-    real = PathTiming(s, timing.a * unit**2, timing.b * unit**2, timing.t / unit, timing.stationary)
-    return real, float(topp2_s) / unit
+    return real(profile), float(topp2_s) / unit
 
 
 def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],

@@ -34,6 +34,12 @@ RETRY_GRIDPOINTS = (3000, 6000)
 #: Grid density floors: uniform points per waypoint segment, and points per smooth piece of the path.
 POINTS_PER_SEGMENT = 60
 POINTS_PER_PIECE = 8
+#: Caps of the path speed ds/dt, acceleration and jerk in the solvers' units (``ScaledPath``,
+#: ``time_unit``: there they are about 1 on ordinary paths): they bind only where every joint nearly
+#: stands still, and cost no measurable time there (larger caps leave toppra's LP ill-conditioned).
+PATH_SPEED_CAP = 1e2
+PATH_ACCELERATION_CAP = 1e4
+PATH_JERK_CAP = 1e6
 #: Samples per grid interval in the dense limit check.
 CHECK_SAMPLES_PER_INTERVAL = 16
 #: Slow down by this much more than the measured excess, so the check passes with room [1].
@@ -47,32 +53,56 @@ REFINE_SPLIT = 4
 REFINE_GROWTH = 4
 
 
-class ArcLengthPath:
-    """A JointPath re-parameterised by its joint-space chord length sigma in [0, L] [rad or m].
-
-    toppra is badly conditioned when |dq/ds| is far from 1 (a 1e-5 rad move over s in [0, 1] needs
-    path speeds of 1e5): over sigma the path speed is about 1 whatever the move's size.
+class ScaledPath:
+    """A JointPath as the solvers (toppra, copp) see it: over its own s in [0, 1], in units of
+    ``distance`` [rad or m]
+    (q / distance: with the path's length as the unit |dq/ds| is about 1 whatever the move's size, so
+    a 1e-7 rad move is as well conditioned as a 3 rad one), and, with ``cap``, one more coordinate,
+    s itself, whose velocity and acceleration limits (PATH_SPEED_CAP, PATH_ACCELERATION_CAP) bound the
+    path speed where every joint nearly stands still (a waypoint where the path turns back, with
+    dq/ds -> 0): there the joint limits allow path speeds near infinity and the solvers fail.
     """
 
-    def __init__(self, path: JointPath):
-        self.path = path
-        self.length = max(path.length, 1e-300)
+    def __init__(self, path: JointPath, distance: float, cap: bool = True):
+        self.path, self.distance, self.cap = path, distance, cap
 
-    def __call__(self, sigma, order: int = 0) -> np.ndarray:
-        return self.path(np.asarray(sigma) / self.length, order) / self.length**order
+    @property
+    def dof(self) -> int:
+        return self.path.dof + self.cap
 
-    def gridpoints(self, count: int) -> np.ndarray:
-        """Grid [rad or m]: ``count`` uniform points (at least ``POINTS_PER_SEGMENT`` per waypoint
-        segment) and every breakpoint of the path, with each smooth piece split at least
-        ``POINTS_PER_PIECE`` times: inside every interval the path is smooth and short, so the dense
-        check sees every acceleration peak."""
-        breakpoints = self.path.breakpoints
-        uniform = np.linspace(0.0, 1.0, max(count, POINTS_PER_SEGMENT * (len(self.path.waypoints) - 1)))
-        pieces = (breakpoints[:-1, None] + np.diff(breakpoints)[:, None] * np.arange(POINTS_PER_PIECE) / POINTS_PER_PIECE)
-        return np.unique(np.concatenate([uniform, pieces.ravel(), [1.0]])) * self.length
+    def __call__(self, s, order: int = 0) -> np.ndarray:
+        q = self.path(s, order) / self.distance
+        if not self.cap:
+            return q
+        extra = np.asarray(s, dtype=float) if order == 0 else np.full(np.shape(s), 1.0 if order == 1 else 0.0)
+        return np.concatenate([q, extra[..., None]], axis=-1)
+
+    def limits(self, limits: Limits, unit: float) -> Limits:
+        """Joint limits for this view, with time in units of 1 / ``unit`` [1/s] (qd / (distance unit),
+        qdd / (distance unit^2), qddd / (distance unit^3)), and the caps of the extra coordinate."""
+
+        def scaled(values, order: int, cap: float):
+            if values is None:
+                return None
+            return np.concatenate([values / (self.distance * unit**order), [cap] if self.cap else []])
+
+        return Limits(limits.q_min, limits.q_max, scaled(limits.qd_max, 1, PATH_SPEED_CAP),
+                      scaled(limits.qdd_max, 2, PATH_ACCELERATION_CAP), scaled(limits.qddd_max, 3, PATH_JERK_CAP),
+                      limits.tau_max)
 
 
-def _toppra_path(path: ArcLengthPath):
+def grid_for(path: JointPath, count: int) -> np.ndarray:
+    """Grid in s: ``count`` uniform points (at least ``POINTS_PER_SEGMENT`` per waypoint segment) and
+    every breakpoint of the path, with each smooth piece split at least ``POINTS_PER_PIECE`` times:
+    inside every interval the path is smooth and short, so the dense check sees every acceleration
+    peak."""
+    breakpoints = path.breakpoints
+    uniform = np.linspace(0.0, 1.0, max(count, POINTS_PER_SEGMENT * (len(path.waypoints) - 1)))
+    pieces = (breakpoints[:-1, None] + np.diff(breakpoints)[:, None] * np.arange(POINTS_PER_PIECE) / POINTS_PER_PIECE)
+    return np.unique(np.concatenate([uniform, pieces.ravel(), [1.0]]))
+
+
+def _toppra_path(path: ScaledPath):
     """The path seen through toppra's geometric-path interface."""
     import toppra
 
@@ -82,22 +112,39 @@ def _toppra_path(path: ArcLengthPath):
 
         @property
         def dof(self):
-            return path.path.dof
+            return path.dof
 
         @property
         def path_interval(self):
-            return np.array([0.0, path.length])
+            return np.array([0.0, 1.0])
 
         @property
         def waypoints(self):
-            return path.path.s_waypoints * path.length, path.path.waypoints
+            return path.path.s_waypoints, path(path.path.s_waypoints)
 
     return Adapter()
 
 
-def toppra_instance(path: ArcLengthPath, limits: Limits, gridpoints: np.ndarray, inverse_dynamics=None):
-    """A toppra TOPPRA instance with joint velocity and acceleration constraints on the path, and
-    torque constraints when ``inverse_dynamics(q, qd, qdd) -> tau`` is given with ``limits.tau_max``."""
+def scaled_inverse_dynamics(inverse_dynamics, path: ScaledPath, unit: float):
+    """``f(q, qd, qdd) -> tau`` for one state of ``path``'s coordinates in its units (1-D arrays, the
+    path speed cap last) from the batched ``inverse_dynamics(Q, QD, QDD) -> TAU`` [N m or N]: the
+    torque in real units, with the velocity and acceleration terms in ``unit``s of time (x unit^2) and
+    gravity as it is, so that the solvers' torque rows a u + b sd^2 + c are the real torque [N m]."""
+    dof, distance = path.path.dof, path.distance
+
+    def torques(q, qd, qdd):
+        q, qd, qdd = (np.asarray(x, dtype=float)[None, :dof] * distance for x in (q, qd, qdd))
+        gravity = inverse_dynamics(q, np.zeros_like(q), np.zeros_like(q))[0]
+        moving = inverse_dynamics(q, qd, qdd)[0] - gravity
+        return np.append(gravity + unit**2 * moving, np.zeros(path.dof - dof))
+
+    return torques
+
+
+def toppra_instance(path: ScaledPath, limits: Limits, gridpoints: np.ndarray, torques=None):
+    """A toppra TOPPRA instance with joint velocity and acceleration constraints on the path (``limits``
+    as ``path.limits`` gives them), and torque constraints when ``torques`` (``scaled_inverse_dynamics``)
+    is given with ``limits.tau_max``."""
     import toppra.algorithm
     import toppra.constraint
 
@@ -105,10 +152,10 @@ def toppra_instance(path: ArcLengthPath, limits: Limits, gridpoints: np.ndarray,
         toppra.constraint.JointVelocityConstraint(np.stack([-limits.qd_max, limits.qd_max], axis=1)),
         toppra.constraint.JointAccelerationConstraint(np.stack([-limits.qdd_max, limits.qdd_max], axis=1)),
     ]
-    if inverse_dynamics is not None:
+    if torques is not None:
+        tau_max = np.append(limits.tau_max, np.ones(path.dof - path.path.dof))
         constraints.append(toppra.constraint.JointTorqueConstraint(
-            lambda q, qd, qdd: inverse_dynamics(q, qd, qdd)[0], np.stack([-limits.tau_max, limits.tau_max], axis=1),
-            np.zeros(limits.tau_max.size)))
+            torques, np.stack([-tau_max, tau_max], axis=1), np.zeros(path.dof)))
     return toppra.algorithm.TOPPRA(constraints, _toppra_path(path), gridpoints=gridpoints,
                                    parametrizer="ParametrizeConstAccel")
 
@@ -135,7 +182,7 @@ class GridTiming:
     def duration(self) -> float:
         return float(self.t[-1])
 
-    def at(self, path: ArcLengthPath, t: np.ndarray, stretch: float = 1.0):
+    def at(self, path: JointPath, t: np.ndarray, stretch: float = 1.0):
         """q, qd, qdd at times t [s] of the trajectory slowed by ``stretch`` (time x stretch)."""
         tau_total = np.clip(t / stretch, 0.0, self.duration)
         i = np.clip(np.searchsorted(self.t, tau_total, side="right") - 1, 0, len(self.u) - 1)
@@ -156,23 +203,28 @@ class GridTiming:
         return (self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel()
 
 
-def solve_grid_timing(path: ArcLengthPath, limits: Limits, grid, inverse_dynamics=None) -> GridTiming | None:
-    """toppra's solution on ``grid`` (an array of path positions, or a point count for
-    ``path.gridpoints``) as a GridTiming, or None when toppra fails on it."""
-    grid = path.gridpoints(grid) if np.isscalar(grid) else grid
-    _, sd, _ = toppra_instance(path, limits, grid, inverse_dynamics).compute_parameterization(0.0, 0.0)
+def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None) -> GridTiming | None:
+    """toppra's solution on ``grid`` (s values, or a point count for ``grid_for``) as a GridTiming in
+    the time unit of ``limits`` (as ``path.limits`` gives them), or None when toppra fails on it."""
+    grid = grid_for(path.path, grid) if np.isscalar(grid) else grid
+    _, sd, _ = toppra_instance(path, limits, grid, torques).compute_parameterization(0.0, 0.0)
     if sd is None or not np.all(np.isfinite(sd)):
         return None
     return GridTiming.from_grid(grid, sd)
 
 
-def in_velocity_unit(limits: Limits, unit: float) -> Limits:
-    """The limits with time in units of 1 / ``unit`` [rad/s]: qd / unit, qdd / unit^2, qddd / unit^3."""
-    return Limits(limits.q_min, limits.q_max, limits.qd_max / unit, limits.qdd_max / unit**2,
-                  None if limits.qddd_max is None else limits.qddd_max / unit**3, limits.tau_max)
+def time_unit(limits: Limits, distance: float) -> float:
+    """1 / T [1/s] for T the time a move of ``distance`` [rad or m] takes at the median limits, the
+    longest of distance / qd, sqrt(distance / qdd) and cbrt(distance / qddd): in units of T and of the
+    distance, the limits a solver sees are all >= about 1 and none is tiny, whatever the move's size
+    and the speed scale (1e-9 rad at 0.001 x the limits as well as 3 rad at 1)."""
+    times = [distance / np.median(limits.qd_max)]
+    times += [np.sqrt(distance / np.median(limits.qdd_max))] if limits.qdd_max is not None else []
+    times += [np.cbrt(distance / np.median(limits.qddd_max))] if limits.qddd_max is not None else []
+    return 1.0 / float(max(times))
 
 
-def _refined(timing: GridTiming, path: ArcLengthPath, limits: Limits) -> np.ndarray | None:
+def _refined(timing: GridTiming, path: JointPath, limits: Limits) -> np.ndarray | None:
     """The grid with every interval whose dense check exceeds a limit by more than REFINE_EXCESS split
     in REFINE_SPLIT (None: no interval does)."""
     _, qd, qdd = timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL))
@@ -185,29 +237,36 @@ def _refined(timing: GridTiming, path: ArcLengthPath, limits: Limits) -> np.ndar
     return np.unique(np.concatenate([timing.s, added.ravel()]))
 
 
-def _solve_refined(path: ArcLengthPath, limits: Limits, gridpoints: int, inverse_dynamics=None):
-    """(GridTiming, retried grid sizes) with REFINE_ROUNDS of interval splitting; TimingError when toppra
-    fails on every grid. Limits without torques are solved in units of the median velocity limit and the
-    timing scaled back."""
-    unit = 1.0 if limits.tau_max is not None else float(np.median(limits.qd_max))
-    scaled = in_velocity_unit(limits, unit)
+def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dynamics=None):
+    """(GridTiming [s], retried grid sizes) with REFINE_ROUNDS of interval splitting; TimingError when
+    toppra fails on every grid. Without torques toppra sees the path in units of its length and time
+    in units of (the median velocity limit / that length), and the timing is scaled back exactly."""
+    distance = max(path.length, 1e-300)
+    unit = time_unit(limits, distance)
+    view = ScaledPath(path, distance)
+    scaled = view.limits(limits, unit)
+    torques = None if inverse_dynamics is None else scaled_inverse_dynamics(inverse_dynamics, view, unit)
+
+    def real(timing: GridTiming) -> GridTiming:
+        return GridTiming(timing.s, timing.sd * unit, timing.u * unit**2, timing.t / unit)
+
     attempts = [gridpoints, *[g for g in RETRY_GRIDPOINTS if g > gridpoints]]
     for used in attempts:
-        timing = solve_grid_timing(path, scaled, used, inverse_dynamics)
+        timing = solve_grid_timing(view, scaled, used, torques)
         if timing is not None:
             break
     else:
         raise TimingError(f"toppra found no feasible time parameterisation on {attempts} grid points "
-                          f"(path through {len(path.path.waypoints)} waypoints)")
+                          f"(path through {len(path.waypoints)} waypoints)")
+    timing = real(timing)
     largest = REFINE_GROWTH * len(timing.s)
     for _ in range(REFINE_ROUNDS if inverse_dynamics is None else 0):
-        grid = _refined(timing, path, scaled)
-        refined = None if grid is None or len(grid) > largest else solve_grid_timing(path, scaled, grid)
+        grid = _refined(timing, path, limits)
+        refined = None if grid is None or len(grid) > largest else solve_grid_timing(view, scaled, grid)
         if refined is None:
             break
-        timing = refined
-    real = GridTiming(timing.s, timing.sd * unit, timing.u * unit**2, timing.t / unit)
-    return real, tuple(attempts[: attempts.index(used)])
+        timing = real(refined)
+    return timing, tuple(attempts[: attempts.index(used)])
 
 
 @dataclass(frozen=True)
@@ -234,7 +293,7 @@ class ToppraSolution:
     """toppra's grid timing along ``path``, slowed uniformly by ``stretch`` [1] so that its dense check
     (``check_samples`` samples, peaks ``grid_peak_ratios`` (qd, qdd) [1]) passes; ``solve_s`` [s]."""
 
-    path: ArcLengthPath
+    path: JointPath
     grid: GridTiming
     stretch: float
     retried_gridpoints: tuple[int, ...]
@@ -257,9 +316,8 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
     if limits.qdd_max is None:
         raise TimingError("toppra needs acceleration limits (qdd_max) for every joint")
     start = time.perf_counter()
-    path = ArcLengthPath(path)
     if torques is not None:
-        q_grid = path(path.gridpoints(gridpoints))
+        q_grid = path(grid_for(path, gridpoints))
         check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
     timing, retried = _solve_refined(path, limits, gridpoints, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
@@ -307,7 +365,7 @@ def _ratios(qd: np.ndarray, qdd: np.ndarray, limits: Limits) -> tuple[float, flo
     return float((np.abs(qd) / limits.qd_max).max()), float((np.abs(qdd) / limits.qdd_max).max())
 
 
-def _peak_ratios(timing: GridTiming, path: ArcLengthPath, t: np.ndarray, limits: Limits, stretch: float):
+def _peak_ratios(timing: GridTiming, path: JointPath, t: np.ndarray, limits: Limits, stretch: float):
     _, qd, qdd = timing.at(path, t, stretch)
     return _ratios(qd, qdd, limits)
 
