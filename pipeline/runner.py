@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import ConfigurationError, JobFileError, TimingError
 from .ik import with_drake_model
-from .ik.branches import branch_change_reason, choose_solution
+from .ik.branches import branch_change_reason, choose_solution, configuration_labels
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, JointWaypoint, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
@@ -97,8 +97,9 @@ def _ratios(report: LimitReport) -> str:
 def solve_waypoints(job: Job) -> list[WaypointIk]:
     """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
     previous waypoint's joint values (the first: ``job.start`` or the middle of the limits), and of its
-    in-limit solutions one is kept by the rule of ``pipeline.ik.branches`` (the configuration the
-    waypoint names, else the previous pose's branch, nearest the previous joint values). A JobFileError
+    in-limit solutions one is kept by the rule of ``pipeline.ik.branches`` (of the configuration the
+    waypoint names, the one nearest the previous joint values; a joint waypoint's own configuration
+    counts as the previous branch). A JobFileError
     names the waypoint when a pose is unreachable, has no solution of the configuration asked for, or
     changes branch from the previous pose waypoint (naming both branches and the joint that forces it)
     unless the job allows branch changes."""
@@ -111,7 +112,7 @@ def solve_waypoints(job: Job) -> list[WaypointIk]:
     for k, waypoint in enumerate(job.waypoints):
         if isinstance(waypoint, JointWaypoint):
             solved.append(WaypointIk(waypoint.q))
-            previous = waypoint.q
+            previous, previous_branch = waypoint.q, configuration_labels(robot, waypoint.q[None])[0]
             continue
         field = f"waypoints[{k}]"
         result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, target_kind=waypoint.target, **options)

@@ -148,3 +148,18 @@ def test_five_axis_arm_given_an_unreachable_full_pose_is_told_what_it_can_match(
 def test_unknown_target_kind_names_the_field(tmp_path):
     with pytest.raises(JobFileError, match=r"waypoints\[0\]\.target"):
         load_job(job_variant(tmp_path, waypoint_0={"target": "orientation"}))
+
+
+def test_the_rule_takes_the_2_pi_representative_nearest_the_previous_configuration():
+    """A solver answer 2 pi away from the previous joint value (IRB 1600 axis 4, +-200 deg, at 190 deg
+    returned as -170 deg) is taken as the in-limit value next to the previous one, not as a jump."""
+    from pipeline.ik.branches import choose_solution
+    from pipeline.ik.result import IkResult, Solution
+
+    robot = load_robot("irb1600")
+    q = np.radians([10.0, 20.0, 10.0, 190.0, 40.0, 30.0])
+    shifted = q - np.array([0, 0, 0, 2 * np.pi, 0, 0])
+    result = IkResult(True, shifted, 0.0, 0.0, 1, "jacobian", solutions=(Solution(shifted, 0.0, 0.0),))
+    choice = choose_solution(robot, result, q + np.radians([0, 0, 0, -2.0, 0, 0]))
+    np.testing.assert_allclose(choice.q, q, atol=1e-12)
+    assert not choice.changed and choice.solutions == 1

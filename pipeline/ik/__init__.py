@@ -26,7 +26,8 @@ OPTIONS = {"analytic": (), "jacobian": ("rng", "max_restarts", "max_iterations",
 
 
 def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: str = FULL_POSE, **options) -> IkResult:
-    """Solve IK for one target pose X_BE (4x4, base frame, [m]); never returns None.
+    """Solve IK for one target pose X_BE (4x4, base frame, [m]); never returns None. Every solution
+    carries its configuration label (``pipeline.ik.branches``; "" for arms without named ones).
 
     ``q_seed``: configuration to stay near (default: the middle of the joint ranges).
     ``options`` go to the method: ``rng`` (np.random.Generator for restarts), ``max_restarts``,
@@ -50,6 +51,12 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
         from .drake_ik import solve_drake
 
         result = solve_drake(robot, target, seed, **options)
+    if method != "analytic" and result.solutions:
+        from .branches import configuration_labels
+
+        labels = configuration_labels(robot, np.array([s.q for s in result.solutions]))
+        result = dataclasses.replace(result, solutions=tuple(s._replace(branch=label)
+                                                             for s, label in zip(result.solutions, labels)))
     if not result.success and robot.dof < 6 and target.kind == FULL_POSE:
         result = dataclasses.replace(result, reason=f"{result.reason}; {robot.name} has {robot.dof} joints and cannot "
                                      "match a full pose (6 components) in general: ask for "

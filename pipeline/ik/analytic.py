@@ -349,16 +349,26 @@ def _failure_for_target(robot, branches, i, position_error, rotation_error, stri
                     details={"branches_reachable": int(branches.reachable[i].sum())})
 
 
+def closest_limit_violation(robot, Q: np.ndarray) -> tuple[int, float, float]:
+    """Of configurations Q (B, 6), each joint shifted by the multiple of 2 pi that brings it nearest
+    its limits, the one nearest them: (the joint that violates them most there, its value [rad], by
+    how much [rad])."""
+    limits = robot.limits
+    turns = int(np.ceil(np.abs(np.concatenate([limits.q_min, limits.q_max])).max() / TWO_PI)) + 1
+    values = _wrap(Q)[..., None] + TWO_PI * np.arange(-turns, turns + 1)                  # (B, 6, S)
+    excess = np.maximum(np.maximum(limits.q_min[:, None] - values, values - limits.q_max[:, None]), 0.0)
+    shift = excess.argmin(axis=-1)                                                         # (B, 6)
+    nearest = excess.min(axis=-1)
+    b = int(np.argmin(nearest.max(axis=-1)))
+    j = int(np.argmax(nearest[b]))
+    return j, float(values[b, j, shift[b, j]]), float(nearest[b, j])
+
+
 def _limit_reason(robot, Q_strict: np.ndarray) -> str:
     """Why exact solutions were rejected: the smallest joint-limit violation among them and their 2 pi shifts."""
-    limits = robot.limits
-    candidates, _ = limit_variants(Q_strict, np.ones(6, dtype=bool), limits.q_min, limits.q_max)
-    excess = np.maximum(np.maximum(limits.q_min - candidates, candidates - limits.q_max), 0.0)   # (B, V, 6)
-    worst = excess.max(axis=-1)
-    b, v = np.unravel_index(np.argmin(worst), worst.shape)
-    j = int(np.argmax(excess[b, v]))
+    j, _, excess = closest_limit_violation(robot, Q_strict)
     return (f"reachable only outside the joint limits: {len(Q_strict)} exact branch(es); the closest violates "
-            f"{robot.joint_names[j]} by {worst[b, v]:.4g} rad")
+            f"{robot.joint_names[j]} by {excess:.4g} rad")
 
 
 def _failure(robot, X_target: np.ndarray, seed: np.ndarray, reason: str) -> IkResult:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..configurations import matches
-from .result import TWO_PI, IkResult, wrap_into_limits
+from .result import IkResult, wrap_into_limits
 
 def configuration_labels(robot, Q) -> list[str]:
     """The configuration label of each joint vector Q (N, dof) ("" for arms without named
@@ -90,7 +90,7 @@ def branch_change_reason(robot, choice: BranchChoice, X_target: np.ndarray, prev
 def why_not_on_branch(robot, X_target: np.ndarray, branch: str, seed: np.ndarray) -> str:
     """Why the pose X_target has no in-limit solution on ``branch``: the joint whose limit rules the
     branch's exact solution out (name, value, limits), or that the branch does not reach the pose."""
-    from .analytic import analytic_solver_for, solve_branches
+    from .analytic import analytic_solver_for, closest_limit_violation, solve_branches
 
     solver = analytic_solver_for(robot)
     if not solver.applicable or not branch:
@@ -101,10 +101,6 @@ def why_not_on_branch(robot, X_target: np.ndarray, branch: str, seed: np.ndarray
     if not on_branch:
         return "the pose is out of reach on that branch"
     limits = robot.limits
-    shifted = branches.Q[0, on_branch][:, None, :] + TWO_PI * np.arange(-2, 3)[:, None]           # (B, 5, 6)
-    excess = np.maximum(np.maximum(limits.q_min - shifted, shifted - limits.q_max), 0.0).min(axis=1)  # (B, 6)
-    b = int(np.argmin(excess.max(axis=1)))
-    j = int(np.argmax(excess[b]))
-    value = shifted[b, np.argmin(np.maximum(limits.q_min[j] - shifted[b, :, j], shifted[b, :, j] - limits.q_max[j])), j]
+    j, value, _ = closest_limit_violation(robot, branches.Q[0, on_branch])
     return (f"{robot.joint_names[j]} would be {np.degrees(value):.4g} deg there, outside its limits "
             f"[{np.degrees(limits.q_min[j]):.4g}, {np.degrees(limits.q_max[j]):.4g}] deg")

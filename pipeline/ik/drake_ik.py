@@ -186,8 +186,7 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
         if best is None or score < best[0]:
             best = (score, q, position_error, rotation_error, info)
         if ok:
-            strict.append(Solution(q, position_error, rotation_error,
-                                   branch=f"drake solve {solves}" + (" (polished)" if first_order else "")))
+            strict.append(Solution(q, position_error, rotation_error))
         return q, ok, in_limits and position_error <= POLISH_POSITION and rotation_error <= POLISH_ROTATION
 
     starts, out_of_time = 0, False

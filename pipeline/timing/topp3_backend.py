@@ -34,9 +34,11 @@ from ..robot_spec import Limits
 from .ruckig_backend import require_jerk_limits
 from .toppra_backend import ScaledPath, sample_times, scaled_inverse_dynamics, time_unit, torque_stretch
 
-#: Stations per waypoint segment, and the fewest and most stations of a path (the solve time grows
-#: about linearly with them: 0.3-2 s for a 10-waypoint path, ~15 s for 60 waypoints, 2 cores).
+#: Stations per waypoint segment on average and at least, and the fewest and most stations of a path
+#: (the solve time grows about linearly with them: 0.3-2 s for a 10-waypoint path, ~15 s for 60
+#: waypoints, 2 cores).
 STATIONS_PER_SEGMENT = 60
+MIN_STATIONS_PER_SEGMENT = 16
 MIN_STATIONS = 201
 MAX_STATIONS = 4001
 #: Weight of the total variation of the joint accelerations (each over its limit, summed over the
@@ -47,12 +49,12 @@ SMOOTHING_SHARE = 0.05
 #: than TIGHTEN_EXCESS between stations (each round one more solve) [1].
 TIGHTEN_ROUNDS = 3
 TIGHTEN_EXCESS = 2e-3
-#: The station just before a breakpoint, in units of the uniform station spacing [1].
+#: The station just before a breakpoint, in units of the smallest station spacing [1].
 BREAKPOINT_GAP = 1e-3
 #: Samples per station interval in the dense limit check; rounds of checking the output samples (a
 #: slow-down moves them), and how much more than the measured excess each slow-down takes [1]
 #: (certify allows 1e-6).
-CHECK_SAMPLES_PER_INTERVAL = 16
+CHECK_SAMPLES_PER_INTERVAL = 48
 OUTPUT_ROUNDS = 5
 OUTPUT_MARGIN = 1e-7
 
@@ -80,16 +82,20 @@ class Topp3Details(TimingDetails):
 
 
 def stations_for(path: JointPath) -> np.ndarray:
-    """The station grid in s: uniform, STATIONS_PER_SEGMENT per waypoint segment within [MIN_STATIONS,
-    MAX_STATIONS], with a station on every breakpoint of the path and, where d3q/ds3 jumps there (a C2
-    path), one just before it: each side's value must be limited at a station."""
-    count = int(np.clip(STATIONS_PER_SEGMENT * (len(path.waypoints) - 1) + 1, MIN_STATIONS, MAX_STATIONS))
-    uniform = np.linspace(0.0, 1.0, count)
+    """The station grid in s: STATIONS_PER_SEGMENT per waypoint segment on average (within
+    [MIN_STATIONS, MAX_STATIONS] in all), spread over the segments by their length but at least
+    MIN_STATIONS_PER_SEGMENT in each (a short segment between two stops needs room to speed up and
+    slow down), evenly within each; every breakpoint of the path is a station and, where d3q/ds3 jumps
+    there (a C2 path), so is a point just before it: each side's value must be limited at a station."""
+    knots = path.s_waypoints
+    segments = len(knots) - 1
+    total = int(np.clip(STATIONS_PER_SEGMENT * segments, MIN_STATIONS, MAX_STATIONS))
+    counts = np.maximum(np.round(total * np.diff(knots)).astype(int), MIN_STATIONS_PER_SEGMENT)
+    stations = [np.linspace(start, end, count + 1)[:-1] for start, end, count in zip(knots[:-1], knots[1:], counts)]
+    spacing = float(np.min(np.diff(knots) / counts))
     inner = path.breakpoints[1:-1]
-    before = inner - BREAKPOINT_GAP / (count - 1) if path.continuity < 3 else inner[:0]
-    keep = np.abs(uniform[:, None] - np.concatenate([inner, before])[None, :]).min(axis=1, initial=np.inf) \
-        > 2.0 * BREAKPOINT_GAP / (count - 1)
-    return np.unique(np.concatenate([uniform[keep], [0.0, 1.0], inner, before]))
+    before = inner - BREAKPOINT_GAP * spacing if path.continuity < 3 else inner[:0]
+    return np.unique(np.concatenate([*stations, path.breakpoints, before, [1.0]]))
 
 
 @dataclass(frozen=True, eq=False)
