@@ -213,6 +213,10 @@ class _JobReader(Reader):
         timing = TIMING_ALIASES.get(timing, timing)
         if timing == "ruckig" and self.has(("path",)):
             self.fail(("path",), "has no effect with timing ruckig, which times waypoint to waypoint; remove it")
+        path = None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, DEFAULT_PATH_SHAPE)
+        if timing == "topp3" and path == "linear":
+            self.fail(("path",), "timing topp3 (jerk-limited path following) needs a path whose d2q/ds2 is continuous: "
+                      "monotone or spline, not linear (its corners jump in acceleration)", path)
         return Job(
             name=name,
             source=self.source,
@@ -221,7 +225,7 @@ class _JobReader(Reader):
             start=start,
             ik=self.choice(("ik",), IK_METHODS, "auto"),
             timing=timing,
-            path=None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, DEFAULT_PATH_SHAPE),
+            path=path,
             speed_scale=self.number(("speed_scale",), 1.0, low=0.0, high=1.0, low_open=True),
             dt=self.number(("dt",), DEFAULT_DT, *DT_RANGE, unit="s"),
             outputs=self.outputs(),

@@ -163,3 +163,4 @@ def test_the_rule_takes_the_2_pi_representative_nearest_the_previous_configurati
     choice = choose_solution(robot, result, q + np.radians([0, 0, 0, -2.0, 0, 0]))
     np.testing.assert_allclose(choice.q, q, atol=1e-12)
     assert not choice.changed and choice.solutions == 1
+
