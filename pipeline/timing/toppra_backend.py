@@ -29,7 +29,7 @@ from ..robot_spec import Limits
 
 #: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
 #: benchmark paths, see ``python -m pipeline bench timing``), and of the retries.
-GRIDPOINTS = 1500
+GRIDPOINTS = 2000
 RETRY_GRIDPOINTS = (3000, 6000)
 #: Grid density floors: uniform points per waypoint segment, and points per smooth piece of the path.
 POINTS_PER_SEGMENT = 60
@@ -41,9 +41,12 @@ PATH_SPEED_CAP = 1e2
 PATH_ACCELERATION_CAP = 1e4
 PATH_JERK_CAP = 1e6
 #: Samples per grid interval in the dense limit check.
-CHECK_SAMPLES_PER_INTERVAL = 16
-#: Slow down by this much more than the measured excess, so the check passes with room [1].
+CHECK_SAMPLES_PER_INTERVAL = 32
+#: Slow down by this much more than the measured excess, so the check passes with room [1]; for the
+#: output samples, rounds of checking them (a slow-down moves them) and their margin (certify allows 1e-6).
 STRETCH_MARGIN = 1e-9
+OUTPUT_ROUNDS = 5
+OUTPUT_MARGIN = 1e-7
 #: Rounds of splitting the grid intervals whose dense check exceeds a limit by more than
 #: REFINE_EXCESS (smaller excesses are left to the uniform slow-down), the pieces each is split into,
 #: and the largest grid refining may make, in multiples of the first grid.
@@ -336,10 +339,13 @@ def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_nam
     path, timing, stretch = solution.path, solution.grid, solution.stretch
     t = sample_times(timing.duration * stretch, dt, max_samples)
     q, qd, qdd = timing.at(path, t, stretch)
-    # The output samples are judged too (certify() reads them): stretch more if one of them exceeds.
-    output_ratios = _ratios(qd, qdd, limits)
-    if max(output_ratios) > 1.0:
-        stretch = _stretch_for(*output_ratios, stretch)
+    # The output samples are judged too (certify() reads them): stretch more while one of them exceeds
+    # (a slow-down moves the samples, so each round checks the new ones).
+    for _ in range(OUTPUT_ROUNDS):
+        output_ratios = _ratios(qd, qdd, limits)
+        if max(output_ratios) <= 1.0:
+            break
+        stretch = _stretch_for(*output_ratios, stretch, OUTPUT_MARGIN)
         t = sample_times(timing.duration * stretch, dt, max_samples)
         q, qd, qdd = timing.at(path, t, stretch)
     details = ToppraDetails(
@@ -393,10 +399,12 @@ def torque_stretch(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limit
     return float(np.sqrt(k_squared)) * (1.0 + STRETCH_MARGIN) if k_squared > 1.0 else 1.0
 
 
-def _stretch_for(velocity_ratio: float, acceleration_ratio: float, stretch: float) -> float:
-    """The time stretch that brings peak ratios measured at ``stretch`` down to 1 (at least ``stretch``)."""
+def _stretch_for(velocity_ratio: float, acceleration_ratio: float, stretch: float,
+                 margin: float = STRETCH_MARGIN) -> float:
+    """The time stretch that brings peak ratios measured at ``stretch`` down to 1 (at least ``stretch``),
+    ``margin`` [1] more."""
     factor = max(1.0, velocity_ratio, float(np.sqrt(acceleration_ratio)))
-    return stretch * factor * (1.0 + STRETCH_MARGIN) if factor > 1.0 else stretch
+    return stretch * factor * (1.0 + margin) if factor > 1.0 else stretch
 
 
 def check_sample_count(duration: float, dt: float, max_samples: int, what: str = "the profile",
