@@ -32,7 +32,8 @@ from ..path import JointPath
 from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 from .ruckig_backend import require_jerk_limits
-from .toppra_backend import ScaledPath, sample_times, scaled_inverse_dynamics, time_unit, torque_stretch
+from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, stretch_for, time_unit,
+                             torque_stretch)
 
 #: Stations per waypoint segment on average and at least, and the fewest and most stations of a path
 #: (the solve time grows about linearly with them: 0.3-2 s for a 10-waypoint path, ~15 s for 60
@@ -162,12 +163,6 @@ def _peak_ratios(qd, qdd, qddd, limits: Limits) -> tuple[float, float, float]:
             float((np.abs(qddd) / limits.qddd_max).max()))
 
 
-def _stretch_for(ratios: tuple[float, float, float], stretch: float) -> float:
-    """The uniform slow-down that brings peak ratios measured at ``stretch`` to 1 (at least ``stretch``)."""
-    factor = max(1.0, ratios[0], float(np.sqrt(ratios[1])), float(np.cbrt(ratios[2])))
-    return stretch * factor * (1.0 + OUTPUT_MARGIN) if factor > 1.0 else stretch
-
-
 def _profile_timing(copp, s: np.ndarray, profile) -> PathTiming:
     _, t = copp.interpolation.s_to_t_topp3(s, profile, 0.0)
     timing = PathTiming(s, profile.a, profile.b, np.asarray(t), tuple(profile.num_stationary))
@@ -190,7 +185,7 @@ def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: Limits, 
     """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
     slowed by ``stretch`` within the limits, torques included when ``torques`` is given."""
     q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
-    slowed = _stretch_for(_peak_ratios(qd, qdd, qddd, limits), stretch)
+    slowed = stretch_for(_peak_ratios(qd, qdd, qddd, limits), stretch, OUTPUT_MARGIN)
     if torques is not None:
         slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits, torques)
     return slowed

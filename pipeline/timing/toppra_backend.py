@@ -9,9 +9,10 @@ densely, and where a grid interval exceeds a limit we split it and solve again (
 constrains the new grid points), up to REFINE_ROUNDS times; whatever excess is left is removed by
 slowing the whole trajectory uniformly by the smallest factor k that brings every sample back
 (velocity / k, acceleration / k^2), and k is reported. If toppra fails, the grid is refined and the
-solve retried, and that is reported too. Limits are normalised to a median velocity limit of 1
-before toppra sees them (a speed scale of 0.001 would otherwise leave it with 1e-6 accelerations),
-and the result scaled back exactly.
+solve retried, and that is reported too. The path and the limits are normalised
+before toppra sees them in units of the path's length and the move's natural time (``ScaledPath``,
+``time_unit``: a speed scale of 0.001 or a 1e-8 rad move would otherwise leave it with vanishing
+limits), and the result is scaled back exactly.
 """
 
 from __future__ import annotations
@@ -325,7 +326,7 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
     timing, retried = _solve_refined(path, limits, gridpoints, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
     peaks = _peak_ratios(timing, path, check_t, limits, 1.0)
-    stretch = _stretch_for(*peaks, 1.0)
+    stretch = stretch_for(peaks, 1.0)
     if torques is not None:
         stretch = max(stretch, torque_stretch(*timing.at(path, check_t), limits, torques))
     return ToppraSolution(path, timing, stretch, retried, int(check_t.size), peaks, time.perf_counter() - start)
@@ -345,7 +346,7 @@ def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_nam
         output_ratios = _ratios(qd, qdd, limits)
         if max(output_ratios) <= 1.0:
             break
-        stretch = _stretch_for(*output_ratios, stretch, OUTPUT_MARGIN)
+        stretch = stretch_for(output_ratios, stretch, OUTPUT_MARGIN)
         t = sample_times(timing.duration * stretch, dt, max_samples)
         q, qd, qdd = timing.at(path, t, stretch)
     details = ToppraDetails(
@@ -399,11 +400,11 @@ def torque_stretch(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limit
     return float(np.sqrt(k_squared)) * (1.0 + STRETCH_MARGIN) if k_squared > 1.0 else 1.0
 
 
-def _stretch_for(velocity_ratio: float, acceleration_ratio: float, stretch: float,
-                 margin: float = STRETCH_MARGIN) -> float:
-    """The time stretch that brings peak ratios measured at ``stretch`` down to 1 (at least ``stretch``),
-    ``margin`` [1] more."""
-    factor = max(1.0, velocity_ratio, float(np.sqrt(acceleration_ratio)))
+def stretch_for(ratios, stretch: float, margin: float = STRETCH_MARGIN) -> float:
+    """The time stretch that brings peak ratios (velocity, acceleration[, jerk]) measured at
+    ``stretch`` down to 1 (at least ``stretch``), ``margin`` [1] more: a slow-down by k divides the
+    n-th time derivative by k^n."""
+    factor = max(1.0, *(ratio ** (1.0 / order) for order, ratio in enumerate(ratios, start=1)))
     return stretch * factor * (1.0 + margin) if factor > 1.0 else stretch
 
 
