@@ -158,7 +158,7 @@ def monotone_knots(s_knots: np.ndarray, waypoints: np.ndarray) -> tuple[np.ndarr
     left, right = secants[:-1], secants[1:]
     w_left, w_right = 2.0 * h[1:] + h[:-1], h[1:] + 2.0 * h[:-1]
     same_sign = left * right > 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):   # 0 or tiny secants: no slope
         harmonic = (w_left + w_right) / (w_left / left + w_right / right)
     bound = MONOTONE_SLOPE_LIMIT * np.minimum(np.abs(left), np.abs(right))
     interior_slopes = np.where(same_sign, np.sign(left) * np.minimum(np.abs(harmonic), bound), 0.0)

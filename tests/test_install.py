@@ -74,4 +74,4 @@ def test_non_editable_install_works_from_another_directory(tmp_path):
                          cwd=elsewhere, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     assert (elsewhere / "out" / "report.json").is_file() and (elsewhere / "out" / "profile.csv").is_file()
-    assert json.loads((elsewhere / "out" / "report.json").read_text())["limits"]["passed"] is True
+    assert json.loads((elsewhere / "out" / "report.json").read_text())["limits"]["timed"]["passed"] is True
