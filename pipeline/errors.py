@@ -104,3 +104,14 @@ class ProfileSizeError(TimingError):
 class OutputError(PipelineError):
     """An output folder or file cannot be written: it is a file, is not writable, or holds files this
     package did not write."""
+
+
+class UrdfFileError(FileFormatError):
+    """A URDF file is not valid XML or not a valid URDF (``field`` names the element, e.g.
+    ``joint[elbow].limit.velocity``), or its chain cannot become a DH robot (``UrdfChainError``)."""
+
+
+class UrdfChainError(UrdfFileError):
+    """The chain asked for is not a serial chain of revolute and prismatic joints: a branch with
+    moving joints on more than one side, a mimic, floating or planar joint, or no path from the base
+    link to the tip link. ``field`` names the joint or link."""

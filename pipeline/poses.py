@@ -6,6 +6,7 @@ Quaternions are scalar-first ``[w, x, y, z]``, as in seed 003 and Drake, with ``
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -49,6 +50,14 @@ def make_pose(R, p) -> np.ndarray:
 def rpy_to_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """R = Rz(yaw) Ry(pitch) Rx(roll): roll, pitch, yaw [rad] about the fixed X, Y, Z axes."""
     return Rotation.from_euler("xyz", [roll, pitch, yaw]).as_matrix()
+
+
+def rotation_to_rpy(R) -> np.ndarray:
+    """Roll, pitch, yaw [rad] about the fixed X, Y, Z axes with ``rpy_to_rotation(*rpy) == R``. At pitch
+    +-90 deg (gimbal lock), where only roll -+ yaw is defined, yaw is 0."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Gimbal lock", category=UserWarning)
+        return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler("xyz")
 
 
 def rpy_position_to_pose(rpy, p) -> np.ndarray:
