@@ -292,6 +292,9 @@ def test_mimic_floating_and_planar_joints_on_the_chain_are_typed_errors(tmp_path
     (('<child link="arm"/>', '<child link="nowhere"/>'), r"joint\[shoulder\]\.child\.link"),
     (('type="revolute"', 'type="hinge"'), r"joint\[shoulder\]\.type"),
     (("</robot>", "</robt>"), r"document: is not well-formed XML"),
+    (('<robot name="gripper_arm">', '<robot name="arm" xmlns:xacro="http://ros.org/wiki/xacro"><xacro:property '
+      'name="l" value="0.3"/>'), r"document: is a xacro file: expand it first"),
+    (('<origin xyz="0.3 0 0"/>', '<origin xyz="${l} 0 0"/>'), r"document: is a xacro file"),
 ])
 def test_bad_urdfs_get_typed_errors_naming_the_element(tmp_path, change, field):
     text = two_finger_urdf()

@@ -20,6 +20,7 @@ from ..poses import rpy_position_to_pose
 #: Largest URDF read [bytes]: robot descriptions are tens of kB; this leaves room for comments.
 MAX_URDF_BYTES = 16 * 1024 * 1024
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+XACRO_NAMESPACE = "{http://ros.org/wiki/xacro}"
 #: An axis shorter than this is not a direction [1].
 MIN_AXIS_NORM = 1e-9
 
@@ -167,6 +168,8 @@ def parse_urdf(text: str, source: str = "<string>") -> UrdfModel:
         reader.fail("document", f"is not well-formed XML: {exc}")
     if root.tag != "robot":
         reader.fail("document", "the root element must be <robot>", root.tag)
+    if any(element.tag.startswith(XACRO_NAMESPACE) for element in root.iter()) or "${" in text:
+        reader.fail("document", "is a xacro file: expand it first (xacro FILE.urdf.xacro > FILE.urdf)")
     links: dict[str, UrdfInertial | None] = {}
     for k, element in enumerate(root.findall("link")):
         name = reader.name(element, f"link[{k}]")
