@@ -18,7 +18,8 @@ FORBIDDEN = {
     "pipeline.schema": ("pydrake", "pipeline.ik", "pipeline.timing", "pipeline.drake_model"),
     "pipeline.robot_spec": ("pydrake", "pipeline.ik", "pipeline.timing", "pipeline.drake_model"),
     "pipeline.jobs": ("pydrake", "pipeline.ik", "pipeline.timing", "pipeline.drake_model", "toppra", "ruckig"),
-    "pipeline.views": ("pydrake", "matplotlib"),          # both only when a figure or a view is made
+    "pipeline.views": ("pydrake", "matplotlib"),
+    "pipeline.urdf": ("pydrake", "matplotlib", "pipeline.ik", "pipeline.timing"),   # URDF is text and NumPy          # both only when a figure or a view is made
 }
 
 
