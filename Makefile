@@ -17,12 +17,13 @@ $(STAMP): pyproject.toml
 # trajectories/jobs/ into $(OUT)/<job name>/ (profile CSV/NPZ, JSON report, PNG plot).
 run: $(STAMP)
 	$(PY) -m pipeline check all --samples 200 --out $(OUT)/check
+	@set -e; for robot in gp7 lrmate200id irb1600 arm5 arm6; do $(PY) -m pipeline export $$robot --urdf $(OUT)/urdf/$$robot.urdf; done
 	@set -e; for job in trajectories/jobs/*.yaml; do \
 		name=$$(basename $$job .yaml); \
 		echo "== $$job"; \
 		$(PY) -m pipeline run $$job --out $(OUT)/$$name; \
 	done
-	@echo "Jacobian check reports in $(OUT)/check/; the plots and 3-D views (open view.html in a browser):"
+	@echo "Jacobian check reports in $(OUT)/check/, the presets as URDF in $(OUT)/urdf/; the plots and 3-D views (open view.html in a browser):"
 	@for job in trajectories/jobs/*.yaml; do n=$$(basename $$job .yaml); echo "  $(OUT)/$$n/profile.png  $(OUT)/$$n/arm.png  $(OUT)/$$n/view.html"; done
 
 test: $(STAMP)
