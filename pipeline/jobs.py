@@ -27,8 +27,9 @@ from .robot_spec import preset_names
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
-OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png")
-#: Written when a job lists no outputs (the 3-D views, html and arm_png, only when asked for).
+OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory")
+#: Written when a job lists no outputs (the 3-D views, html and arm_png, and the controller formats,
+#: ros2_yaml and json_trajectory, only when asked for).
 DEFAULT_OUTPUTS = ("csv", "npz", "json", "png")
 #: Allowed sample times [s].
 DT_RANGE = (1e-4, 0.1)
@@ -70,9 +71,10 @@ class Job:
     PoseWaypoint values in order; ``start`` (dof,) [rad or m] or None: the IK seed of the first pose
     waypoint; ``ik``, ``timing``: method names; ``path``: the path shape (None with ``ruckig``, which
     times waypoint to waypoint); ``speed_scale`` in (0, 1]; ``dt`` [s];
-    ``outputs``: which of csv, npz, json, png, html, arm_png to write; ``inputs_sha256``: hash of the
-    job file bytes followed by the robot file bytes; ``allow_branch_change``: a change of IK branch
-    between consecutive pose waypoints is reported instead of refused.
+    ``outputs``: which of csv, npz, json, png, html, arm_png, ros2_yaml, json_trajectory to write;
+    ``inputs_sha256``: hash of the job file bytes followed by the robot file bytes;
+    ``allow_branch_change``: a change of IK branch between consecutive pose waypoints is reported
+    instead of refused.
     """
 
     name: str

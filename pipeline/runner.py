@@ -3,9 +3,10 @@
 Steps: the output folder is checked first (``staged_output``: nothing is computed for a folder that
 cannot be written), then IK for pose waypoints (each seeded with the previous solution), the joint
 path, timing and its certification (by ``retime``: a profile that fails is an error, never an
-output), then every requested output (profile CSV/NPZ, JSON report, profile plot, and the 3-D views:
-a standalone Meshcat HTML animation and a PNG drawing of the arm) written into a staging folder that
-replaces the output folder whole. Used by the CLI (``python -m pipeline run``), the tests and the
+output), then every requested output (profile CSV/NPZ, JSON report, profile plot, the 3-D views: a
+standalone Meshcat HTML animation and a PNG drawing of the arm, and the profile as a ROS 2
+JointTrajectory message in YAML or JSON for a controller) written into a staging folder that replaces
+the output folder whole. Used by the CLI (``python -m pipeline run``), the tests and the
 notebooks.
 """
 
@@ -17,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .controller_formats import write_json_trajectory, write_ros2_yaml
 from .errors import ConfigurationError, JobFileError, TimingError
 from .ik import with_drake_model
 from .ik.branches import branch_change_reason, choose_solution, configuration_labels
@@ -30,7 +32,8 @@ log = logging.getLogger(__name__)
 
 #: Output kind -> file name inside the output directory.
 FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png",
-              "html": "view.html", "arm_png": "arm.png"}
+              "html": "view.html", "arm_png": "arm.png", "ros2_yaml": "trajectory.ros2.yaml",
+              "json_trajectory": "trajectory.json"}
 VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "copp-py", "numpy", "scipy")
 
 
@@ -203,6 +206,8 @@ def _writers(job: Job, profile: Profile, report: dict) -> dict:
         "png": lambda path: _plot(path, job, profile, revolute),
         "html": lambda path: _view_html(path, job, profile),
         "arm_png": lambda path: _plot_arm(path, job, profile),
+        "ros2_yaml": lambda path: write_ros2_yaml(path, profile),
+        "json_trajectory": lambda path: write_json_trajectory(path, profile),
     }
 
 
