@@ -3,10 +3,10 @@
 The DH table comes from the joint axes at q = 0 (``dh_from_axes``); every sign is +1 and every offset
 is the joint value at the URDF's zero, so q is the URDF's own joint vector. Limits are copied
 (position, velocity; effort as ``tau_max`` when every joint has one and every link its inertia).
-Mass properties of the links welded to each moving link are summed into its DH frame. The written
-file is read back by the strict robot-file reader, and the imported FK is compared with the URDF's own
-chain on random configurations (``max_fk_error_m``), so an import never hands over a different robot
-silently.
+Mass properties of the links welded to each moving link are summed into its DH frame. The robot-file
+document goes through the strict robot-file reader, and the imported FK is compared with the URDF's
+own chain on random configurations (``max_fk_error_m``), so an import never hands over a different
+robot silently.
 """
 
 from __future__ import annotations
