@@ -38,8 +38,9 @@ from .errors import TimingError
 SHAPES = PATH_SHAPES
 #: Fraction of the shorter neighbouring segment used by each corner blend of a linear path.
 DEFAULT_BLEND = 0.2
-#: Each shape's smoothness: the highest derivative of q(s) that is continuous.
-CONTINUITY = {"monotone": 3, "spline": 2, "linear": 1}
+#: Each shape's smoothness: the highest derivative of q(s) that is continuous (``samples``: the C2 spline
+#: through dense IK samples of a tool move, ``path_through_samples``).
+CONTINUITY = {"monotone": 3, "spline": 2, "linear": 1, "samples": 2}
 #: Samples per segment when checking that a spline stays inside the joint limits.
 LIMIT_CHECK_SAMPLES = 200
 #: Waypoints closer than this (joint-space norm) to the last one kept are one waypoint [rad or m]:
@@ -279,6 +280,16 @@ def make_path(waypoints, q_min: np.ndarray, q_max: np.ndarray, shape: str = DEFA
     if shape == "spline":
         _check_spline_limits(path, q_min, q_max)
     return path
+
+
+def path_through_samples(s_knots: np.ndarray, samples: np.ndarray) -> JointPath:
+    """The C2 cubic spline (not-a-knot) through dense joint samples (K, dof) [rad or m] at path
+    parameters ``s_knots`` (K,), increasing from 0 to 1: the joint path of a tool move, whose samples
+    are IK solutions close enough together that the spline between them is checked, not assumed."""
+    s_knots, samples = np.asarray(s_knots, dtype=float), np.asarray(samples, dtype=float)
+    length = float(np.linalg.norm(np.diff(samples, axis=0), axis=1).sum())
+    return JointPath(samples, s_knots, s_knots, "samples", length, CONTINUITY["samples"],
+                     _spline_pieces(s_knots, samples))
 
 
 def _check_spline_limits(path: JointPath, q_min: np.ndarray, q_max: np.ndarray) -> None:

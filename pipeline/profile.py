@@ -1,7 +1,8 @@
 """Time-parameterised joint profiles and their certification against the limits.
 
 ``certify(profile, limits)`` is the one judge of every profile this package makes: per-joint
-peak/limit ratios of q, qd, qdd and qddd on the profile's samples, the worst sample, pass/fail.
+peak/limit ratios of q, qd, qdd and qddd (and torques) on the profile's samples, the TCP's speed and
+acceleration ratios when the limits bound them, the worst sample, pass/fail.
 A position ratio is the peak distance from the middle of the range over half the range, so 1 is
 "on a limit" for every quantity.
 """
@@ -18,7 +19,9 @@ from .robot_spec import Limits
 
 #: A peak/limit ratio up to 1 + this passes (round-off of the samples) [1].
 CERTIFY_TOLERANCE = 1e-6
-QUANTITIES = ("q", "qd", "qdd", "qddd", "tau")
+QUANTITIES = ("q", "qd", "qdd", "qddd", "tau", "tcp_speed", "tcp_accel")
+#: Quantities of the TCP, not of a joint (their ratios have one entry).
+TCP_QUANTITIES = ("tcp_speed", "tcp_accel")
 
 
 @dataclass(frozen=True)
@@ -32,6 +35,16 @@ class TimingDetails:
 
 
 @dataclass(frozen=True, eq=False)
+class TcpSamples:
+    """The TCP at a profile's samples: ``position`` (N, 3) [m], ``speed`` (N,) [m/s], ``accel`` (N,)
+    [m/s^2] (the norms of its velocity and acceleration vectors)."""
+
+    position: np.ndarray
+    speed: np.ndarray
+    accel: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class Profile:
     """Samples of a timed joint trajectory, time-major: ``t`` (N,) [s], ``q``, ``qd``, ``qdd``,
     ``qddd`` (N, dof) [rad, rad/s, rad/s^2, rad/s^3 (m for prismatic joints)].
@@ -41,7 +54,8 @@ class Profile:
     ``tau`` (N, dof) [N m or N]: joint torques from Drake's inverse dynamics, when torques are limited;
     ``certificate``: the ``certify`` verdict ``retime`` attached (None on a profile made otherwise);
     ``speed_scale`` and ``unscaled_limits``: the limits before the speed scale (the robot's own, unless
-    the caller gave others; None on a profile made otherwise).
+    the caller gave others; None on a profile made otherwise); ``tcp``: the TCP's motion at the samples,
+    when the profile was timed with TCP limits or for a tool.
     """
 
     t: np.ndarray
@@ -57,6 +71,7 @@ class Profile:
     certificate: LimitReport | None = None
     speed_scale: float = 1.0
     unscaled_limits: Limits | None = None
+    tcp: "TcpSamples | None" = None
 
     @property
     def duration(self) -> float:
@@ -92,7 +107,8 @@ class LimitReport:
     def __str__(self) -> str:
         peaks = ", ".join(f"{name} {self.max_ratio(name):.6f}" for name in QUANTITIES if name in self.ratios)
         verdict = "PASS" if self.passed else "FAIL"
-        return (f"{verdict}: peak/limit {peaks}; worst {self.worst_quantity} of joint {self.worst_joint + 1} "
+        where = "the TCP" if self.worst_quantity in TCP_QUANTITIES else f"joint {self.worst_joint + 1}"
+        return (f"{verdict}: peak/limit {peaks}; worst {self.worst_quantity} of {where} "
                 f"at t = {self.worst_time:.4f} s ({self.worst_ratio:.6f})")
 
     def to_dict(self) -> dict:
@@ -118,6 +134,11 @@ def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
         if profile.tau is None:
             raise ConfigurationError("the limits bound joint torques but the profile carries none to judge")
         out["tau"] = np.abs(profile.tau) / limits.tau_max
+    for name, limit in (("tcp_speed", limits.tcp_speed_max), ("tcp_accel", limits.tcp_accel_max)):
+        if limit is not None:
+            if profile.tcp is None:
+                raise ConfigurationError("the limits bound the TCP but the profile carries no TCP samples to judge")
+            out[name] = getattr(profile.tcp, name[4:])[:, None] / limit
     return out
 
 
@@ -166,7 +187,8 @@ def limits_summary(profile: Profile) -> dict:
 
 
 def scale_limits(limits: Limits, speed_scale: float) -> Limits:
-    """Limits for a speed scale in (0, 1]: qd x s, qdd x s^2, qddd x s^3 (positions unchanged)."""
+    """Limits for a speed scale in (0, 1]: qd x s, qdd x s^2, qddd x s^3 (positions unchanged), and the
+    TCP's speed x s and acceleration x s^2."""
     if not np.isfinite(speed_scale) or not 0.0 < speed_scale <= 1.0:
         raise ConfigurationError(f"speed_scale must be in (0, 1], got {speed_scale}")
     return Limits(
@@ -176,4 +198,6 @@ def scale_limits(limits: Limits, speed_scale: float) -> Limits:
         qdd_max=None if limits.qdd_max is None else limits.qdd_max * speed_scale**2,
         qddd_max=None if limits.qddd_max is None else limits.qddd_max * speed_scale**3,
         tau_max=limits.tau_max,
+        tcp_speed_max=None if limits.tcp_speed_max is None else limits.tcp_speed_max * speed_scale,
+        tcp_accel_max=None if limits.tcp_accel_max is None else limits.tcp_accel_max * speed_scale**2,
     )

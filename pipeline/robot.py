@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +74,12 @@ class Robot(DhKinematics):
 
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, {self.spec.convention} DH, dof={self.dof}, source={self.spec.source!r})"
+
+
+def robot_with_tool(robot: Robot, X_ET: np.ndarray) -> Robot:
+    """The robot whose end frame is a tool's TCP: its end frame E (the flange, or the robot file's own
+    tool) times ``X_ET`` (4, 4) [m]."""
+    return Robot(dataclasses.replace(robot.spec, X_DnE=robot.spec.X_DnE @ X_ET))
 
 
 def load_robot(name_or_path: str | Path) -> Robot:

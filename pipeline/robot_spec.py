@@ -71,7 +71,8 @@ class DhJoint:
 @dataclass(frozen=True, eq=False)
 class Limits:
     """Joint limits as SI arrays of length dof; ``qdd_max``, ``qddd_max``, ``tau_max`` [N m or N] are
-    None when not given."""
+    None when not given. ``tcp_speed_max`` [m/s] and ``tcp_accel_max`` [m/s^2]: limits of the TCP (the
+    robot's end frame) that a job may add for its tool moves (None: not limited)."""
 
     q_min: np.ndarray
     q_max: np.ndarray
@@ -79,6 +80,8 @@ class Limits:
     qdd_max: np.ndarray | None
     qddd_max: np.ndarray | None
     tau_max: np.ndarray | None = None
+    tcp_speed_max: float | None = None
+    tcp_accel_max: float | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -26,7 +26,7 @@ METHODS = TIMING_METHODS
 
 def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
            limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = DEFAULT_PATH_SHAPE,
-           max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, **options) -> Profile:
+           max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, tcp=None, **options) -> Profile:
     """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits.
 
     ``speed_scale`` in (0, 1] scales qd, qdd, qddd limits by s, s^2, s^3; ``limits`` replaces the
@@ -36,7 +36,10 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
     Drake's inverse dynamics: toppra limits them, and every method's profile is judged on them.
     ``max_samples``: a profile with more samples is refused (ProfileSizeError) as soon as its
     duration is known, before they are made. ``drake``: the robot's DrakeRobot for the inverse
-    dynamics (built here when torques are limited and none is given; pass one to reuse it).
+    dynamics (built here when torques are limited and none is given; pass one to reuse it). ``tcp``: a
+    TcpMotion of the robot whose end frame is the TCP: the profile then carries the TCP's samples
+    (``profile.tcp``), and the limits' ``tcp_speed_max`` and ``tcp_accel_max`` are met (toppra: as
+    constraints; topp3: by a uniform slow-down) and certified.
     """
     method = TIMING_ALIASES.get(method, method)
     if method not in METHODS:
@@ -53,6 +56,9 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
         from ..drake_model import build_drake_robot
 
         inverse_dynamics = (drake if drake is not None else build_drake_robot(robot.spec)).inverse_dynamics
+    if (limits.tcp_speed_max is not None or limits.tcp_accel_max is not None) and (tcp is None or method == "ruckig"):
+        raise ConfigurationError("TCP limits need the TCP's kinematics (tcp=TcpMotion(robot)) and a path-following "
+                                 "timing (toppra or topp3; ruckig times waypoint to waypoint, off the path)")
     if method == "ruckig":
         from .ruckig_backend import retime_ruckig
 
@@ -66,14 +72,16 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
             from .toppra_backend import retime_toppra
 
             profile = retime_toppra(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
-                                    max_samples=max_samples, **options)
+                                    max_samples=max_samples, tcp=tcp, **options)
         else:
             from .topp3_backend import retime_topp3
 
             profile = retime_topp3(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
-                                   max_samples=max_samples, **options)
+                                   max_samples=max_samples, tcp=tcp, **options)
     if inverse_dynamics is not None:
         profile = dataclasses.replace(profile, tau=inverse_dynamics(profile.q, profile.qd, profile.qdd))
+    if tcp is not None:
+        profile = dataclasses.replace(profile, tcp=tcp.samples(profile.q, profile.qd, profile.qdd))
     report = certify(profile)
     if not report.passed:
         raise TimingError(f"{method} profile failed certification: {report}")

@@ -181,11 +181,18 @@ def interval_jerk_ratios(timing: PathTiming, path: JointPath, limits: Limits) ->
     return (np.abs(qddd) / limits.qddd_max).reshape(len(timing.s) - 1, fractions.size, -1).max(axis=1)
 
 
-def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: Limits, torques, stretch: float) -> float:
+def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: Limits, torques, stretch: float,
+            tcp=None) -> float:
     """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
-    slowed by ``stretch`` within the limits, torques included when ``torques`` is given."""
+    slowed by ``stretch`` within the limits, torques included when ``torques`` is given, and the TCP's
+    speed and acceleration when ``tcp`` (a TcpMotion) is (copp has no TCP constraint: they are met by
+    this slow-down)."""
     q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
-    slowed = stretch_for(_peak_ratios(qd, qdd, qddd, limits), stretch, OUTPUT_MARGIN)
+    speed, accel, jerk = _peak_ratios(qd, qdd, qddd, limits)
+    if tcp is not None:
+        tcp_speed, tcp_accel = tcp.ratios(limits, q, qd, qdd)
+        speed, accel = max(speed, tcp_speed), max(accel, tcp_accel)
+    slowed = stretch_for((speed, accel, jerk), stretch, OUTPUT_MARGIN)
     if torques is not None:
         slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits, torques)
     return slowed
@@ -250,9 +257,10 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None) -> tuple
 
 
 def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                 inverse_dynamics=None, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+                 inverse_dynamics=None, max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None) -> Profile:
     """Time-optimal jerk-limited profile along ``path`` (C2), at rest at both ends, sampled every
-    ``dt`` [s] and at the end; torques limited too with ``inverse_dynamics`` and ``limits.tau_max``."""
+    ``dt`` [s] and at the end; torques limited too with ``inverse_dynamics`` and ``limits.tau_max``,
+    and the TCP's speed and acceleration (by a uniform slow-down) with ``tcp``."""
     require_jerk_limits(limits, "topp3")
     if path.continuity < 2:
         raise TimingError(f"jerk-limited path following needs a C2 path (monotone or spline); the {path.shape} "
@@ -262,10 +270,10 @@ def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[
     timing, topp2_s = solve_topp3(path, limits, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
     peaks = _peak_ratios(*joint_motion(path, *timing.at(check_t))[1:], limits)
-    stretch = _slowed(timing, path, check_t, limits, torques, 1.0)
+    stretch = _slowed(timing, path, check_t, limits, torques, 1.0, tcp)
     t = sample_times(timing.duration * stretch, dt, max_samples)
     for _ in range(OUTPUT_ROUNDS):             # the output samples are judged too: slow a little more
-        output_stretch = _slowed(timing, path, t, limits, torques, stretch)
+        output_stretch = _slowed(timing, path, t, limits, torques, stretch, tcp)
         if output_stretch <= stretch:
             break
         stretch = output_stretch

@@ -17,6 +17,7 @@ limits), and the result is scaled back exactly.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -41,8 +42,11 @@ POINTS_PER_PIECE = 8
 PATH_SPEED_CAP = 1e2
 PATH_ACCELERATION_CAP = 1e4
 PATH_JERK_CAP = 1e6
-#: Samples per grid interval in the dense limit check.
+#: Samples per grid interval in the dense limit check; the TCP's limits (a Jacobian per sample) are
+#: checked on every TCP_CHECK_STRIDE-th of them (its speed and acceleration vary slowly along a grid
+#: interval; the output samples are all checked).
 CHECK_SAMPLES_PER_INTERVAL = 32
+TCP_CHECK_STRIDE = 8
 #: Slow down by this much more than the measured excess, so the check passes with room [1]; for the
 #: output samples, rounds of checking them (a slow-down moves them) and their margin (certify allows 1e-6).
 STRETCH_MARGIN = 1e-9
@@ -145,10 +149,10 @@ def scaled_inverse_dynamics(inverse_dynamics, path: ScaledPath, unit: float):
     return torques
 
 
-def toppra_instance(path: ScaledPath, limits: Limits, gridpoints: np.ndarray, torques=None):
+def toppra_instance(path: ScaledPath, limits: Limits, gridpoints: np.ndarray, torques=None, extra=()):
     """A toppra TOPPRA instance with joint velocity and acceleration constraints on the path (``limits``
-    as ``path.limits`` gives them), and torque constraints when ``torques`` (``scaled_inverse_dynamics``)
-    is given with ``limits.tau_max``."""
+    as ``path.limits`` gives them), torque constraints when ``torques`` (``scaled_inverse_dynamics``)
+    is given with ``limits.tau_max``, and the ``extra`` constraints (the TCP's)."""
     import toppra.algorithm
     import toppra.constraint
 
@@ -160,6 +164,7 @@ def toppra_instance(path: ScaledPath, limits: Limits, gridpoints: np.ndarray, to
         tau_max = np.append(limits.tau_max, np.ones(path.dof - path.path.dof))
         constraints.append(toppra.constraint.JointTorqueConstraint(
             torques, np.stack([-tau_max, tau_max], axis=1), np.zeros(path.dof)))
+    constraints += list(extra)
     return toppra.algorithm.TOPPRA(constraints, _toppra_path(path), gridpoints=gridpoints,
                                    parametrizer="ParametrizeConstAccel")
 
@@ -207,11 +212,11 @@ class GridTiming:
         return (self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel()
 
 
-def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None) -> GridTiming | None:
+def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None, extra=()) -> GridTiming | None:
     """toppra's solution on ``grid`` (s values, or a point count for ``grid_for``) as a GridTiming in
     the time unit of ``limits`` (as ``path.limits`` gives them), or None when toppra fails on it."""
     grid = grid_for(path.path, grid) if np.isscalar(grid) else grid
-    _, sd, _ = toppra_instance(path, limits, grid, torques).compute_parameterization(0.0, 0.0)
+    _, sd, _ = toppra_instance(path, limits, grid, torques, extra).compute_parameterization(0.0, 0.0)
     if sd is None or not np.all(np.isfinite(sd)):
         return None
     return GridTiming.from_grid(grid, sd)
@@ -228,11 +233,14 @@ def time_unit(limits: Limits, distance: float) -> float:
     return 1.0 / float(max(times))
 
 
-def _refined(timing: GridTiming, path: JointPath, limits: Limits) -> np.ndarray | None:
+def _refined(timing: GridTiming, path: JointPath, limits: Limits, tcp=None) -> np.ndarray | None:
     """The grid with every interval whose dense check exceeds a limit by more than REFINE_EXCESS split
     in REFINE_SPLIT (None: no interval does)."""
-    _, qd, qdd = timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL))
+    q, qd, qdd = timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL))
     ratios = np.maximum(np.abs(qd) / limits.qd_max, np.abs(qdd) / limits.qdd_max).max(axis=1)
+    if tcp is not None:
+        stride = slice(None, None, TCP_CHECK_STRIDE)
+        ratios[stride] = np.maximum(ratios[stride], tcp_sample_ratios(tcp, limits, q[stride], qd[stride], qdd[stride]))
     over = ratios.reshape(len(timing.u), CHECK_SAMPLES_PER_INTERVAL + 1).max(axis=1) > 1.0 + REFINE_EXCESS
     if not over.any():
         return None
@@ -241,7 +249,7 @@ def _refined(timing: GridTiming, path: JointPath, limits: Limits) -> np.ndarray 
     return np.unique(np.concatenate([timing.s, added.ravel()]))
 
 
-def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dynamics=None):
+def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dynamics=None, tcp=None):
     """(GridTiming [s], retried grid sizes) with REFINE_ROUNDS of interval splitting; TimingError when
     toppra fails on every grid. Without torques toppra sees the path in units of its length and time
     in units of (the median velocity limit / that length), and the timing is scaled back exactly."""
@@ -250,13 +258,18 @@ def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dyn
     view = ScaledPath(path, distance)
     scaled = view.limits(limits, unit)
     torques = None if inverse_dynamics is None else scaled_inverse_dynamics(inverse_dynamics, view, unit)
+    extra = ()
+    if tcp is not None:
+        from .tcp_constraint import TcpConstraint   # toppra only when it is used
+
+        extra = (TcpConstraint(tcp, path, limits, unit, view.dof),)
 
     def real(timing: GridTiming) -> GridTiming:
         return GridTiming(timing.s, timing.sd * unit, timing.u * unit**2, timing.t / unit)
 
     attempts = [gridpoints, *[g for g in RETRY_GRIDPOINTS if g > gridpoints]]
     for used in attempts:
-        timing = solve_grid_timing(view, scaled, used, torques)
+        timing = solve_grid_timing(view, scaled, used, torques, extra)
         if timing is not None:
             break
     else:
@@ -265,8 +278,8 @@ def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dyn
     timing = real(timing)
     largest = REFINE_GROWTH * len(timing.s)
     for _ in range(REFINE_ROUNDS if inverse_dynamics is None else 0):
-        grid = _refined(timing, path, limits)
-        refined = None if grid is None or len(grid) > largest else solve_grid_timing(view, scaled, grid)
+        grid = _refined(timing, path, limits, tcp)
+        refined = None if grid is None or len(grid) > largest else solve_grid_timing(view, scaled, grid, extra=extra)
         if refined is None:
             break
         timing = real(refined)
@@ -312,9 +325,10 @@ class ToppraSolution:
 
 
 def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
-                 inverse_dynamics=None) -> ToppraSolution:
+                 inverse_dynamics=None, tcp=None) -> ToppraSolution:
     """Time-optimal timing along ``path`` within qd_max and qdd_max (and tau_max through
-    ``inverse_dynamics(Q, QD, QDD) -> TAU``, batched [N m], when the limits have it), checked densely
+    ``inverse_dynamics(Q, QD, QDD) -> TAU``, batched [N m], when the limits have it; the TCP's speed and
+    acceleration limits through ``tcp``, a TcpMotion, when the limits have them), checked densely
     between grid points; no samples yet. Raises TimingError when toppra fails on every grid."""
     torques = inverse_dynamics if limits.tau_max is not None else None
     if limits.qdd_max is None:
@@ -323,9 +337,12 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
     if torques is not None:
         q_grid = path(grid_for(path, gridpoints))
         check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
-    timing, retried = _solve_refined(path, limits, gridpoints, torques)
+    timing, retried = _solve_refined(path, limits, gridpoints, torques, tcp)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    peaks = _peak_ratios(timing, path, check_t, limits, 1.0)
+    peaks = _ratios(*timing.at(path, check_t), limits)
+    if tcp is not None:
+        tcp_peaks = tcp.ratios(limits, *timing.at(path, check_t[::TCP_CHECK_STRIDE]))
+        peaks = (max(peaks[0], tcp_peaks[0]), max(peaks[1], tcp_peaks[1]))
     stretch = stretch_for(peaks, 1.0)
     if torques is not None:
         stretch = max(stretch, torque_stretch(*timing.at(path, check_t), limits, torques))
@@ -333,7 +350,7 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int = GRIDPOINTS,
 
 
 def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                  max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+                  max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None) -> Profile:
     """The solution sampled every ``dt`` [s] (and at the end); slowed a little more if an output
     sample exceeds a limit. Raises ProfileSizeError before sampling more than ``max_samples``."""
     start = time.perf_counter()
@@ -343,7 +360,7 @@ def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_nam
     # The output samples are judged too (certify() reads them): stretch more while one of them exceeds
     # (a slow-down moves the samples, so each round checks the new ones).
     for _ in range(OUTPUT_ROUNDS):
-        output_ratios = _ratios(qd, qdd, limits)
+        output_ratios = _ratios(q, qd, qdd, limits, tcp)
         if max(output_ratios) <= 1.0:
             break
         stretch = stretch_for(output_ratios, stretch, OUTPUT_MARGIN)
@@ -354,27 +371,36 @@ def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_nam
         optimal_on_grid_s=timing.duration, check_samples=solution.check_samples,
         grid_peak_qd_ratio=solution.grid_peak_ratios[0], grid_peak_qdd_ratio=solution.grid_peak_ratios[1],
         time_stretch=stretch, compute_s=solution.solve_s + time.perf_counter() - start)
-    timed_limits = Limits(limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max, None, limits.tau_max)
+    timed_limits = dataclasses.replace(limits, qddd_max=None)
     return Profile(t, q, qd, qdd, np.gradient(qdd, t, axis=0), "toppra", timed_limits, joint_names, details)
 
 
 def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
                   gridpoints: int = GRIDPOINTS, inverse_dynamics=None,
-                  max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+                  max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None) -> Profile:
     """Time-optimal profile along ``path``, at rest at both ends, sampled every ``dt`` [s]:
     ``solve_toppra`` then ``sample_toppra``."""
-    return sample_toppra(solve_toppra(path, limits, gridpoints, inverse_dynamics), limits, dt, joint_names,
-                         max_samples)
+    return sample_toppra(solve_toppra(path, limits, gridpoints, inverse_dynamics, tcp), limits, dt, joint_names,
+                         max_samples, tcp)
 
 
-def _ratios(qd: np.ndarray, qdd: np.ndarray, limits: Limits) -> tuple[float, float]:
-    """Largest |qd| / qd_max and |qdd| / qdd_max over samples."""
-    return float((np.abs(qd) / limits.qd_max).max()), float((np.abs(qdd) / limits.qdd_max).max())
+def tcp_sample_ratios(tcp, limits: Limits, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """Per sample (n,): the larger of TCP speed / tcp_speed_max and acceleration / tcp_accel_max."""
+    _, v, a = tcp.motion(q, qd, qdd)
+    ratios = np.linalg.norm(v, axis=1) / limits.tcp_speed_max if limits.tcp_speed_max else np.zeros(len(q))
+    if limits.tcp_accel_max:
+        ratios = np.maximum(ratios, np.linalg.norm(a, axis=1) / limits.tcp_accel_max)
+    return ratios
 
 
-def _peak_ratios(timing: GridTiming, path: JointPath, t: np.ndarray, limits: Limits, stretch: float):
-    _, qd, qdd = timing.at(path, t, stretch)
-    return _ratios(qd, qdd, limits)
+def _ratios(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limits, tcp=None) -> tuple[float, float]:
+    """The peak speed and acceleration ratios over samples: |qd| / qd_max and |qdd| / qdd_max, and the
+    TCP's speed and acceleration over their limits when ``tcp`` (a TcpMotion) is given."""
+    speed, accel = float((np.abs(qd) / limits.qd_max).max()), float((np.abs(qdd) / limits.qdd_max).max())
+    if tcp is not None:
+        tcp_speed, tcp_accel = tcp.ratios(limits, q, qd, qdd)
+        speed, accel = max(speed, tcp_speed), max(accel, tcp_accel)
+    return speed, accel
 
 
 def check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) -> None:
