@@ -24,3 +24,9 @@ DEFAULT_DT = 0.004
 #: Most samples a profile may have unless the caller allows more (500,000 x 6 joints x 4 quantities
 #: is about 100 MB of arrays) [1].
 DEFAULT_MAX_SAMPLES = 500_000
+#: How the TCP gets to a pose waypoint (``pipeline.tool_path``): joint interpolation, or a tool move, a
+#: straight line or a circular arc.
+TOOL_MOVES = ("linear", "circular")
+MOVES = ("joint", *TOOL_MOVES)
+#: What a tool move does near a singularity (``pipeline.tool_moves``): refuse, or slow down through it.
+SINGULARITY_POLICIES = ("stop", "slow_down")

@@ -216,17 +216,21 @@ def _renameat2():
     return function
 
 
-def profile_columns(revolute: Sequence[bool], torques: bool = False) -> list[str]:
+#: CSV columns of the TCP, when a profile carries it.
+TCP_COLUMNS = ["tcp_x_m", "tcp_y_m", "tcp_z_m", "tcp_speed_m_s", "tcp_accel_m_s2"]
+
+
+def profile_columns(revolute: Sequence[bool], torques: bool = False, tcp: bool = False) -> list[str]:
     """CSV column names with units: ``t_s``, ``q1_rad``, ``qd1_rad_s``, ``qdd1_rad_s2``, ``qddd1_rad_s3``
-    (``m`` for prismatic joints), and with ``torques`` ``tau1_N_m`` (``N`` for prismatic); joints
-    numbered from 1."""
+    (``m`` for prismatic joints), with ``torques`` ``tau1_N_m`` (``N`` for prismatic), and with ``tcp``
+    the TCP's position, speed and acceleration (TCP_COLUMNS); joints numbered from 1."""
     units = ["rad" if r else "m" for r in revolute]
     columns = ["t_s"]
     for name, suffix in (("q", ""), ("qd", "_s"), ("qdd", "_s2"), ("qddd", "_s3")):
         columns += [f"{name}{j + 1}_{unit}{suffix}" for j, unit in enumerate(units)]
     if torques:
         columns += [f"tau{j + 1}_{'N_m' if r else 'N'}" for j, r in enumerate(revolute)]
-    return columns
+    return columns + (TCP_COLUMNS if tcp else [])
 
 
 def write_profile_csv(path: str | Path, profile: Profile, revolute: Sequence[bool]) -> None:
@@ -234,18 +238,23 @@ def write_profile_csv(path: str | Path, profile: Profile, revolute: Sequence[boo
     blocks = [profile.t, profile.q, profile.qd, profile.qdd, profile.qddd]
     if profile.tau is not None:
         blocks.append(profile.tau)
+    if profile.tcp is not None:
+        blocks += [profile.tcp.position, profile.tcp.speed, profile.tcp.accel]
     table = np.column_stack(blocks) + 0.0   # no "-0"
-    header = ",".join(profile_columns(revolute, torques=profile.tau is not None))
+    header = ",".join(profile_columns(revolute, torques=profile.tau is not None, tcp=profile.tcp is not None))
     np.savetxt(path, table, fmt="%.12g", delimiter=",", header=header, comments="")
 
 
 def write_profile_npz(path: str | Path, profile: Profile) -> None:
     """The profile as NPZ: ``t`` (N,) [s], ``q``, ``qd``, ``qdd``, ``qddd`` (N, dof) [SI], ``joint_names``,
-    and ``tau`` (N, dof) [N m or N] when the profile carries torques."""
+    ``tau`` (N, dof) [N m or N] when the profile carries torques, and ``tcp_position`` (N, 3) [m],
+    ``tcp_speed`` [m/s], ``tcp_accel`` [m/s^2] (N,) when it carries the TCP."""
     arrays = {"t": profile.t, "q": profile.q, "qd": profile.qd, "qdd": profile.qdd, "qddd": profile.qddd,
               "joint_names": np.array(profile.joint_names)}
     if profile.tau is not None:
         arrays["tau"] = profile.tau
+    if profile.tcp is not None:
+        arrays.update(tcp_position=profile.tcp.position, tcp_speed=profile.tcp.speed, tcp_accel=profile.tcp.accel)
     with open(path, "wb") as handle:
         np.savez(handle, **arrays)
 

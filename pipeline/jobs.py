@@ -18,18 +18,19 @@ from typing import Any
 
 import numpy as np
 
-from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, FULL_POSE, IK_METHODS, PATH_SHAPES, TARGET_KINDS,
-                      TIMING_ALIASES, TIMING_METHODS)
-from .errors import ConfigurationError, JobFileError, RobotNotFoundError
+from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, FULL_POSE, IK_METHODS, MOVES, PATH_SHAPES,
+                      SINGULARITY_POLICIES, TARGET_KINDS, TIMING_ALIASES, TIMING_METHODS)
+from .errors import ConfigurationError, JobFileError, MissingFieldError, RobotNotFoundError
 from .configurations import parse_configuration
-from .robot import Robot, load_robot
+from .robot import Robot, load_robot, robot_with_tool
 from .robot_spec import preset_names
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
-OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory")
+OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png")
 #: Written when a job lists no outputs (the 3-D views, html and arm_png, and the controller formats,
-#: ros2_yaml and json_trajectory, only when asked for).
+#: ros2_yaml and json_trajectory, only when asked for; the TCP figure, tcp_png, by default when the job
+#: has tool moves or TCP limits, and only then).
 DEFAULT_OUTPUTS = ("csv", "npz", "json", "png")
 #: Allowed sample times [s].
 DT_RANGE = (1e-4, 0.1)
@@ -40,9 +41,13 @@ REACH_SAMPLES = 4096
 
 _REQUIRED = ("robot", "waypoints")
 _OPTIONAL = ("description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
-             "dt", "outputs", "allow_branch_change")
-#: The keys of a pose waypoint besides its pose: what IK must match, and the configuration it must have.
-_POSE_EXTRA = ("target", "config")
+             "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity")
+#: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have, and
+#: how the TCP gets there (move, via point, zone).
+_POSE_EXTRA = ("target", "config", "move", "via", "zone")
+#: Largest TCP speed [m/s] and acceleration [m/s^2] a job may ask for: beyond any arm (unit mistakes).
+MAX_TCP_SPEED = 20.0
+MAX_TCP_ACCEL = 1000.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,6 +66,13 @@ class PoseWaypoint:
     X_BE: np.ndarray
     target: str = FULL_POSE
     config: dict | None = None
+    move: str = "joint"
+    via: np.ndarray | None = None
+    zone: float = 0.0
+
+    @property
+    def is_tool_move(self) -> bool:
+        return self.move != "joint"
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +86,10 @@ class Job:
     ``outputs``: which of csv, npz, json, png, html, arm_png, ros2_yaml, json_trajectory to write;
     ``inputs_sha256``: hash of the job file bytes followed by the robot file bytes;
     ``allow_branch_change``: a change of IK branch between consecutive pose waypoints is reported
-    instead of refused.
+    instead of refused. ``tool``: X_ET (4, 4) [m], the TCP in the robot's end frame, or None (then
+    ``robot`` is the robot as its file gives it; with a tool, ``robot``'s end frame is the TCP and every
+    pose is a TCP pose); ``tcp_speed_max`` [m/s], ``tcp_accel_max`` [m/s^2] or None; ``singularity``:
+    what a tool move does near a singularity (stop, slow_down).
     """
 
     name: str
@@ -91,10 +106,18 @@ class Job:
     inputs_sha256: str
     description: str = ""
     allow_branch_change: bool = False
+    tool: np.ndarray | None = None
+    tcp_speed_max: float | None = None
+    tcp_accel_max: float | None = None
+    singularity: str = "stop"
 
     @property
     def has_poses(self) -> bool:
         return any(isinstance(w, PoseWaypoint) for w in self.waypoints)
+
+    @property
+    def has_tool_moves(self) -> bool:
+        return any(isinstance(w, PoseWaypoint) and w.is_tool_move for w in self.waypoints)
 
     def __str__(self) -> str:
         kinds = "pose" if self.has_poses else "joint"
@@ -166,7 +189,17 @@ class _JobReader(Reader):
                 config = parse_configuration(self.get((*path, "config")))
             except ConfigurationError as exc:
                 self.fail((*path, "config"), str(exc), self.get((*path, "config")))
-        return PoseWaypoint(X, target, config)
+        move = self.choice((*path, "move"), MOVES, "joint")
+        via = None
+        if move == "circular":
+            self.mapping((*path, "via"), ("xyz",), ())
+            via = self.vector((*path, "via", "xyz"), 3, "x, y, z") * length_scale
+        elif self.has((*path, "via")):
+            self.fail((*path, "via"), f"is the via point of a circular move; this move is {move}")
+        if move != "joint" and target != FULL_POSE:
+            self.fail((*path, "target"), f"a {move} move follows the full TCP pose: target must be {FULL_POSE}", target)
+        zone = self.number((*path, "zone"), 0.0, low=0.0, unit=self.get(("length_unit",))) * length_scale
+        return PoseWaypoint(X, target, config, move, via, zone)
 
     def pose_target(self, path, robot: Robot, length_scale: float, angle_scale: float | None,
                     reach: tuple[float, float]) -> np.ndarray:
@@ -195,24 +228,75 @@ class _JobReader(Reader):
             self.pose_waypoint(("waypoints", k), robot, length_scale, angle_scale, reach)
             if isinstance(w, dict) else JointWaypoint(self.joint_values(("waypoints", k), robot, scales))
             for k, w in enumerate(raw))
+        self.check_moves(waypoints)
         start = self.joint_values(("start",), robot, scales) if self.has(("start",)) else None
         return waypoints, start
 
-    def outputs(self) -> tuple[str, ...]:
+    def check_moves(self, waypoints) -> None:
+        """A tool move needs a waypoint before it; a zone rounds the corner into a next tool move."""
+        tool_moves = [isinstance(w, PoseWaypoint) and w.is_tool_move for w in waypoints]
+        if tool_moves[0]:
+            self.fail(("waypoints", 0, "move"), "the first waypoint is where the motion starts: it has no move "
+                      "to it", waypoints[0].move)
+        for k, w in enumerate(waypoints):
+            if isinstance(w, PoseWaypoint) and w.zone > 0.0 and not (w.is_tool_move and k + 1 < len(waypoints)
+                                                                     and tool_moves[k + 1]):
+                self.fail(("waypoints", k, "zone"), "rounds the corner between two tool moves (linear or "
+                          "circular): this waypoint and the next must both be reached by one", self.get(
+                              ("waypoints", k, "zone")))
+
+    def tool(self, robot: Robot, length_scale: float | None, angle_scale: float | None) -> np.ndarray | None:
+        """The job's ``tool`` -> X_ET (4, 4) [m] (None when absent)."""
+        if not self.has(("tool",)):
+            return None
+        if length_scale is None:
+            self.fail(("length_unit",), "required because a tool is given", kind=MissingFieldError)
+        return self.pose(("tool",), length_scale, angle_scale, complete=False,
+                         max_length_m=robot.spec.reach_bound)
+
+    def tcp_limit(self, key: str, length_scale: float | None, high: float, unit: str) -> float | None:
+        """``tcp_speed_max`` or ``tcp_accel_max`` in length_unit/s^k -> SI, plausible (None when absent)."""
+        if not self.has((key,)):
+            return None
+        if length_scale is None:
+            self.fail(("length_unit",), f"required because {key} is given (length_unit/s^k)", kind=MissingFieldError)
+        value = self.positive((key,)) * length_scale
+        if value > high:
+            self.fail((key,), f"is {value:.4g} {unit}, above any arm ({high:g} {unit}): is length_unit right?",
+                      self.get((key,)))
+        return value
+
+    def outputs(self, has_tcp: bool) -> tuple[str, ...]:
+        """The outputs to write; ``has_tcp``: the job has tool moves or TCP limits (a TCP figure)."""
         path = ("outputs",)
         if not self.has(path):
-            return DEFAULT_OUTPUTS
+            return DEFAULT_OUTPUTS + (("tcp_png",) if has_tcp else ())
         value = self.sequence(path, min_items=1, what=f"outputs ({', '.join(OUTPUTS)})")
         for i, item in enumerate(value):
             self.choice((*path, i), OUTPUTS)
             if value.index(item) != i:
                 self.fail((*path, i), "listed twice", item)
+            if item == "tcp_png" and not has_tcp:
+                self.fail((*path, i), "the TCP figure needs tool moves or TCP limits (tcp_speed_max) in the job", item)
         return tuple(value)
 
     def job(self, robot: Robot, name: str, inputs_sha256: str) -> Job:
+        angle_scale, length_scale = self.units(robot)
+        tool = self.tool(robot, length_scale, angle_scale)
+        if tool is not None:
+            robot = robot_with_tool(robot, tool)
         waypoints, start = self.waypoints(robot)
         timing = self.choice(("timing",), TIMING_METHODS + tuple(TIMING_ALIASES), "toppra")
         timing = TIMING_ALIASES.get(timing, timing)
+        tcp_speed_max = self.tcp_limit("tcp_speed_max", length_scale, MAX_TCP_SPEED, "m/s")
+        tcp_accel_max = self.tcp_limit("tcp_accel_max", length_scale, MAX_TCP_ACCEL, "m/s^2")
+        tool_move = next((k for k, w in enumerate(waypoints) if isinstance(w, PoseWaypoint) and w.is_tool_move), None)
+        if tool_move is not None and tcp_speed_max is None:
+            self.fail(("tcp_speed_max",), f"required because waypoint {tool_move} is a {waypoints[tool_move].move} move "
+                      "(the TCP's speed along it, length_unit/s)", kind=MissingFieldError)
+        if timing == "ruckig" and (tool_move is not None or tcp_speed_max is not None):
+            self.fail(("timing",), "ruckig times waypoint to waypoint and leaves the path: tool moves and TCP limits "
+                      "need toppra or topp3", timing)
         if timing == "ruckig" and self.has(("path",)):
             self.fail(("path",), "has no effect with timing ruckig, which times waypoint to waypoint; remove it")
         path = None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, DEFAULT_PATH_SHAPE)
@@ -230,10 +314,14 @@ class _JobReader(Reader):
             path=path,
             speed_scale=self.number(("speed_scale",), 1.0, low=0.0, high=1.0, low_open=True),
             dt=self.number(("dt",), DEFAULT_DT, *DT_RANGE, unit="s"),
-            outputs=self.outputs(),
+            outputs=self.outputs(tool_move is not None or tcp_speed_max is not None or tcp_accel_max is not None),
             inputs_sha256=inputs_sha256,
             description=self.text(("description",), max_chars=10_000) if self.has(("description",)) else "",
             allow_branch_change=self.flag(("allow_branch_change",)),
+            tool=tool,
+            tcp_speed_max=tcp_speed_max,
+            tcp_accel_max=tcp_accel_max,
+            singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
         )
 
 

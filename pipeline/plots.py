@@ -1,4 +1,5 @@
-"""Figures at the edge: a profile's q, qd, qdd, jerk (and torque) against time, limits dashed.
+"""Figures at the edge: a profile's q, qd, qdd, jerk (and torque) against time, limits dashed; the TCP's
+position, speed and acceleration.
 
 Figures are ``matplotlib.figure.Figure`` objects made without pyplot, so no global backend is chosen:
 they save headless anywhere, and a notebook shows a returned figure inline.
@@ -68,3 +69,34 @@ def profile_figure(profile: Profile, revolute: Sequence[bool], title: str) -> Fi
 def plot_profile(path: str | Path, profile: Profile, revolute: Sequence[bool], title: str) -> None:
     """Write ``profile_figure`` as a PNG."""
     profile_figure(profile, revolute, title).savefig(path, dpi=100, format="png")
+
+
+def tcp_figure(profile: Profile, title: str) -> Figure:
+    """The TCP against t [s] (as seed 003's figures 8-10): its position x, y, z [mm], its speed [mm/s] and
+    its acceleration [mm/s^2] with their limits dashed (the limits x the speed scale)."""
+    tcp, limits = profile.tcp, profile.limits
+    figure = Figure(figsize=(10, 8.25), layout="constrained")
+    axes = figure.subplots(3, 1, sharex=True)
+    for k, axis in enumerate("xyz"):
+        axes[0].plot(profile.t, 1e3 * tcp.position[:, k], linewidth=1.2, label=axis)
+    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
+    axes[0].set_ylabel("TCP position [mm]")
+    for ax, values, limit, label in ((axes[1], tcp.speed, limits.tcp_speed_max, "TCP speed [mm/s]"),
+                                     (axes[2], tcp.accel, limits.tcp_accel_max, "TCP acceleration [mm/s^2]")):
+        ax.plot(profile.t, 1e3 * values, color="tab:blue", linewidth=1.2)
+        if limit is not None:
+            ax.axhline(1e3 * limit, color="tab:red", linestyle="--", linewidth=0.8, label="limit")
+            ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
+        else:
+            ax.text(0.99, 0.95, "not limited", transform=ax.transAxes, ha="right", va="top", fontsize=8)
+        ax.set_ylabel(label)
+    for ax in axes:
+        ax.grid(True, linewidth=0.3)
+    axes[-1].set_xlabel("t [s]")
+    figure.suptitle(title)
+    return figure
+
+
+def plot_tcp(path: str | Path, profile: Profile, title: str) -> None:
+    """Write ``tcp_figure`` as a PNG."""
+    tcp_figure(profile, title).savefig(path, dpi=100, format="png")

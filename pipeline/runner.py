@@ -33,7 +33,7 @@ log = logging.getLogger(__name__)
 #: Output kind -> file name inside the output directory.
 FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png",
               "html": "view.html", "arm_png": "arm.png", "ros2_yaml": "trajectory.ros2.yaml",
-              "json_trajectory": "trajectory.json"}
+              "json_trajectory": "trajectory.json", "tcp_png": "tcp.png"}
 VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "copp-py", "numpy", "scipy")
 
 
@@ -188,8 +188,17 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
 
 
 def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int) -> Profile:
-    """The certified profile through the solved waypoints; timing errors name the job file."""
+    """The certified profile through the solved waypoints (in pieces when the job has tool moves or TCP
+    limits, ``pipeline.motion``); timing errors name the job file, tool-move errors the waypoint."""
     try:
+        if job.has_tool_moves or job.tcp_speed_max is not None or job.tcp_accel_max is not None:
+            from .motion import time_tool_job
+            from .tool_moves import ToolMoveError
+
+            try:
+                return time_tool_job(job, [w.q for w in waypoints], max_samples)
+            except ToolMoveError as exc:
+                raise JobFileError(job.source, f"waypoints[{exc.move}]", str(exc)) from exc
         return retime(job.robot, np.array([w.q for w in waypoints]), method=job.timing, speed_scale=job.speed_scale,
                       dt=job.dt, shape=job.path, max_samples=max_samples)
     except (TimingError, ConfigurationError) as exc:
@@ -206,6 +215,7 @@ def _writers(job: Job, profile: Profile, report: dict) -> dict:
         "png": lambda path: _plot(path, job, profile, revolute),
         "html": lambda path: _view_html(path, job, profile),
         "arm_png": lambda path: _plot_arm(path, job, profile),
+        "tcp_png": lambda path: _plot_tcp(path, job, profile),
         "ros2_yaml": lambda path: write_ros2_yaml(path, profile),
         "json_trajectory": lambda path: write_json_trajectory(path, profile),
     }
@@ -215,6 +225,12 @@ def _plot(path: Path, job: Job, profile: Profile, revolute: list[bool]) -> None:
     from .plots import plot_profile   # matplotlib only when a plot is asked for
 
     plot_profile(path, profile, revolute, _title(job, profile))
+
+
+def _plot_tcp(path: Path, job: Job, profile: Profile) -> None:
+    from .plots import plot_tcp
+
+    plot_tcp(path, profile, _title(job, profile))
 
 
 def _view_html(path: Path, job: Job, profile: Profile) -> None:

@@ -37,7 +37,6 @@ REFINE_ROUNDS = 10
 CHECK_FRACTIONS = (0.25, 0.5, 0.75)
 #: Below this fraction of tcp_speed_max the joints would slow the TCP down: a singularity [1].
 SINGULAR_SPEED_FRACTION = 0.1
-SINGULARITY_POLICIES = ("stop", "slow_down")
 
 
 class ToolMoveError(PipelineError):

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .choices import TOOL_MOVES
 from .errors import ConfigurationError
 from .poses import make_pose
 
@@ -30,7 +31,6 @@ ROTATION_RADIUS = 0.1
 MIN_TRACK_M = 1e-6
 #: A via point closer than this to the line through the arc's ends makes no circle [m].
 MIN_ARC_SAGITTA_M = 1e-6
-MOVE_KINDS = ("linear", "circular")
 
 #: C3 smoothstep w(t) = 35 t^4 - 84 t^5 + 70 t^6 - 20 t^7 and its derivatives (coefficients of t^0..t^7).
 _SMOOTHSTEP = np.array([0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0])
@@ -165,8 +165,8 @@ class ToolPath:
             raise ConfigurationError("a tool path needs at least one move")
         self.segments, X = [], X_start
         for k, move in enumerate(moves):
-            if move.kind not in MOVE_KINDS:
-                raise ConfigurationError(f"move {first_index + k}: kind must be one of {', '.join(MOVE_KINDS)}")
+            if move.kind not in TOOL_MOVES:
+                raise ConfigurationError(f"move {first_index + k}: kind must be one of {', '.join(TOOL_MOVES)}")
             self.segments.append(_Segment(X, move, first_index + k))
             X = move.X_end
         self.X_start, self.X_end = X_start, X
