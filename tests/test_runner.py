@@ -74,8 +74,9 @@ def test_golden_files_are_small():
 def test_outputs_hold_the_profile_and_the_report(tmp_path):
     outcome = run_job_file(ROOT / "trajectories" / "jobs" / "arm5_joint_spline.yaml", tmp_path / "arm5")
     profile = outcome.profile
-    assert [p.name for p in outcome.files] == list(FILE_NAMES.values())   # the job lists all, in this order
-    assert sorted(p.name for p in (tmp_path / "arm5").iterdir()) == sorted([*FILE_NAMES.values(), OWNER_MARKER])
+    joint_job_files = [name for kind, name in FILE_NAMES.items() if kind != "tcp_png"]   # no TCP figure: no TCP
+    assert [p.name for p in outcome.files] == joint_job_files   # the job lists all the others, in this order
+    assert sorted(p.name for p in (tmp_path / "arm5").iterdir()) == sorted([*joint_job_files, OWNER_MARKER])
     header = (tmp_path / "arm5" / "profile.csv").read_text().splitlines()[0]
     assert header == ",".join(profile_columns([True] * 5)) and header.startswith("t_s,q1_rad,")
     with np.load(tmp_path / "arm5" / "profile.npz") as data:
