@@ -68,3 +68,25 @@ def compute_singularity(J: np.ndarray) -> SingularityReport:
     determinant = float(np.linalg.det(J)) if rows == cols else None
     manipulability = float(np.prod(s))
     return SingularityReport(determinant, s, manipulability, rank, dependent)
+
+
+#: A joint takes part in a near singularity when its weight in the weakest direction of J is above this
+#: fraction of the largest weight.
+NEAR_WEIGHT_FRACTION = 0.3
+
+
+def near_singularity(J: np.ndarray) -> str:
+    """Which joints nearly cancel at a near-singular (6, 6) Jacobian, named the way arm users name it:
+    wrist (only wrist joints 4-6 take part), shoulder (joint 1 takes part), elbow (joints 2, 3, not 1),
+    else the joints."""
+    _, _, Vt = np.linalg.svd(float_array(J, "Jacobian", (6, None), MAX_MAGNITUDE))
+    weights = np.abs(Vt[-1])
+    joints = tuple(int(i) for i in np.flatnonzero(weights > NEAR_WEIGHT_FRACTION * weights.max()))
+    names = ", ".join(f"J{i + 1}" for i in joints)
+    if J.shape[1] == 6 and set(joints) <= {3, 4, 5}:
+        return f"a wrist singularity (J4 and J6 nearly aligned, q5 near 0: {names} nearly cancel)"
+    if 0 in joints:
+        return f"a shoulder singularity (the wrist near the axis of J1: {names} nearly cancel)"
+    if set(joints) & {1, 2}:
+        return f"an elbow singularity (the arm nearly stretched or folded: {names} nearly cancel)"
+    return f"a singularity ({names} nearly cancel)"

@@ -24,15 +24,17 @@ from .errors import PipelineError
 from .kinematics import rotation_log
 from .path import JointPath, path_through_samples
 from .robot import Robot
-from .singularity import compute_singularity
+from .singularity import compute_singularity, near_singularity
 from .tool_path import ToolPath
 
 #: Deviation allowed between the joint path and the ideal tool path, anywhere [m], [rad].
 POSITION_TOLERANCE_M = 1e-4
 ROTATION_TOLERANCE_RAD = math.radians(0.1)
-#: First sample spacing along the track [m], the most rounds of splitting, and where each interval is
-#: checked (fractions of it).
+#: First sample spacing along the track [m], the closest samples may come where the joints jump
+#: between them [m], the most rounds of splitting for the deviation, and where each interval is checked
+#: (fractions of it).
 INITIAL_STEP_M = 0.02
+MIN_STEP_M = 1e-4
 REFINE_ROUNDS = 10
 CHECK_FRACTIONS = (0.25, 0.5, 0.75)
 #: Below this fraction of tcp_speed_max the joints would slow the TCP down: a singularity [1].
@@ -93,11 +95,13 @@ def joint_path_along(robot: Robot, tool_path: ToolPath, q_start: np.ndarray, tcp
                      tolerance_rad: float = ROTATION_TOLERANCE_RAD) -> ToolJointPath:
     """The joint path that keeps ``robot``'s end frame (the TCP) on ``tool_path`` from ``q_start``
     (where the path starts), within the tolerances [m], [rad] between samples; ToolMoveError when a
-    sample is out of reach, the branch would change, or (unless ``singularity`` is ``slow_down``) the
-    joints would slow the TCP below SINGULAR_SPEED_FRACTION x ``tcp_speed_max`` [m/s]."""
+    sample is out of reach, the joints cannot follow continuously (samples MIN_STEP_M apart still
+    jump), or (unless ``singularity`` is ``slow_down``) the joints would slow the TCP below
+    SINGULAR_SPEED_FRACTION x ``tcp_speed_max`` [m/s]. With ``slow_down`` the IK branch label may
+    change where the joints stay continuous (a wrist passing through q5 = 0)."""
     sigma = _initial_sigma(tool_path)
     for _ in range(REFINE_ROUNDS):
-        samples = _solve_samples(robot, tool_path, sigma, q_start, method)
+        sigma, samples = _continuous_samples(robot, tool_path, sigma, q_start, method, singularity == "slow_down")
         path = path_through_samples(sigma / tool_path.length, samples)
         position, rotation = _deviations(robot, tool_path, path, sigma)
         over = (position > tolerance_m) | (rotation > tolerance_rad)
@@ -118,19 +122,27 @@ def joint_path_along(robot: Robot, tool_path: ToolPath, q_start: np.ndarray, tcp
                          float(speeds[slowest]), slowest)
 
 
-def _solve_samples(robot: Robot, tool_path: ToolPath, sigma: np.ndarray, q_start: np.ndarray,
-                   method: str) -> np.ndarray:
-    """IK at every sample by the package's path rule; ToolMoveError naming the first that fails."""
-    poses = tool_path.poses(sigma)
-    result = robot.ik_path(poses, q_start, method=method)
-    if result.success:
-        return result.Q
-    k = result.failed_index
-    move = int(tool_path.move_of(sigma[k])[0])
-    reachable = robot.ik(poses[k], q_seed=result.Q[-1] if len(result.Q) else q_start, method=method).success
-    problem = (result.reason.split(": ", 1)[-1] if reachable else
-               "no IK solution inside the joint limits: the point is out of reach on this move")
-    raise ToolMoveError(move, k, poses[k], problem)
+def _continuous_samples(robot: Robot, tool_path: ToolPath, sigma: np.ndarray, q_start: np.ndarray, method: str,
+                        allow_branch_change: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(sigma, IK samples) by the package's path rule, with samples added where the joints jump between
+    two (a fast turn near a singularity) until they follow continuously; ToolMoveError naming the first
+    sample out of reach, or where samples MIN_STEP_M apart still jump."""
+    while True:
+        poses = tool_path.poses(sigma)
+        result = robot.ik_path(poses, q_start, method=method, allow_branch_change=allow_branch_change)
+        if result.success:
+            return sigma, result.Q
+        k = result.failed_index
+        move = int(tool_path.move_of(sigma[k])[0])
+        q_last = result.Q[-1] if len(result.Q) else q_start
+        if not robot.ik(poses[k], q_seed=q_last, method=method).success:
+            raise ToolMoveError(move, k, poses[k], "no IK solution inside the joint limits: the point is out of "
+                                "reach on this move")
+        if k == 0 or sigma[k] - sigma[k - 1] < MIN_STEP_M:
+            measures = compute_singularity(robot.jacobian(q_last))
+            raise ToolMoveError(move, k, poses[k], f"{result.reason.split(': ', 1)[-1]}; at the last sample that "
+                                f"works: {measures}")
+        sigma = np.insert(sigma, k, (sigma[k - 1] + sigma[k]) / 2.0)
 
 
 def _allowed_tcp_speeds(robot: Robot, path: JointPath, length: float) -> np.ndarray:
@@ -147,10 +159,10 @@ def _singularity_error(robot, tool_path, sigma, samples, speeds, tcp_speed_max, 
     before, after = fine[fine < k], fine[fine > k]
     closest = [f"sample {i} at [{', '.join(f'{1e3 * v:.1f}' for v in tool_path.position(sigma[i])[0])}] mm"
                for i in (before[-1:].tolist() + after[:1].tolist())]
-    measures = compute_singularity(robot.jacobian(samples[k]))
+    J = robot.jacobian(samples[k])
     return ToolMoveError(
         int(tool_path.move_of(sigma[k])[0]), k, tool_path.poses(sigma[k])[0],
-        f"near a singularity ({measures}): the joint speed limits allow the TCP only {speeds[k]:.3g} m/s here, "
+        f"near {near_singularity(J)}; {compute_singularity(J)}: the joint speed limits allow the TCP only {speeds[k]:.3g} m/s here, "
         f"below {SINGULAR_SPEED_FRACTION:g} x tcp_speed_max ({tcp_speed_max:g} m/s). Closest samples that work: "
         f"{' and '.join(closest) or 'none'}. Move the path away from the singularity or allow a slow-down "
         "(singularity: slow_down)")
