@@ -192,6 +192,9 @@ class _JobReader(Reader):
         move = self.choice((*path, "move"), MOVES, "joint")
         via = None
         if move == "circular":
+            if not self.has((*path, "via")):
+                self.fail((*path, "via"), "required: a circular move passes through a via point, via: {xyz: [...]}",
+                          kind=MissingFieldError)
             self.mapping((*path, "via"), ("xyz",), ())
             via = self.vector((*path, "via", "xyz"), 3, "x, y, z") * length_scale
         elif self.has((*path, "via")):
