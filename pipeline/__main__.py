@@ -113,6 +113,10 @@ def cmd_bench(args) -> int:
 
         report = run_ik_benchmark(_names(args.robots, ROBOTS), targets=args.targets, seed=args.seed,
                                   methods=_names(args.methods, METHODS))
+    elif args.suite == "cartesian":
+        from .bench.cartesian import ROBOTS, run_cartesian_benchmark
+
+        report = run_cartesian_benchmark(_names(args.robots, ROBOTS), moves=args.moves, seed=args.seed)
     else:
         from .bench.kinematics import run_kinematics_benchmark
 
@@ -189,10 +193,13 @@ def build_parser() -> argparse.ArgumentParser:
     urdf_in.set_defaults(func=cmd_import_urdf)
 
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian"])
     bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
-    bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6)")
+    bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
+                       "cartesian: default gp7,irb1600")
     bench.add_argument("--paths", type=POSITIVE, default=5, help="timing: seeded random 10-waypoint paths per robot")
+    bench.add_argument("--moves", type=POSITIVE, default=20, metavar="N",
+                       help="cartesian only: seeded random 0.5 m straight-line moves per robot (default 20)")
     bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake); "
                        "timing: rows to run (default toppra,raw,drake,topp3,ruckig; toppra always)")
     bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")

@@ -247,6 +247,12 @@ def check_seed003(n: dict) -> None:
     check_profile(n["timing"]["topp3"], waypoints, jerk_limited=True)
     assert n["topp3_path_deviation"] == 0.0 and n["jerk_reversals_per_s"]["topp3"] <= 5.0
     assert n["html_bytes"] > 10_000
+    tool = n["tool_moves"]                                       # the demo job irb1600_tool_moves
+    assert tool["passed"] and max(tool["max_ratio"].values()) <= RATIO_LIMIT
+    assert tool["tcp_speed_max_m_s"] == pytest.approx(0.4) and tool["tcp_accel_max_m_s2"] == pytest.approx(2.0)
+    assert tool["peak_tcp_speed_m_s"] >= 0.99 * tool["tcp_speed_max_m_s"]   # it cruises at the TCP limit
+    assert tool["top_edge_samples"] > 50 and tool["top_edge_error_mm"] <= 0.1   # on the line between the zones
+    assert tool["max_path_error_m"] <= 1e-4 and tool["pieces"] == 2
 
 
 def check_seed004(n: dict) -> None:
