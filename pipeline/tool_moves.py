@@ -33,7 +33,7 @@ ROTATION_TOLERANCE_RAD = math.radians(0.1)
 #: First sample spacing along the track [m], the closest samples may come where the joints jump
 #: between them [m], the most rounds of splitting for the deviation, and where each interval is checked
 #: (fractions of it).
-INITIAL_STEP_M = 0.02
+INITIAL_STEP_M = 0.05
 MIN_STEP_M = 1e-4
 REFINE_ROUNDS = 10
 CHECK_FRACTIONS = (0.25, 0.5, 0.75)
