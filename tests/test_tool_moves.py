@@ -24,7 +24,6 @@ from pipeline.timing import retime
 from pipeline.tool_moves import (POSITION_TOLERANCE_M, ROTATION_TOLERANCE_RAD, ToolMoveError, joint_path_along)
 from pipeline.tool_path import ToolMove, ToolPath
 
-from .conftest import DATA_DIR  # noqa: F401  (the shared fixtures)
 from .test_runner import ROOT
 
 DENSE_DT = 0.0005          # finer than any job's samples (default 0.004 s)

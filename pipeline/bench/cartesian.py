@@ -64,6 +64,7 @@ import numpy as np
 
 from ..errors import ConfigurationError, TimingError
 from ..progress import Progress
+from .goals import Goal, GoalReport, fmt, goal_lines
 from ..robot import Robot, load_robot
 from ..versions import version_table
 
@@ -193,17 +194,7 @@ class CartesianRobotReport:
 
 
 @dataclass(frozen=True)
-class Goal:
-    """One goal: the measured value (None when nothing could be measured), its bound, the verdict."""
-
-    name: str
-    value: float | None
-    bound: str
-    passed: bool
-
-
-@dataclass(frozen=True)
-class CartesianBenchReport:
+class CartesianBenchReport(GoalReport):
     """Result of one Cartesian benchmark run: one CartesianRobotReport per robot, the goals over all."""
 
     moves: int
@@ -215,10 +206,6 @@ class CartesianBenchReport:
     robots: tuple[CartesianRobotReport, ...]
     goals: tuple[Goal, ...]
     versions: dict[str, str]
-
-    @property
-    def passed(self) -> bool:
-        return all(goal.passed for goal in self.goals)
 
     def format_table(self) -> str:
         """Per robot a time table (ours split, the peer) and a quality table, then the goals."""
@@ -243,7 +230,7 @@ class CartesianBenchReport:
             lines += _quality_table(robot, self.moves)
             lines.append(f"  ours: TCP speed on the straight part: samples >= {SPEED_FRACTION:g} V median "
                          f"{_pct(robot.cruise_fraction_median)} (smallest {_pct(robot.cruise_fraction_min)}); peak / V "
-                         f"median {_fmt(robot.peak_ratio_median, '.4f')} (smallest {_fmt(robot.peak_ratio_min, '.4f')}),"
+                         f"median {fmt(robot.peak_ratio_median, '.4f')} (smallest {fmt(robot.peak_ratio_min, '.4f')}),"
                          f" peak >= {SPEED_FRACTION:g} on {robot.peak_at_limit} of {robot.moves} moves "
                          f"({100.0 * robot.peak_at_limit / robot.moves:.0f} %)")
             lines += [f"  unavailable: {name}: {why}" for name, why in robot.unavailable.items()]
@@ -252,21 +239,9 @@ class CartesianBenchReport:
                 lines.append(f"  ours failed on {robot.failures} of {robot.moves} moves, first: {first}")
             if robot.peer_first_failure:
                 lines.append(f"  peer, first failure: {robot.peer_first_failure}")
-        lines += ["", "Goals over all robots and moves:"]
-        lines += [f"  {'PASS' if goal.passed else 'FAIL'}  {goal.name}: {_fmt(goal.value, '.4g')} ({goal.bound})"
-                  for goal in self.goals]
-        lines.append("versions: " + ", ".join(f"{k} {v}" for k, v in self.versions.items()))
+        lines += goal_lines("Goals over all robots and moves:", self.goals, self.versions)
         return "\n".join(lines)
 
-    def to_dict(self) -> dict:
-        """The report as JSON-serialisable builtins (None where a value does not exist)."""
-        data = dataclasses.asdict(self)
-        data["passed"] = self.passed
-        return data
-
-
-def _fmt(value: float | None, spec: str) -> str:
-    return "-" if value is None else format(value, spec)
 
 
 def _pct(value: float | None) -> str:
@@ -294,16 +269,16 @@ def _time_table(robot: CartesianRobotReport) -> list[str]:
 def _quality_table(robot: CartesianRobotReport, moves: int) -> list[str]:
     head = ("TCP distance from the segment X0 -> X1", "moves OK", "max mm", "median of per-move max mm")
     body = [("ours: at the profile's samples", f"{robot.certified}/{moves} certified",
-             _fmt(robot.line_deviation_max_mm, ".4f"), _fmt(robot.line_deviation_median_mm, ".4f")),
+             fmt(robot.line_deviation_max_mm, ".4f"), fmt(robot.line_deviation_median_mm, ".4f")),
             (f"ours: on the joint path, {DENSE_SAMPLES} points", "",
-             _fmt(robot.dense_line_deviation_max_mm, ".4f"), _fmt(robot.dense_line_deviation_median_mm, ".4f")),
+             fmt(robot.dense_line_deviation_max_mm, ".4f"), fmt(robot.dense_line_deviation_median_mm, ".4f")),
             ("ours: joint_path_along's own check (max_position_error, to the ideal pose)", "",
-             _fmt(robot.path_position_error_max_mm, ".4f"), _fmt(robot.path_position_error_median_mm, ".4f"))]
+             fmt(robot.path_position_error_max_mm, ".4f"), fmt(robot.path_position_error_median_mm, ".4f"))]
     if robot.peer_successes is not None:
         body += [("peer: its IK solutions (position error to the ctraj poses)", f"{robot.peer_successes}/{moves} all solved",
-                  _fmt(robot.peer_pose_error_max_mm, ".4f"), _fmt(robot.peer_pose_error_median_mm, ".4f")),
+                  fmt(robot.peer_pose_error_max_mm, ".4f"), fmt(robot.peer_pose_error_median_mm, ".4f")),
                  ("peer: joint-space linear interpolation (midpoints of its solutions)", "",
-                  _fmt(robot.peer_midpoint_deviation_max_mm, ".4f"), _fmt(robot.peer_midpoint_deviation_median_mm, ".4f"))]
+                  fmt(robot.peer_midpoint_deviation_max_mm, ".4f"), fmt(robot.peer_midpoint_deviation_median_mm, ".4f"))]
     return _aligned(head, body)
 
 

@@ -64,7 +64,6 @@ per joint per second, path deviation <= 1e-6 rad.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import time
 from dataclasses import dataclass
@@ -74,6 +73,7 @@ import numpy as np
 
 from ..errors import ConfigurationError
 from ..progress import Progress
+from .goals import Goal, GoalReport, fmt, goal_lines
 from ..path import JointPath, PathError, make_path
 from ..profile import CERTIFY_TOLERANCE, jerk_reversal_rate
 from ..versions import version_table
@@ -222,18 +222,7 @@ class TimingRobotReport:
 
 
 @dataclass(frozen=True)
-class Goal:
-    """One goal of the issue: the measured value (None when nothing could be measured), the bound it
-    must satisfy, and the verdict."""
-
-    name: str
-    value: float | None
-    bound: str
-    passed: bool
-
-
-@dataclass(frozen=True)
-class TimingBenchReport:
+class TimingBenchReport(GoalReport):
     """Result of one timing benchmark run: one TimingRobotReport per robot, the goals over all robots."""
 
     paths: int
@@ -243,10 +232,6 @@ class TimingBenchReport:
     robots: tuple[TimingRobotReport, ...]
     goals: tuple[Goal, ...]
     versions: dict[str, str]
-
-    @property
-    def passed(self) -> bool:
-        return all(goal.passed for goal in self.goals)
 
     def format_table(self) -> str:
         """One table per robot (method | compute | gaps | ratios | violations | failures), then the goals."""
@@ -270,33 +255,21 @@ class TimingBenchReport:
             if error:
                 lines.append(f"  Drake's path vs ours, largest difference: q {error['q']:.2g} rad, "
                              f"dq/ds {error['dq_ds']:.2g}, d2q/ds2 {error['d2q_ds2']:.2g}")
-            stretch, change = _fmt(robot.our_time_stretch, ".6f"), _fmt(robot.our_dense_duration_change, ".2g")
+            stretch, change = fmt(robot.our_time_stretch, ".6f"), fmt(robot.our_dense_duration_change, ".2g")
             lines.append(f"  ours: largest uniform time stretch from the dense check {stretch}; duration of the "
                          f"{self.samples}-sample profile vs the timed one: {change} (relative)")
             lines += [f"  {row.name}: failed on {row.failures} of {row.paths} paths, first: {row.first_failure}"
                       for row in robot.rows if row.failures]
-        lines += ["", "Goals over all robots and paths:"]
-        lines += [f"  {'PASS' if goal.passed else 'FAIL'}  {goal.name}: {_fmt(goal.value, '.4g')} ({goal.bound})"
-                  for goal in self.goals]
-        lines.append("versions: " + ", ".join(f"{k} {v}" for k, v in self.versions.items()))
+        lines += goal_lines("Goals over all robots and paths:", self.goals, self.versions)
         return "\n".join(lines)
 
-    def to_dict(self) -> dict:
-        """The report as JSON-serialisable builtins (None where a value does not exist)."""
-        data = dataclasses.asdict(self)
-        data["passed"] = self.passed
-        return data
-
-
-def _fmt(value: float | None, spec: str) -> str:
-    return "-" if value is None else format(value, spec)
 
 
 def _table(rows: tuple[TimingRow, ...]) -> list[str]:
     head = ("method", "compute median ms", "gap median %", "gap max %", "max qd ratio", "max qdd ratio",
             "violations", "failures")
-    body = [(r.name, f"{r.compute_median_ms:.1f}", _fmt(r.gap_median_pct, "+.3f"), _fmt(r.gap_max_pct, "+.3f"),
-             _fmt(r.max_qd_ratio, ".6f"), _fmt(r.max_qdd_ratio, ".6f"), str(r.violations), str(r.failures))
+    body = [(r.name, f"{r.compute_median_ms:.1f}", fmt(r.gap_median_pct, "+.3f"), fmt(r.gap_max_pct, "+.3f"),
+             fmt(r.max_qd_ratio, ".6f"), fmt(r.max_qdd_ratio, ".6f"), str(r.violations), str(r.failures))
             for r in rows]
     return _aligned(head, body)
 
@@ -304,9 +277,9 @@ def _table(rows: tuple[TimingRow, ...]) -> list[str]:
 def _jerk_table(rows: list[TimingRow]) -> list[str]:
     head = ("method", "x toppra median", "x toppra max", "jerk reversals/s median", "max",
             "sample to path rad", "path to sample rad")
-    body = [(r.name, _fmt(r.duration_ratio_median, ".3f"), _fmt(r.duration_ratio_max, ".3f"),
-             _fmt(r.reversals_median_per_s, ".2f"), _fmt(r.reversals_max_per_s, ".2f"), _fmt(r.deviation_max, ".2g"),
-             _fmt(r.coverage_max, ".2g")) for r in rows]
+    body = [(r.name, fmt(r.duration_ratio_median, ".3f"), fmt(r.duration_ratio_max, ".3f"),
+             fmt(r.reversals_median_per_s, ".2f"), fmt(r.reversals_max_per_s, ".2f"), fmt(r.deviation_max, ".2g"),
+             fmt(r.coverage_max, ".2g")) for r in rows]
     return _aligned(head, body)
 
 
