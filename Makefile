@@ -39,6 +39,7 @@ bench: $(STAMP)
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench kinematics
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench ik
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench timing
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cartesian
 
 clean:
 	rm -rf $(VENV) $(OUT)
