@@ -56,9 +56,16 @@ class TcpMotion:
         p, v, a = self.motion(Q, QD, QDD)
         return TcpSamples(p, np.linalg.norm(v, axis=1), np.linalg.norm(a, axis=1))
 
+    def sample_ratios(self, limits: Limits, Q: np.ndarray, QD: np.ndarray,
+                      QDD: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample (n,): the TCP speed and acceleration over their limits (0 where a limit is absent) [1]."""
+        _, v, a = self.motion(Q, QD, QDD)
+        none = np.zeros(len(Q))
+        speed = np.linalg.norm(v, axis=1) / limits.tcp_speed_max if limits.tcp_speed_max else none
+        accel = np.linalg.norm(a, axis=1) / limits.tcp_accel_max if limits.tcp_accel_max else none
+        return speed, accel
+
     def ratios(self, limits: Limits, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray) -> tuple[float, float]:
         """The peak TCP speed and acceleration over their limits (0 where a limit is absent) [1]."""
-        _, v, a = self.motion(Q, QD, QDD)
-        speed = float(np.linalg.norm(v, axis=1).max() / limits.tcp_speed_max) if limits.tcp_speed_max else 0.0
-        accel = float(np.linalg.norm(a, axis=1).max() / limits.tcp_accel_max) if limits.tcp_accel_max else 0.0
-        return speed, accel
+        speed, accel = self.sample_ratios(limits, Q, QD, QDD)
+        return float(speed.max()), float(accel.max())

@@ -59,8 +59,7 @@ class _Segment:
         self.arc = None
         if move.kind == "circular":
             self.arc = _circle(self.p0, move.via, self.p1, index)
-            centre, radius, e1, e2, angle = self.arc
-            self.length = radius * angle
+            self.length = self.arc[1] * self.arc[4]             # radius x angle
         else:
             self.length = float(np.linalg.norm(self.p1 - self.p0))
         if self.length < MIN_TRACK_M:

@@ -245,7 +245,8 @@ def _refined(timing: GridTiming, path: JointPath, limits: Limits, tcp=None) -> n
     ratios = np.maximum(np.abs(qd) / limits.qd_max, np.abs(qdd) / limits.qdd_max).max(axis=1)
     if tcp is not None:
         stride = slice(None, None, TCP_CHECK_STRIDE)
-        ratios[stride] = np.maximum(ratios[stride], tcp_sample_ratios(tcp, limits, q[stride], qd[stride], qdd[stride]))
+        ratios[stride] = np.maximum(ratios[stride], np.maximum(*tcp.sample_ratios(limits, q[stride], qd[stride],
+                                                                                  qdd[stride])))
     over = ratios.reshape(len(timing.u), CHECK_SAMPLES_PER_INTERVAL + 1).max(axis=1) > 1.0 + REFINE_EXCESS
     if not over.any():
         return None
@@ -388,15 +389,6 @@ def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple
     ``solve_toppra`` then ``sample_toppra``."""
     return sample_toppra(solve_toppra(path, limits, gridpoints, inverse_dynamics, tcp), limits, dt, joint_names,
                          max_samples, tcp)
-
-
-def tcp_sample_ratios(tcp, limits: Limits, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """Per sample (n,): the larger of TCP speed / tcp_speed_max and acceleration / tcp_accel_max."""
-    _, v, a = tcp.motion(q, qd, qdd)
-    ratios = np.linalg.norm(v, axis=1) / limits.tcp_speed_max if limits.tcp_speed_max else np.zeros(len(q))
-    if limits.tcp_accel_max:
-        ratios = np.maximum(ratios, np.linalg.norm(a, axis=1) / limits.tcp_accel_max)
-    return ratios
 
 
 def _ratios(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limits, tcp=None) -> tuple[float, float]:
