@@ -69,3 +69,13 @@ class TcpMotion:
         """The peak TCP speed and acceleration over their limits (0 where a limit is absent) [1]."""
         speed, accel = self.sample_ratios(limits, Q, QD, QDD)
         return float(speed.max()), float(accel.max())
+
+
+def with_tcp(speed: float, accel: float, tcp: TcpMotion | None, limits: Limits, Q: np.ndarray, QD: np.ndarray,
+             QDD: np.ndarray) -> tuple[float, float]:
+    """Peak speed and acceleration ratios of the joints, raised to the TCP's at the same samples when
+    ``tcp`` is given (what a uniform slow-down must bring down to 1) [1]."""
+    if tcp is None:
+        return speed, accel
+    tcp_speed, tcp_accel = tcp.ratios(limits, Q, QD, QDD)
+    return max(speed, tcp_speed), max(accel, tcp_accel)

@@ -31,6 +31,7 @@ from ..errors import TimingError
 from ..path import JointPath
 from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
+from ..tcp import with_tcp
 from .ruckig_backend import require_jerk_limits
 from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, stretch_for, time_unit,
                              torque_stretch)
@@ -189,9 +190,7 @@ def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: Limits, 
     this slow-down)."""
     q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
     speed, accel, jerk = _peak_ratios(qd, qdd, qddd, limits)
-    if tcp is not None:
-        tcp_speed, tcp_accel = tcp.ratios(limits, q, qd, qdd)
-        speed, accel = max(speed, tcp_speed), max(accel, tcp_accel)
+    speed, accel = with_tcp(speed, accel, tcp, limits, q, qd, qdd)
     slowed = stretch_for((speed, accel, jerk), stretch, OUTPUT_MARGIN)
     if torques is not None:
         slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits, torques)

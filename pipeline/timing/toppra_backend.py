@@ -28,6 +28,7 @@ from ..errors import ProfileSizeError, TimingError
 from ..path import JointPath
 from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
+from ..tcp import with_tcp
 
 #: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
 #: benchmark paths, see ``python -m pipeline bench timing``), and of the retries.
@@ -346,10 +347,8 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int | None = None,
         check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
     timing, retried = _solve_refined(path, limits, gridpoints, torques, tcp)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    peaks = _ratios(*timing.at(path, check_t), limits)
-    if tcp is not None:
-        tcp_peaks = tcp.ratios(limits, *timing.at(path, check_t[::TCP_CHECK_STRIDE]))
-        peaks = (max(peaks[0], tcp_peaks[0]), max(peaks[1], tcp_peaks[1]))
+    peaks = with_tcp(*_ratios(*timing.at(path, check_t), limits), tcp, limits,
+                     *timing.at(path, check_t[::TCP_CHECK_STRIDE]))
     stretch = stretch_for(peaks, 1.0)
     if torques is not None:
         stretch = max(stretch, torque_stretch(*timing.at(path, check_t), limits, torques))
@@ -395,10 +394,7 @@ def _ratios(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limits, tcp=
     """The peak speed and acceleration ratios over samples: |qd| / qd_max and |qdd| / qdd_max, and the
     TCP's speed and acceleration over their limits when ``tcp`` (a TcpMotion) is given."""
     speed, accel = float((np.abs(qd) / limits.qd_max).max()), float((np.abs(qdd) / limits.qdd_max).max())
-    if tcp is not None:
-        tcp_speed, tcp_accel = tcp.ratios(limits, q, qd, qdd)
-        speed, accel = max(speed, tcp_speed), max(accel, tcp_accel)
-    return speed, accel
+    return with_tcp(speed, accel, tcp, limits, q, qd, qdd)
 
 
 def check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) -> None:
