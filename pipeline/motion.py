@@ -94,16 +94,15 @@ def join_profiles(profiles: list[Profile], details: TimingDetails) -> Profile:
     offsets = np.cumsum([0.0] + [p.duration for p in profiles[:-1]])
     keep = [slice(None)] + [slice(1, None)] * (len(profiles) - 1)
 
-    def stacked(name: str):
-        if getattr(first, name) is None:
-            return None
-        return np.concatenate([getattr(p, name)[k] for p, k in zip(profiles, keep)])
+    def joined(arrays) -> np.ndarray:
+        return np.concatenate([array[k] for array, k in zip(arrays, keep)])
 
-    tcp = None
-    if first.tcp is not None:
-        tcp = TcpSamples(*(np.concatenate([getattr(p.tcp, field)[k] for p, k in zip(profiles, keep)])
-                           for field in ("position", "speed", "accel")))
-    t = np.concatenate([p.t[k] + offset for p, k, offset in zip(profiles, keep, offsets)])
+    def stacked(name: str):
+        return None if getattr(first, name) is None else joined([getattr(p, name) for p in profiles])
+
+    tcp = None if first.tcp is None else TcpSamples(*(joined([getattr(p.tcp, field) for p in profiles])
+                                                      for field in ("position", "speed", "accel")))
+    t = joined([p.t + offset for p, offset in zip(profiles, offsets)])
     return Profile(t, stacked("q"), stacked("qd"), stacked("qdd"), stacked("qddd"), first.method, first.limits,
                    first.joint_names, details, tau=stacked("tau"), speed_scale=first.speed_scale,
                    unscaled_limits=first.unscaled_limits, tcp=tcp)
