@@ -30,3 +30,12 @@ TOOL_MOVES = ("linear", "circular")
 MOVES = ("joint", *TOOL_MOVES)
 #: What a tool move does near a singularity (``pipeline.tool_moves``): refuse, or slow down through it.
 SINGULARITY_POLICIES = ("stop", "slow_down")
+#: How a job's joint moves meet a cell (``pipeline.cell_motion``): as given (and certified), or replaced by
+#: a planned collision-free joint path where the direct one comes closer than the clearance.
+PLAN_MODES = ("direct", "collision_free")
+#: OMPL geometric planners a job or call may name (``pipeline.planning``), the default, and the search
+#: time one planned move gets unless told otherwise [s].
+PLANNERS = ("RRTConnect", "RRT", "RRTstar", "InformedRRTstar", "SORRTstar", "AORRTC", "BITstar", "PRM", "PRMstar",
+            "KPIECE1", "BKPIECE1", "LBKPIECE1", "FMT")
+DEFAULT_PLANNER = "RRTConnect"
+PLAN_TIME_BUDGET_S = 2.0

@@ -17,6 +17,7 @@ from pydrake.geometry import Cylinder, Meshcat, MeshcatVisualizer, MeshcatVisual
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import (
+    default_model_instance,
     FixedOffsetFrame,
     JacobianWrtVariable,
     MultibodyForces,
@@ -80,15 +81,19 @@ def _as_rigid_transform(X: np.ndarray) -> RigidTransform:
     return RigidTransform(RotationMatrix(X[:3, :3]), X[:3, 3])
 
 
-def add_robot(plant: MultibodyPlant, spec: RobotSpec) -> list[RigidBody]:
+def add_robot(plant: MultibodyPlant, spec: RobotSpec, model_instance=None, mount=None) -> list[RigidBody]:
     """Add the chain of a RobotSpec to an unfinalised plant: bodies ``link1..n``, joints named as in the
-    file (limits set), frames ``base``, ``dh0``, ``<joint>_parent``, ``<joint>_child`` and ``end``.
-    Returns the link bodies in order. The one place the DH kinematics become Drake joints."""
-    base = plant.AddFrame(FixedOffsetFrame(BASE_FRAME, plant.world_frame(), RigidTransform()))
-    parent = plant.AddFrame(FixedOffsetFrame("dh0", base, _as_rigid_transform(spec.X_BaseD0)))
+    file (limits set), frames ``base``, ``dh0``, ``<joint>_parent``, ``<joint>_child`` and ``end``, in
+    ``model_instance`` (default: the plant's default instance), the base frame on ``mount`` (a frame;
+    default the world frame). Returns the link bodies in order. The one place the DH kinematics become
+    Drake joints."""
+    instance = default_model_instance() if model_instance is None else model_instance
+    base = plant.AddFrame(FixedOffsetFrame(BASE_FRAME, plant.world_frame() if mount is None else mount,
+                                           RigidTransform(), instance))
+    parent = plant.AddFrame(FixedOffsetFrame("dh0", base, _as_rigid_transform(spec.X_BaseD0), instance))
     bodies = []
     for i, joint in enumerate(spec.joints, start=1):
-        body = plant.AddRigidBody(f"link{i}", link_inertia(joint))
+        body = plant.AddRigidBody(f"link{i}", instance, link_inertia(joint))
         pre, post = joint_split(joint, spec.convention)
         on_parent = plant.AddFrame(FixedOffsetFrame(f"{joint.name}_parent", parent, pre))
         on_child = plant.AddFrame(FixedOffsetFrame(f"{joint.name}_child", body.body_frame(), post.inverse()))
@@ -100,7 +105,7 @@ def add_robot(plant: MultibodyPlant, spec: RobotSpec) -> list[RigidBody]:
             drake_joint.set_acceleration_limits([-joint.qdd_max], [joint.qdd_max])
         bodies.append(body)
         parent = body.body_frame()
-    plant.AddFrame(FixedOffsetFrame(END_FRAME, parent, _as_rigid_transform(spec.X_DnE)))
+    plant.AddFrame(FixedOffsetFrame(END_FRAME, parent, _as_rigid_transform(spec.X_DnE), instance))
     return bodies
 
 

@@ -61,6 +61,20 @@ class JobFileError(FileFormatError):
     """A job file is not valid, or one of its waypoints cannot be reached."""
 
 
+class CellFileError(FileFormatError):
+    """A cell file is not valid (``field`` names the object by index, e.g. ``objects[2].box``)."""
+
+
+class CollisionError(PipelineError):
+    """A configuration or motion comes closer than the clearance to an obstacle, or links touch: names
+    the pair, and the waypoint, move, sample or time where it happens."""
+
+
+class PlanningError(PipelineError):
+    """No collision-free joint path was found within the planner's budget (names the move, the planner
+    and its time)."""
+
+
 class UnknownFieldError(FileFormatError):
     """A key the file format does not define (often a typo)."""
 

@@ -8,6 +8,8 @@ natural unit for shapes with a radius around them).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 #: Points closer than this are merged in a polyline [m].
@@ -67,3 +69,69 @@ def robot_size(robot) -> float:
 def visual_radius(robot) -> float:
     """The link radius [m] used for a robot's visual geometry (see VISUAL_RADIUS_FRACTION)."""
     return float(np.clip(VISUAL_RADIUS_FRACTION * robot_size(robot), *VISUAL_RADIUS_RANGE))
+
+
+def link_radii(robot) -> np.ndarray:
+    """The capsule radius of each body [m], (dof + 1,): body 0 (the fixed base) takes joint 1's, link i
+    the radius of row i; rows without one take ``visual_radius``."""
+    default = visual_radius(robot)
+    radii = [default if j.radius is None else j.radius for j in robot.spec.joints]
+    return np.array([radii[0], *radii])
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """A capsule fixed on body ``body`` (0: the robot's base, i: link i): the segment ``p`` -> ``r``
+    (3,) in the body frame [m] (base frame B for 0, DH frame i for link i) and its ``radius`` [m]."""
+
+    body: int
+    p: np.ndarray
+    r: np.ndarray
+    radius: float
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.r - self.p))
+
+
+#: Segments shorter than this are points: a sphere of the radius instead of a capsule [m].
+MIN_SEGMENT_M = 1e-6
+
+
+def body_polylines(robot) -> list[np.ndarray]:
+    """``compute_link_polylines`` at q = 0, each in its own body's frame [m] (see Capsule)."""
+    q0 = np.zeros(robot.dof)
+    X_owner = [np.eye(4), *robot.fk_all(q0)[1:-1]]
+    out = []
+    for X, points in zip(X_owner, compute_link_polylines(robot, q0)):
+        X_inv = np.linalg.inv(X)
+        out.append(points @ X_inv[:3, :3].T + X_inv[:3, 3])
+    return out
+
+
+def link_capsules(robot) -> list[Capsule]:
+    """The collision geometry: one capsule per segment of each body's polyline (a zero-length capsule,
+    a sphere, for a body whose polyline is one point other than the base's)."""
+    radii = link_radii(robot)
+    capsules = []
+    for body, points in enumerate(body_polylines(robot)):
+        segments = [(p, r) for p, r in zip(points[:-1], points[1:]) if np.linalg.norm(r - p) >= MIN_SEGMENT_M]
+        if not segments and body > 0:
+            segments = [(points[0], points[0])]
+        capsules += [Capsule(body, p, r, float(radii[body])) for p, r in segments]
+    return capsules
+
+
+def lever_arms(robot, tool_reach: float = 0.0) -> np.ndarray:
+    """For each joint, an upper bound of how far any point of the capsules it moves travels per unit of
+    its motion, at any configuration (dof,) [m/rad, or 1 m/m for a prismatic joint]: the polylines beyond
+    a joint run on from a point of its axis, so no point is farther from the axis than their length added
+    up plus the largest radius (or ``tool_reach``, the farthest point of tool shapes from the end frame
+    [m], added to the length). ``sum_j |dq_j| * lever_arms[j]`` bounds every point's displacement."""
+    capsules = link_capsules(robot)
+    levers = []
+    for i, joint in enumerate(robot.spec.joints):
+        later = [c for c in capsules if c.body > i]
+        reach = sum(c.length for c in later) + max(max(c.radius for c in later), tool_reach)
+        levers.append(reach if joint.is_revolute else 1.0)
+    return np.array(levers)

@@ -18,8 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, FULL_POSE, IK_METHODS, MOVES, PATH_SHAPES,
-                      SINGULARITY_POLICIES, TARGET_KINDS, TIMING_ALIASES, TIMING_METHODS)
+from .cell import Cell, load_cell
+from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FULL_POSE, IK_METHODS, MOVES, PATH_SHAPES,
+                      PLAN_MODES, PLAN_TIME_BUDGET_S, PLANNERS, SINGULARITY_POLICIES, TARGET_KINDS, TIMING_ALIASES,
+                      TIMING_METHODS)
 from .errors import ConfigurationError, JobFileError, MissingFieldError, RobotNotFoundError
 from .configurations import parse_configuration
 from .robot import Robot, load_robot, robot_with_tool
@@ -39,9 +41,10 @@ DT_RANGE = (1e-4, 0.1)
 INNER_REACH_FRACTION = 0.5
 REACH_SAMPLES = 4096
 
-_REQUIRED = ("robot", "waypoints")
-_OPTIONAL = ("description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
-             "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity")
+_REQUIRED = ("waypoints",)
+_OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
+             "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
+             "plan", "planner", "plan_time_budget")
 #: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have, and
 #: how the TCP gets there (move, via point, zone).
 _POSE_EXTRA = ("target", "config", "move", "via", "zone")
@@ -89,7 +92,10 @@ class Job:
     instead of refused. ``tool``: X_ET (4, 4) [m], the TCP in the robot's end frame, or None (then
     ``robot`` is the robot as its file gives it; with a tool, ``robot``'s end frame is the TCP and every
     pose is a TCP pose); ``tcp_speed_max`` [m/s], ``tcp_accel_max`` [m/s^2] or None; ``singularity``:
-    what a tool move does near a singularity (stop, slow_down).
+    what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
+    none; then nothing is checked for collision); ``plan``: direct or collision_free (joint moves
+    replaced by planned ones where the direct path comes too close); ``planner`` (an OMPL planner name)
+    and ``plan_time_budget`` [s] per planned move.
     """
 
     name: str
@@ -110,6 +116,10 @@ class Job:
     tcp_speed_max: float | None = None
     tcp_accel_max: float | None = None
     singularity: str = "stop"
+    cell: Cell | None = None
+    plan: str = "direct"
+    planner: str = DEFAULT_PLANNER
+    plan_time_budget: float = PLAN_TIME_BUDGET_S
 
     @property
     def has_poses(self) -> bool:
@@ -132,19 +142,42 @@ class _JobReader(Reader):
     def __init__(self, document: Document, base_dir: Path):
         super().__init__(document, JobFileError)
         self.base_dir = base_dir
+        self.cell: Cell | None = None
 
     def robot_reference(self) -> str | Path:
-        """The ``robot`` field: a preset name, or a robot file path (relative to the job file)."""
+        """The ``robot`` field: a preset name, or a robot file path (relative to the job file); without
+        one, the cell's robot."""
         self.mapping((), _REQUIRED, _OPTIONAL)
+        if not self.has(("robot",)):
+            if self.cell is None:
+                self.fail(("robot",), "required key is missing (or name a cell, whose robot the job then uses)",
+                          kind=MissingFieldError)
+            return self.cell.robot
         value = self.text(("robot",), max_chars=4096)
         candidate = Path(value)
         if candidate.suffix not in (".yaml", ".yml"):
             return value
         return candidate if candidate.is_absolute() else self.base_dir / candidate
 
+    def load_cell(self) -> Cell | None:
+        """The cell the job names (relative to the job file; its own errors name the cell file)."""
+        self.mapping((), _REQUIRED, _OPTIONAL)
+        if not self.has(("cell",)):
+            return None
+        value = Path(self.text(("cell",), max_chars=4096))
+        path = value if value.is_absolute() else self.base_dir / value
+        if not path.is_file():
+            self.fail(("cell",), f"no cell file at {path}", str(value))
+        return load_cell(path)
+
     def load_robot(self) -> Robot:
-        """The robot the job names (a robot file's own errors name that file)."""
+        """The robot the job names (a robot file's own errors name that file); with a cell, the job may
+        name only the cell's robot."""
+        self.cell = self.load_cell()
         reference = self.robot_reference()
+        if self.cell is not None and Path(str(reference)).resolve() != Path(str(self.cell.robot)).resolve():
+            self.fail(("robot",), f"the cell {self.cell.name} holds {self.cell.robot}; a job in it moves that robot "
+                      "(leave robot out)", self.get(("robot",)))
         try:
             return load_robot(reference)
         except RobotNotFoundError:
@@ -325,7 +358,23 @@ class _JobReader(Reader):
             tcp_speed_max=tcp_speed_max,
             tcp_accel_max=tcp_accel_max,
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
+            cell=self.cell,
+            **self.planning(),
         )
+
+    def planning(self) -> dict:
+        """``plan``, ``planner`` and ``plan_time_budget``; planning needs a cell."""
+        plan = self.choice(("plan",), PLAN_MODES, "direct")
+        for key in ("plan", "planner", "plan_time_budget"):
+            if self.has((key,)) and self.cell is None:
+                self.fail((key,), "needs a cell to plan in (cell: path/to/cell.yaml)", self.get((key,)))
+        if plan == "direct":
+            for key in ("planner", "plan_time_budget"):
+                if self.has((key,)):
+                    self.fail((key,), "has no effect with plan: direct (plan: collision_free plans)", self.get((key,)))
+        return {"plan": plan, "planner": self.choice(("planner",), PLANNERS, DEFAULT_PLANNER),
+                "plan_time_budget": self.number(("plan_time_budget",), PLAN_TIME_BUDGET_S, low=0.0, high=600.0,
+                                                low_open=True, unit="s")}
 
 
 def _reach_interval(robot: Robot) -> tuple[float, float]:
@@ -337,9 +386,11 @@ def _reach_interval(robot: Robot) -> tuple[float, float]:
     return INNER_REACH_FRACTION * closest, robot.spec.reach_bound * (1.0 + 1e-9)
 
 
-def _sha256(job_bytes: bytes, robot: Robot) -> str:
-    """Hash of the job file's bytes followed by the robot file's bytes (a preset's or a path's)."""
-    return hashlib.sha256(job_bytes + Path(robot.spec.source).read_bytes()).hexdigest()
+def _sha256(job_bytes: bytes, robot: Robot, cell: Cell | None) -> str:
+    """Hash of the job file's bytes followed by the robot file's bytes (a preset's or a path's) and the
+    cell file's bytes (if any)."""
+    cell_bytes = b"" if cell is None or cell.source == "<dict>" else Path(cell.source).read_bytes()
+    return hashlib.sha256(job_bytes + Path(robot.spec.source).read_bytes() + cell_bytes).hexdigest()
 
 
 def parse_job(doc: Any, source: str = "<dict>", name: str = "job", base_dir: str | Path = ".",
@@ -364,4 +415,4 @@ def load_job(path: str | Path) -> Job:
 def _read_job(document: Document, base_dir: Path, name: str, job_bytes: bytes) -> Job:
     reader = _JobReader(document, base_dir)
     robot = reader.load_robot()
-    return reader.job(robot, name, _sha256(job_bytes, robot))
+    return reader.job(robot, name, _sha256(job_bytes, robot, reader.cell))

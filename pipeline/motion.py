@@ -15,11 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cell_motion import check_samples, planned_waypoints, time_clear
+from .errors import CollisionError
 from .jobs import Job, PoseWaypoint
 from .profile import Profile, TcpSamples, TimingDetails, certify
 from .tcp import TcpMotion
 from .timing import retime
-from .tool_moves import joint_path_along
+from .tool_moves import ToolMoveError, joint_path_along
 from .tool_path import ToolMove, ToolPath
 
 
@@ -55,25 +57,30 @@ def pieces_of(job: Job) -> list[Piece]:
     return pieces
 
 
-def time_tool_job(job: Job, solved_q: list[np.ndarray], max_samples: int) -> Profile:
-    """The certified profile of a job with tool moves, from the waypoints' solved joint values."""
+def time_tool_job(job: Job, solved_q: list[np.ndarray], max_samples: int, scene=None) -> tuple[Profile, list]:
+    """The certified profile of a job with tool moves, from the waypoints' solved joint values, and the
+    planned paths of its joint pieces. With ``scene`` (a CollisionModel) joint pieces are timed by
+    ``cell_motion.time_clear`` (planned first with ``plan: collision_free``), tool pieces' IK samples are
+    checked (CollisionError naming the move, the sample and the pair) and the joined profile carries its
+    clearance certificate."""
     robot = job.robot
     limits = dataclasses.replace(robot.limits, tcp_speed_max=job.tcp_speed_max, tcp_accel_max=job.tcp_accel_max)
     tcp = TcpMotion(robot)
     timing = {"method": job.timing, "speed_scale": job.speed_scale, "dt": job.dt, "max_samples": max_samples,
               "limits": limits, "tcp": tcp}
-    q_start, profiles, reports = solved_q[0], [], []
+    q_start, profiles, reports, plans = solved_q[0], [], [], []
     for piece in pieces_of(job):
         if piece.kind == "joint":
             waypoints = np.array([q_start, *solved_q[piece.first + 1: piece.last + 1]])
-            profile = retime(robot, waypoints, shape=job.path, **timing)
-            report = {}
+            profile, report = _time_joint_piece(job, scene, waypoints, timing, plans)
         else:
             moves = [ToolMove(w.move, w.X_BE, w.via, w.zone if k < piece.last else 0.0)
                      for k, w in enumerate(job.waypoints[piece.first + 1: piece.last + 1], start=piece.first + 1)]
             tool_path = ToolPath(robot.fk(q_start), moves, first_index=piece.first + 1)
             along = joint_path_along(robot, tool_path, q_start, job.tcp_speed_max * job.speed_scale,
                                      job.singularity, job.ik)
+            if scene is not None:
+                _check_tool_samples(robot, scene, along)
             profile = retime(robot, along.path, **timing)
             report = {"length_m": tool_path.length, "samples": len(along.sigma),
                       "max_position_error_m": along.max_position_error,
@@ -84,7 +91,34 @@ def time_tool_job(job: Job, solved_q: list[np.ndarray], max_samples: int) -> Pro
                         **report, "timing": profile.details.to_dict() if profile.details else None})
         q_start = profile.q[-1]
     joined = join_profiles(profiles, MotionDetails(tuple(reports)))
-    return dataclasses.replace(joined, certificate=certify(joined))
+    certificate = certify(joined, scene=scene)
+    if certificate.clearance is not None and not certificate.clearance.passed:
+        raise CollisionError(f"the profile does not keep the clearance: {certificate.clearance.reason}")
+    return dataclasses.replace(joined, certificate=certificate), plans
+
+
+def _time_joint_piece(job: Job, scene, waypoints: np.ndarray, timing: dict, plans: list) -> tuple[Profile, dict]:
+    """A joint piece timed through its waypoints (planned and certified clear in a cell); its report."""
+    def timed(vertices: np.ndarray) -> Profile:
+        return retime(job.robot, vertices, shape=job.path, **timing)
+
+    if scene is None:
+        return timed(waypoints), {}
+    planned = job.plan == "collision_free"
+    if planned:
+        waypoints, piece_plans = planned_waypoints(scene, waypoints, job.planner, job.plan_time_budget)
+        plans += piece_plans
+    profile, added = time_clear(scene, waypoints, timed, refine=planned)
+    return profile, {"vertices": len(waypoints), "vertices_added_for_clearance": added}
+
+
+def _check_tool_samples(robot, scene, along) -> None:
+    """Tool moves are checked, not re-planned: the first IK sample that is not free is an error."""
+    k = check_samples(scene, along.samples)
+    if k is not None:
+        move = int(along.tool_path.move_of(along.sigma[k])[0])
+        raise ToolMoveError(move, k, robot.fk(along.samples[k]),
+                            f"not collision-free: {scene.why_not_free(along.samples[k])}")
 
 
 def join_profiles(profiles: list[Profile], details: TimingDetails) -> Profile:

@@ -2,7 +2,8 @@
 
 ``certify(profile, limits)`` is the one judge of every profile this package makes: per-joint
 peak/limit ratios of q, qd, qdd and qddd (and torques) on the profile's samples, the TCP's speed and
-acceleration ratios when the limits bound them, the worst sample, pass/fail.
+acceleration ratios when the limits bound them, the worst sample, and in a cell the clearance
+(``pipeline.clearance``), pass/fail.
 A position ratio is the peak distance from the middle of the range over half the range, so 1 is
 "on a limit" for every quantity.
 """
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .clearance import ClearanceReport, certify_clearance
 from .errors import ConfigurationError
 from .robot_spec import Limits
 
@@ -100,6 +102,7 @@ class LimitReport:
     worst_ratio: float
     passed: bool
     tolerance: float
+    clearance: ClearanceReport | None = None
 
     def max_ratio(self, quantity: str) -> float:
         return float(self.ratios[quantity].max()) if quantity in self.ratios else float("nan")
@@ -108,8 +111,9 @@ class LimitReport:
         peaks = ", ".join(f"{name} {self.max_ratio(name):.6f}" for name in QUANTITIES if name in self.ratios)
         verdict = "PASS" if self.passed else "FAIL"
         where = "the TCP" if self.worst_quantity in TCP_QUANTITIES else f"joint {self.worst_joint + 1}"
-        return (f"{verdict}: peak/limit {peaks}; worst {self.worst_quantity} of {where} "
+        text = (f"{verdict}: peak/limit {peaks}; worst {self.worst_quantity} of {where} "
                 f"at t = {self.worst_time:.4f} s ({self.worst_ratio:.6f})")
+        return text if self.clearance is None else f"{text}; {self.clearance}"
 
     def to_dict(self) -> dict:
         return {
@@ -119,6 +123,7 @@ class LimitReport:
             "ratios": {name: values.tolist() for name, values in self.ratios.items()},
             "worst": {"quantity": self.worst_quantity, "joint": self.worst_joint + 1,
                       "sample": self.worst_index, "t_s": self.worst_time, "ratio": self.worst_ratio},
+            "clearance": None if self.clearance is None else self.clearance.to_dict(),
         }
 
 
@@ -142,16 +147,26 @@ def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
     return out
 
 
-def certify(profile: Profile, limits: Limits | None = None, tolerance: float = CERTIFY_TOLERANCE) -> LimitReport:
-    """Judge a profile against limits (default: the ones it was timed against) on all its samples."""
+def certify(profile: Profile, limits: Limits | None = None, tolerance: float = CERTIFY_TOLERANCE,
+            scene=None) -> LimitReport:
+    """Judge a profile against limits (default: the ones it was timed against) on all its samples, and
+    with ``scene`` (a ``pipeline.collision.CollisionModel``) its clearance over the whole motion
+    (``pipeline.clearance``; between samples each joint's acceleration is bounded by its limit, or by
+    the largest sampled |qdd| where the limits have none)."""
     limits = profile.limits if limits is None else limits
+    clearance = None
+    if scene is not None:
+        qdd_bound = (np.abs(profile.qdd).max(axis=0) if limits.qdd_max is None
+                     else limits.qdd_max * (1.0 + tolerance))
+        clearance = certify_clearance(scene, profile.t, profile.q, qdd_bound)
     normalised = _normalised(profile, limits)
     ratios = {name: values.max(axis=0) for name, values in normalised.items()}
     worst_quantity = max(normalised, key=lambda name: ratios[name].max())
     index, joint = np.unravel_index(np.argmax(normalised[worst_quantity]), normalised[worst_quantity].shape)
     worst = float(normalised[worst_quantity][index, joint])
-    return LimitReport(ratios, worst_quantity, int(joint), int(index), float(profile.t[index]), worst,
-                       bool(worst <= 1.0 + tolerance), tolerance)
+    passed = bool(worst <= 1.0 + tolerance) and (clearance is None or clearance.passed)
+    return LimitReport(ratios, worst_quantity, int(joint), int(index), float(profile.t[index]), worst, passed,
+                       tolerance, clearance)
 
 
 #: A jerk reversal is a swing from beyond +this fraction of the jerk limit to beyond -this fraction

@@ -74,6 +74,8 @@ def _joint(joint: DhJoint, units: _Units) -> dict:
         row["continuous"] = True
     if joint.tau_max is not None:
         row["tau_max"] = float(joint.tau_max)
+    if joint.radius is not None:
+        row["radius"] = units.length(joint.radius)
     if joint.inertia is not None:
         row["inertia"] = _inertia(joint.inertia, units)
     return row

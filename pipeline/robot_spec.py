@@ -46,6 +46,7 @@ class DhJoint:
     ``a_{i-1}``, ``alpha_{i-1}`` of the row.
     Revolute: ``theta = sign * q + theta_offset``; prismatic: ``d = sign * q + d``.
     ``a``, ``d`` [m]; ``alpha``, ``theta_offset`` [rad]; limits in q units (rad or m, per second).
+    ``radius`` [m]: of the capsules around the link's DH legs (``pipeline.geometry``; None: the default).
     """
 
     name: str
@@ -62,6 +63,7 @@ class DhJoint:
     qddd_max: float | None
     inertia: LinkInertia | None
     tau_max: float | None = None
+    radius: float | None = None
 
     @property
     def is_revolute(self) -> bool:
@@ -168,12 +170,13 @@ MAX_SPEED_RAD_S = 100.0       # a revolute qd_max above ~5700 deg/s is a unit mi
 MIN_RATE = 1e-9               # qd_max, qdd_max, qddd_max [unit/s^k]: smaller cannot move
 MAX_RATE = 1e9                # qdd_max, qddd_max, tau_max: beyond any drive
 MAX_MASS_KG = 1e6
+MAX_RADIUS_M = 2.0            # a link radius [m]: thicker is mm written under m
 
 _TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
 _TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
 _JOINT_REQUIRED = ("a", "alpha", "d", "q_min", "q_max", "qd_max")
 _JOINT_OPTIONAL = ("theta_offset", "sign", "type", "name", "continuous", "qdd_max", "qddd_max", "tau_max",
-                   "inertia", "note")
+                   "inertia", "radius", "note")
 
 
 class _RobotReader(Reader):
@@ -283,7 +286,16 @@ class _RobotReader(Reader):
             qddd_max=optional["qddd_max"],
             inertia=self.inertia((*path, "inertia")) if "inertia" in raw else None,
             tau_max=tau_max,
+            radius=self.radius((*path, "radius")) if "radius" in raw else None,
         )
+
+    def radius(self, path) -> float:
+        """A link radius in the file's unit -> [m], > 0 and below MAX_RADIUS_M."""
+        value = self.positive(path, self.length_unit) * self.ls
+        if value > MAX_RADIUS_M:
+            self.fail(path, f"is {value:.4g} m, thicker than any arm link ({MAX_RADIUS_M:g} m): is length_unit: "
+                      f"{self.length_unit} right?", self.get(path))
+        return value
 
     def frame(self, key: str) -> np.ndarray:
         """The optional ``base`` or ``tool`` transform -> (4, 4) [m] (identity when absent)."""
@@ -308,7 +320,7 @@ class _RobotReader(Reader):
         for i, n in enumerate(names):
             if names.index(n) != i:
                 self.fail(("joints", i, "name"), "joint names must be unique", n)
-        for key in ("qdd_max", "qddd_max", "tau_max"):
+        for key in ("qdd_max", "qddd_max", "tau_max", "radius"):
             given = [getattr(j, key) is not None for j in joints]
             if any(given) and not all(given):
                 self.fail(("joints", given.index(False), key), "given for some joints, so required for all",

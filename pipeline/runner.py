@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from .controller_formats import write_json_trajectory, write_ros2_yaml
-from .errors import ConfigurationError, JobFileError, TimingError
+from .cell_motion import collision_free_ik, planned_waypoints, time_clear
+from .errors import CollisionError, ConfigurationError, JobFileError, PlanningError, TimingError
 from .ik import with_drake_model
 from .ik.branches import branch_change_reason, choose_solution, configuration_labels
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
@@ -97,7 +98,7 @@ def _ratios(report: LimitReport) -> str:
     return ", ".join(f"{name} {report.max_ratio(name):.4f}" for name in QUANTITIES if name in report.ratios)
 
 
-def solve_waypoints(job: Job) -> list[WaypointIk]:
+def solve_waypoints(job: Job, scene=None) -> list[WaypointIk]:
     """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
     previous waypoint's joint values (the first: ``job.start`` or the middle of the limits), and of its
     in-limit solutions one is kept by the rule of ``pipeline.ik.branches`` (of the configuration the
@@ -105,7 +106,8 @@ def solve_waypoints(job: Job) -> list[WaypointIk]:
     counts as the previous branch). A JobFileError
     names the waypoint when a pose is unreachable, has no solution of the configuration asked for, or
     changes branch from the previous pose waypoint (naming both branches and the joint that forces it)
-    unless the job allows branch changes."""
+    unless the job allows branch changes. With ``scene`` (a CollisionModel) a joint waypoint that collides
+    is an error naming the pair, and IK answers that collide are skipped (``cell_motion``)."""
     robot = job.robot
     limits = robot.limits
     previous = job.start if job.start is not None else (limits.q_min + limits.q_max) / 2.0
@@ -113,12 +115,20 @@ def solve_waypoints(job: Job) -> list[WaypointIk]:
     options = with_drake_model(robot, job.ik, {}) if job.has_poses else {}
     solved = []
     for k, waypoint in enumerate(job.waypoints):
+        field = f"waypoints[{k}]"
         if isinstance(waypoint, JointWaypoint):
+            if scene is not None and not scene.is_free(waypoint.q):
+                raise JobFileError(job.source, field, f"is not collision-free: {scene.why_not_free(waypoint.q)}")
             solved.append(WaypointIk(waypoint.q))
             previous, previous_branch = waypoint.q, configuration_labels(robot, waypoint.q[None])[0]
             continue
-        field = f"waypoints[{k}]"
-        result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, target_kind=waypoint.target, **options)
+        if scene is None:
+            result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, target_kind=waypoint.target, **options)
+        else:
+            result, collides = collision_free_ik(robot, scene, waypoint.X_BE, previous, job.ik, waypoint.target,
+                                                 options, np.random.default_rng(k))
+            if result is None:
+                raise JobFileError(job.source, field, collides)
         if not result.success:
             raise JobFileError(job.source, field, f"pose is unreachable with IK method {job.ik!r} ({result.method}, "
                                f"target {waypoint.target}): {result.reason}")
@@ -144,10 +154,16 @@ def package_versions() -> dict[str, str | None]:
     return {name: installed_version(name) for name in VERSIONED_PACKAGES}
 
 
-def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile) -> dict:
+def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile, plans: list | None = None) -> dict:
     """The JSON report: inputs and their hash, methods (``path`` null for ruckig, which times waypoint
     to waypoint), duration, the limits (values and peak/limit ratios, against the limits the profile was
-    timed against and against the robot's own, with the speed scale), timing details."""
+    timed against and against the robot's own, with the speed scale), timing details; in a cell, the
+    cell, the clearance certificate and the planned moves (planner, times, path lengths)."""
+    certificate = profile.certificate
+    cell = None if job.cell is None else {
+        "name": job.cell.name, "file": job.cell.source, "plan": job.plan,
+        "clearance": None if certificate is None or certificate.clearance is None else certificate.clearance.to_dict(),
+        "planned_moves": [plan.to_dict() for plan in plans or []]}
     return {
         "job": job.name,
         "job_file": job.source,
@@ -162,6 +178,7 @@ def build_report(job: Job, waypoints: list[WaypointIk], profile: Profile) -> dic
         "waypoints": [w.to_dict() for w in waypoints],
         "limits": limits_summary(profile),
         "timing_details": profile.details.to_dict(),
+        "cell": cell,
         "versions": package_versions(),
     }
 
@@ -175,9 +192,10 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     and left as it was on any failure (``staged_output``; checked before any work). A profile of more
     than ``max_samples`` samples is refused (ProfileSizeError) before it is made."""
     with staged_output(out_dir) as staging:
-        waypoints = solve_waypoints(job)
-        profile = _timed(job, waypoints, max_samples)
-        report = build_report(job, waypoints, profile)
+        scene = collision_model(job)
+        waypoints = solve_waypoints(job, scene)
+        profile, plans = _timed(job, waypoints, max_samples, scene)
+        report = build_report(job, waypoints, profile, plans)
         writers = _writers(job, profile, report)
         for kind in job.outputs:
             writers[kind](staging / FILE_NAMES[kind])
@@ -187,21 +205,42 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     return JobOutcome(job, profile, files, report)
 
 
-def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int) -> Profile:
+def collision_model(job: Job):
+    """The job's CollisionModel (its cell's robot, as the robot file gives it, and the cell), or None
+    for a job without a cell."""
+    if job.cell is None:
+        return None
+    from .collision import CollisionModel   # Drake's checker only for jobs in a cell
+
+    return CollisionModel(job.cell.load_robot(), job.cell)
+
+
+def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int, scene=None) -> tuple[Profile, list]:
     """The certified profile through the solved waypoints (in pieces when the job has tool moves or TCP
-    limits, ``pipeline.motion``); timing errors name the job file, tool-move errors the waypoint."""
+    limits, ``pipeline.motion``; in a cell, planned and certified clear, ``pipeline.cell_motion``) and the
+    planned paths; timing and collision errors name the job file, tool-move errors the waypoint."""
     try:
         if job.has_tool_moves or job.tcp_speed_max is not None or job.tcp_accel_max is not None:
             from .motion import time_tool_job
             from .tool_moves import ToolMoveError
 
             try:
-                return time_tool_job(job, [w.q for w in waypoints], max_samples)
+                return time_tool_job(job, [w.q for w in waypoints], max_samples, scene)
             except ToolMoveError as exc:
                 raise JobFileError(job.source, f"waypoints[{exc.move}]", str(exc)) from exc
-        return retime(job.robot, np.array([w.q for w in waypoints]), method=job.timing, speed_scale=job.speed_scale,
-                      dt=job.dt, shape=job.path, max_samples=max_samples)
-    except (TimingError, ConfigurationError) as exc:
+        Q = np.array([w.q for w in waypoints])
+
+        def timed(vertices: np.ndarray) -> Profile:
+            return retime(job.robot, vertices, method=job.timing, speed_scale=job.speed_scale, dt=job.dt,
+                          shape=job.path, max_samples=max_samples)
+
+        if scene is None:
+            return timed(Q), []
+        plans = []
+        if job.plan == "collision_free":
+            Q, plans = planned_waypoints(scene, Q, job.planner, job.plan_time_budget)
+        return time_clear(scene, Q, timed, refine=job.plan == "collision_free")[0], plans
+    except (TimingError, ConfigurationError, CollisionError, PlanningError) as exc:
         raise type(exc)(f"{job.source}: {exc}") from exc
 
 

@@ -1,0 +1,102 @@
+"""A job's motion in a cell: IK answers that collide are skipped, joint moves are planned around
+obstacles (``plan: collision_free``), tool moves are checked, and every profile carries its clearance
+certificate (``certify(..., scene=model)``); a profile below the clearance is an error, never a file.
+
+Planned joint pieces are timed through the planner's vertices with the job's path shape, which bends
+the polyline between them; where the certificate then finds the profile too close, the polyline edge
+nearest the failing configuration gets its midpoint as one more vertex and the piece is timed again
+(at most MAX_REFINEMENTS times), so the timed path hugs the checked polyline where it must.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .errors import CollisionError
+from .planning import PlannedPath, plan_joint_path
+from .profile import Profile, certify
+
+#: Most vertices added to a planned piece to bring its timed path within the clearance.
+MAX_REFINEMENTS = 8
+#: Numeric IK methods are restarted from this many random seeds when every answer collides.
+IK_COLLISION_RESTARTS = 20
+
+
+def free_solutions(model, result):
+    """``result`` (an IkResult) with only its collision-free solutions (None when none is)."""
+    free = tuple(s for s in result.solutions if model.is_free(s.q))
+    return dataclasses.replace(result, solutions=free) if free else None
+
+
+def collision_free_ik(robot, model, X_target, q_seed, method: str, target_kind: str, options: dict, rng):
+    """A successful IkResult whose solutions are all collision-free, or (None, why): the closed form
+    checks every branch it returns; numeric methods are restarted from IK_COLLISION_RESTARTS random seeds
+    while every answer collides."""
+    result = robot.ik(X_target, q_seed=q_seed, method=method, target_kind=target_kind, **options)
+    if not result.success:
+        return result, ""
+    free = free_solutions(model, result)
+    numeric = result.method not in ("analytic",)
+    for _ in range(IK_COLLISION_RESTARTS if numeric and free is None else 0):
+        retry = robot.ik(X_target, q_seed=robot.random_configurations(rng, 1)[0], method=method,
+                         target_kind=target_kind, **options)
+        free = free_solutions(model, retry) if retry.success else None
+        if free is not None:
+            return free, ""
+    if free is None:
+        tried = f"{len(result.solutions)} solution(s)" + (f" and {IK_COLLISION_RESTARTS} restarts" if numeric else "")
+        return None, f"every IK answer collides ({tried}); the nearest: {model.why_not_free(result.q)}"
+    return free, ""
+
+
+def planned_waypoints(model, waypoints: np.ndarray, planner: str, time_budget: float) -> tuple[np.ndarray, list]:
+    """The waypoints (k, dof) with every edge that is not collision-free replaced by a planned path;
+    returns (vertices, one PlannedPath per edge)."""
+    vertices, plans = [waypoints[0]], []
+    for k in range(len(waypoints) - 1):
+        plan = plan_joint_path(model, waypoints[k], waypoints[k + 1], planner, time_budget, seed=k)
+        plans.append(plan)
+        vertices += list(plan.waypoints[1:])
+    return np.array(vertices), plans
+
+
+def _refined(vertices: np.ndarray, q_fail: np.ndarray) -> np.ndarray:
+    """``vertices`` with the midpoint of the edge nearest ``q_fail`` added."""
+    a, b = vertices[:-1], vertices[1:]
+    d = b - a
+    f = np.clip(np.einsum("ij,ij->i", q_fail - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+    k = int(np.argmin(np.linalg.norm(a + f[:, None] * d - q_fail, axis=1)))
+    return np.insert(vertices, k + 1, (a[k] + b[k]) / 2.0, axis=0)
+
+
+def time_clear(model, vertices: np.ndarray, time, refine: bool) -> tuple[Profile, int]:
+    """``time(vertices)`` -> a profile certified with its clearance, refining the vertices (``refine``:
+    planned paths) while the certificate fails; returns (profile, vertices added). CollisionError
+    names the pair and the time when it still fails."""
+    for added in range(MAX_REFINEMENTS + 1):
+        profile = time(vertices)
+        report = certify(profile, scene=model)
+        clearance = report.clearance
+        if clearance.passed:
+            return dataclasses.replace(profile, certificate=report), added
+        if not refine or added == MAX_REFINEMENTS or clearance.failed_at_s is None:
+            break
+        q_fail = np.array([np.interp(clearance.failed_at_s, profile.t, column) for column in profile.q.T])
+        vertices = _refined(vertices, q_fail)
+    hint = "" if refine else " (plan: collision_free plans joint moves around obstacles)"
+    raise CollisionError(f"the profile does not keep the clearance: {clearance.reason}{hint}")
+
+
+def check_samples(model, Q: np.ndarray) -> int | None:
+    """The index of the first configuration of Q (k, dof) that is not collision-free (None: all are)."""
+    for k, q in enumerate(Q):
+        if not model.is_free(q):
+            return k
+    return None
+
+
+def plans_report(plans: list[PlannedPath]) -> list[dict]:
+    """The planned moves as JSON-ready dicts (direct edges included, planner "direct")."""
+    return [plan.to_dict() for plan in plans]

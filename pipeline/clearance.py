@@ -1,0 +1,104 @@
+"""The clearance certificate of a profile: the smallest distance to every obstacle and between links
+over the whole motion, proven between the configurations it evaluates (no Drake here: the distances
+come from a ``CollisionModel``).
+
+Between two profile samples the true joint motion stays within ``A dt^2 / 8`` of the straight line
+between them, per joint (A: the joint's acceleration bound), and any point of the robot moves at most
+``sum_j |dq_j| * lever_j`` when the joints move by dq (``CollisionModel.lever_arms``). So from an
+evaluated configuration whose margin (distance minus the clearance) is m, the next ``m - tube`` of
+that displacement measure is certified without looking (conservative advancement): the evaluations
+crowd where the robot is close to something and thin out where it is far, and nothing can pass
+between them. A margin below zero at an evaluation is a measured violation and ends the check.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The smallest advance [m of the displacement measure]: a margin below it (but not below zero) is
+#: reported as not certified rather than crawled through.
+MIN_ADVANCE_M = 1e-5
+
+
+@dataclass(frozen=True)
+class ClearanceReport:
+    """What the clearance check found: ``clearance_m`` (required to obstacles), the smallest evaluated
+    robot-obstacle distance ``min_distance_m`` with its ``pair`` (robot body, obstacle) and time
+    ``t_s`` (inf/None when no obstacle was within reach), the smallest link-link distance
+    ``self_min_distance_m`` with its ``self_pair`` and ``self_t_s``, ``tube_m`` (how far the true motion
+    may stray from the evaluated one between samples), ``evaluations`` (distance queries), and
+    ``passed``: the margin stayed above zero everywhere. ``reason`` says why not ("" when passed) and
+    ``failed_at_s`` where [s]."""
+
+    clearance_m: float
+    min_distance_m: float
+    pair: tuple[str, str] | None
+    t_s: float | None
+    self_min_distance_m: float
+    self_pair: tuple[str, str] | None
+    self_t_s: float | None
+    tube_m: float
+    evaluations: int
+    passed: bool
+    reason: str = ""
+    failed_at_s: float | None = None
+
+    def __str__(self) -> str:
+        verdict = "PASS" if self.passed else f"FAIL ({self.reason})"
+        closest = ("no obstacle in reach" if self.pair is None else
+                   f"closest {self.pair[0]} - {self.pair[1]} {self.min_distance_m * 1e3:.1f} mm at t = {self.t_s:.3f} s")
+        return (f"clearance {self.clearance_m * 1e3:g} mm: {verdict}; {closest}; links "
+                f"{self.self_min_distance_m * 1e3:.1f} mm apart at least ({self.evaluations} evaluations)")
+
+    def to_dict(self) -> dict:
+        def finite(value: float) -> float | None:
+            return value if math.isfinite(value) else None
+
+        return {"passed": self.passed, "reason": self.reason, "clearance_m": self.clearance_m,
+                "min_distance_m": finite(self.min_distance_m), "pair": None if self.pair is None else list(self.pair),
+                "t_s": self.t_s, "self_min_distance_m": finite(self.self_min_distance_m),
+                "self_pair": None if self.self_pair is None else list(self.self_pair), "self_t_s": self.self_t_s,
+                "tube_m": self.tube_m, "evaluations": self.evaluations, "failed_at_s": self.failed_at_s,
+                "method": "conservative advancement on the sampled motion with a lever-arm displacement bound"}
+
+
+def interpolation_tube(model, t: np.ndarray, qdd_bound: np.ndarray) -> float:
+    """How far any robot point may be from where the straight-line interpolation of the samples puts it
+    [m]: per joint the interpolation error bound ``A dt^2 / 8``, through the lever arms."""
+    dt = float(np.max(np.diff(t))) if len(t) > 1 else 0.0
+    return float(np.sum(qdd_bound * dt**2 / 8.0 * model.lever_arms))
+
+
+def certify_clearance(model, t: np.ndarray, q: np.ndarray, qdd_bound: np.ndarray) -> ClearanceReport:
+    """Check samples ``t`` (N,) [s], ``q`` (N, dof) of a motion whose joint accelerations stay within
+    ``qdd_bound`` (dof,) between samples against ``model``'s clearance (see the module docstring)."""
+    tube = interpolation_tube(model, t, qdd_bound)
+    steps = np.abs(np.diff(q, axis=0)) @ model.lever_arms
+    along = np.concatenate([[0.0], np.cumsum(steps)])          # the displacement measure at the samples
+    best = {"obstacle": (math.inf, None, None), "self": (math.inf, None, None)}
+    s, end, evaluations = 0.0, float(along[-1]), 0
+    while True:
+        k = min(int(np.searchsorted(along, s, side="right")) - 1, len(t) - 2) if len(t) > 1 else 0
+        width = along[k + 1] - along[k] if len(t) > 1 else 0.0
+        f = 0.0 if width <= 0.0 else min((s - along[k]) / width, 1.0)
+        q_s = q[k] if len(t) == 1 else q[k] + f * (q[k + 1] - q[k])
+        t_s = float(t[k]) if len(t) == 1 else float(t[k] + f * (t[k + 1] - t[k]))
+        margin, c = model.margin(q_s)
+        evaluations += 1
+        if c.obstacle < best["obstacle"][0]:
+            best["obstacle"] = (c.obstacle, c.obstacle_pair, t_s)
+        if c.self < best["self"][0]:
+            best["self"] = (c.self, c.self_pair, t_s)
+        reason = ""
+        if margin < 0.0:
+            reason = f"{model.why_not_free(q_s)} at t = {t_s:.4f} s"
+        elif margin - tube < MIN_ADVANCE_M and s < end:
+            reason = (f"the margin at t = {t_s:.4f} s is {margin * 1e3:.3f} mm, within the {tube * 1e3:.3f} mm the "
+                      "motion may stray between samples: not certified (a smaller dt certifies it)")
+        if reason or s >= end:
+            return ClearanceReport(model.clearance_m, *best["obstacle"], *best["self"], tube, evaluations,
+                                   not reason, reason, t_s if reason else None)
+        s = min(s + margin - tube, end)
