@@ -1,4 +1,4 @@
-"""Command line: ``python -m pipeline {run,show,check,bench,export,import-urdf} ...``. The only place that configures logging.
+"""Command line: ``python -m pipeline {run,show,check,check-cell,bench,export,import-urdf} ...``. The only place that configures logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
 cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
@@ -83,6 +83,31 @@ def cmd_import_urdf(args) -> int:
     for line in imported.document.get("assumptions", []):
         print(f"note: {line}")
     return 0
+
+
+def cmd_check_cell(args) -> int:
+    """Print a cell, its collision model, the robot's clearance at its home pose (q = 0) and the pair in
+    collision there, if any; exit 1 when q = 0 collides or comes closer than the clearance."""
+    from .cell import load_cell
+    from .collision import CollisionModel
+
+    cell = load_cell(args.cell)
+    robot = cell.load_robot()
+    model = CollisionModel(robot, cell)
+    q0 = np.zeros(robot.dof)
+    clearance = model.clearance(q0)
+    print(cell)
+    print(model.describe())
+    closest = ("no obstacle within reach" if clearance.obstacle_pair is None else
+               f"{clearance.obstacle * 1e3:.1f} mm ({clearance.obstacle_pair[0]} - {clearance.obstacle_pair[1]})")
+    links = ("no link pair within reach" if clearance.self_pair is None else
+             f"{clearance.self * 1e3:.1f} mm ({clearance.self_pair[0]} - {clearance.self_pair[1]})")
+    print(f"at the home pose q = 0: closest obstacle {closest}; closest links {links}")
+    if model.is_free(q0):
+        print(f"q = 0 is collision-free with {cell.clearance * 1e3:g} mm clearance")
+        return 0
+    print(f"COLLISION at q = 0: {model.why_not_free(q0)}")
+    return 1
 
 
 def _names(text: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
@@ -191,6 +216,11 @@ def build_parser() -> argparse.ArgumentParser:
                          help="DH convention of the robot file (default standard)")
     urdf_in.add_argument("--name", help="the robot's name (default the URDF's)")
     urdf_in.set_defaults(func=cmd_import_urdf)
+
+    check_cell = sub.add_parser("check-cell", help="print a cell, its collision model and the robot's clearance at "
+                                "q = 0 (exit 1 when q = 0 collides)")
+    check_cell.add_argument("cell", help="cell file, e.g. models/cells/gp7_wall_cell.yaml")
+    check_cell.set_defaults(func=cmd_check_cell)
 
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
     bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian"])

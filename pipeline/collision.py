@@ -21,13 +21,13 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from pydrake.geometry import Box, Capsule as DrakeCapsule, CollisionFilterDeclaration, Cylinder, GeometrySet, Sphere
+from pydrake.geometry import Capsule as DrakeCapsule, CollisionFilterDeclaration, GeometrySet, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import SpatialInertia
 from pydrake.planning import CollisionCheckerParams, RobotDiagramBuilder, SceneGraphCollisionChecker
 
-from .drake_model import add_robot
+from .drake_model import add_robot, drake_shape, quiet_drake_log
 from .geometry import link_capsules, lever_arms
 
 log = logging.getLogger(__name__)
@@ -43,8 +43,6 @@ SELF_CLEARANCE_M = 0.0
 #: Drake's edge checks step at most this far in joint space (Euclidean norm) [rad]; the certificate
 #: checks the timed profile rigorously, so this only sets how finely the planner looks.
 EDGE_STEP_RAD = 0.02
-SHAPES = {"box": lambda size: Box(*size), "cylinder": lambda size: Cylinder(*size),
-          "sphere": lambda size: Sphere(size[0]), "capsule": lambda size: DrakeCapsule(*size)}
 
 
 def _transform(X: np.ndarray) -> RigidTransform:
@@ -98,14 +96,14 @@ class CollisionModel:
             tool = plant.AddRigidBody("tool", instance, SpatialInertia.Zero())
             plant.WeldFrames(links[-1].body_frame(), tool.body_frame(), _transform(robot.spec.X_DnE))
             for shape in tool_shapes:
-                plant.RegisterCollisionGeometry(tool, _transform(shape.X), SHAPES[shape.kind](shape.size),
+                plant.RegisterCollisionGeometry(tool, _transform(shape.X), drake_shape(shape),
                                                 shape.name, friction)
         obstacle_instance = plant.AddModelInstance("cell")
         self.obstacles = []
         for shape in () if cell is None else cell.objects:
             body = plant.AddRigidBody(shape.name, obstacle_instance, SpatialInertia.Zero())
             plant.WeldFrames(plant.world_frame(), body.body_frame(), _transform(shape.X))
-            plant.RegisterCollisionGeometry(body, RigidTransform(), SHAPES[shape.kind](shape.size), shape.name,
+            plant.RegisterCollisionGeometry(body, RigidTransform(), drake_shape(shape), shape.name,
                                             friction)
             self.obstacles.append(body)
         plant.Finalize()
@@ -117,7 +115,8 @@ class CollisionModel:
         params.edge_step_size = EDGE_STEP_RAD
         params.env_collision_padding = self.clearance_m
         params.self_collision_padding = SELF_CLEARANCE_M
-        self.checker = SceneGraphCollisionChecker(params)
+        with quiet_drake_log():
+            self.checker = SceneGraphCollisionChecker(params)
         self.filtered_pairs = joined + self._filter_mounts(X_WB) + self._filter_always_touching()
 
     # -- filters ----------------------------------------------------------------------------------
@@ -144,12 +143,11 @@ class CollisionModel:
         query = self.plant.get_geometry_query_input_port().Eval(context)
         filtered = []
         for distance in query.ComputeSignedDistanceToPoint(X_WB[:3, 3], MOUNT_TOLERANCE_M):
-            name = query.inspector().GetName(distance.id_G)
             body = self.plant.GetBodyFromFrameId(query.inspector().GetFrameId(distance.id_G))
             if body in self.obstacles:
                 for robot_body in self.bodies[:2]:
                     self.checker.SetCollisionFilteredBetween(robot_body, body, True)
-                filtered.append(("link1", name))
+                filtered.append(("link1", body.name()))
         return filtered
 
     def _filter_always_touching(self) -> list[tuple[str, str]]:

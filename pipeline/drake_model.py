@@ -10,10 +10,12 @@ the same chain (the same ``add_robot``), simple visual shapes per link and, opti
 
 from __future__ import annotations
 
+import logging
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import Cylinder, Meshcat, MeshcatVisualizer, MeshcatVisualizerParams, SceneGraph, Sphere
+from pydrake.geometry import Box, Capsule, Cylinder, Meshcat, MeshcatVisualizer, MeshcatVisualizerParams, SceneGraph, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import (
@@ -125,6 +127,7 @@ LINK_COLOURS = ((0.93, 0.55, 0.13, 1.0), (0.75, 0.75, 0.78, 1.0))   # alternate:
 JOINT_COLOUR = (0.25, 0.25, 0.28, 1.0)
 BASE_COLOUR = (0.35, 0.35, 0.38, 1.0)
 FLANGE_COLOUR = (0.20, 0.45, 0.85, 1.0)
+OBSTACLE_COLOUR = (0.55, 0.60, 0.65, 0.6)
 
 
 def _cylinder_between(p: np.ndarray, r: np.ndarray) -> RigidTransform:
@@ -194,15 +197,37 @@ class VisualModel:
     geometry_count: int
 
 
+def drake_shape(shape):
+    """The Drake shape of a cell's Shape (box full sizes; cylinder and capsule radius, length; sphere)."""
+    make = {"box": Box, "cylinder": Cylinder, "sphere": Sphere, "capsule": Capsule}[shape.kind]
+    return make(*shape.size)
+
+
+def register_cell_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: list[RigidBody], cell) -> int:
+    """Visual shapes of a cell on an unfinalised plant whose robot stands at the world origin: its
+    obstacles (posed in the robot's base frame) on the world body, its tool shapes on the last link.
+    Returns the count."""
+    X_BW = np.linalg.inv(cell.X_WB)
+    for shape in cell.objects:
+        plant.RegisterVisualGeometry(plant.world_body(), _as_rigid_transform(X_BW @ shape.X), drake_shape(shape),
+                                     f"obstacle_{shape.name}", np.array(OBSTACLE_COLOUR))
+    for shape in cell.tool_shapes:
+        plant.RegisterVisualGeometry(bodies[-1], _as_rigid_transform(spec.X_DnE @ shape.X), drake_shape(shape),
+                                     f"tool_{shape.name}", np.array(FLANGE_COLOUR))
+    return len(cell.objects) + len(cell.tool_shapes)
+
+
 def build_visual_diagram(spec: RobotSpec, meshcat: Meshcat | None = None,
-                         params: MeshcatVisualizerParams | None = None) -> VisualModel:
+                         params: MeshcatVisualizerParams | None = None, cell=None) -> VisualModel:
     """The robot in a Diagram: ``AddMultibodyPlantSceneGraph``, the chain of ``add_robot``, the shapes
-    of ``register_visual_geometry``, and a MeshcatVisualizer (with ``params``, if given) publishing to
-    ``meshcat`` if given."""
+    of ``register_visual_geometry`` (and of ``register_cell_geometry`` with a cell), and a
+    MeshcatVisualizer (with ``params``, if given) publishing to ``meshcat`` if given."""
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
     bodies = add_robot(plant, spec)
     count = register_visual_geometry(plant, spec, bodies)
+    if cell is not None:
+        count += register_cell_geometry(plant, spec, bodies, cell)
     plant.Finalize()
     visualizer = None
     if meshcat is not None:
@@ -210,6 +235,20 @@ def build_visual_diagram(spec: RobotSpec, meshcat: Meshcat | None = None,
                                                     params if params is not None else MeshcatVisualizerParams())
     diagram = builder.Build()
     return VisualModel(diagram, plant, scene_graph, visualizer, count)
+
+
+@contextmanager
+def quiet_drake_log():
+    """Drake's log (Python's ``drake`` logger, which pydrake keeps in step with Drake's C++ log) at
+    WARNING inside the block: Meshcat announces its URL and the collision checker its
+    contexts at INFO."""
+    drake_log = logging.getLogger("drake")
+    previous = drake_log.level
+    drake_log.setLevel(max(logging.WARNING, previous))
+    try:
+        yield
+    finally:
+        drake_log.setLevel(previous)
 
 
 def angular_first_to_linear_first(J_wv: np.ndarray) -> np.ndarray:

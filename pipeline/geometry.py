@@ -135,3 +135,36 @@ def lever_arms(robot, tool_reach: float = 0.0) -> np.ndarray:
         reach = sum(c.length for c in later) + max(max(c.radius for c in later), tool_reach)
         levers.append(reach if joint.is_revolute else 1.0)
     return np.array(levers)
+
+
+#: Points per circle of a shape's outline.
+OUTLINE_POINTS = 24
+
+
+def _circle(radius: float, z: float, axis: int = 2) -> np.ndarray:
+    """A circle (OUTLINE_POINTS + 1, 3) of ``radius`` at height z along ``axis`` (closed)."""
+    angle = np.linspace(0.0, 2.0 * np.pi, OUTLINE_POINTS + 1)
+    u, v = radius * np.cos(angle), radius * np.sin(angle)
+    w = np.full_like(angle, z)
+    return np.column_stack([(w, u, v), (u, w, v), (u, v, w)][axis])
+
+
+def shape_outline(kind: str, size, X: np.ndarray) -> list[np.ndarray]:
+    """Line drawing of a box (full sizes), cylinder or capsule (radius, length along z) or sphere
+    (radius) centred at pose X (4, 4): polylines (k, 3) in X's parent frame [m]."""
+    if kind == "box":
+        h = np.asarray(size) / 2.0
+        corners = np.array([[x, y, z] for x in (-h[0], h[0]) for y in (-h[1], h[1]) for z in (-h[2], h[2])])
+        edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+        lines = [corners[[a, b]] for a, b in edges]
+    elif kind == "sphere":
+        lines = [_circle(size[0], 0.0, axis) for axis in range(3)]
+    else:
+        radius, half = size[0], size[1] / 2.0
+        lines = [_circle(radius, z) for z in (-half, half)]
+        lines += [np.array([[x, y, -half], [x, y, half]]) for x, y in ((radius, 0), (-radius, 0), (0, radius),
+                                                                      (0, -radius))]
+        if kind == "capsule":
+            lines += [_circle(radius, z, axis) + [0.0, 0.0, z] - ([z, 0, 0] if axis == 0 else [0, z, 0])
+                      for z in (-half, half) for axis in (0, 1)]
+    return [points @ X[:3, :3].T + X[:3, 3] for points in lines]

@@ -90,6 +90,12 @@ class JobOutcome:
         if scale != 1.0:
             own = certify(self.profile, self.job.robot.limits)
             lines.append(f"peak/limit, the robot's own limits: {_ratios(own)}")
+        if self.limit_report.clearance is not None:
+            lines.append(f"cell {self.job.cell.name}: {self.limit_report.clearance}")
+        lines += [f"planned {plan['planner']}: {plan['plan_time_s'] * 1e3:.1f} ms search, "
+                  f"{plan['simplify_time_s'] * 1e3:.1f} ms shortcutting, path {plan['path_length_before_rad']:.2f} -> "
+                  f"{plan['path_length_after_rad']:.2f} rad" for plan in (self.report.get("cell") or {}).get(
+                      "planned_moves", []) if plan["planner"] != "direct"]
         lines += [f"wrote {path}" for path in self.files]
         return "\n".join(lines)
 
@@ -275,13 +281,13 @@ def _plot_tcp(path: Path, job: Job, profile: Profile) -> None:
 def _view_html(path: Path, job: Job, profile: Profile) -> None:
     from .views import profile_html   # Drake's Meshcat only when a view is asked for
 
-    Path(path).write_text(profile_html(job.robot, profile), encoding="utf-8")
+    Path(path).write_text(profile_html(job.robot, profile, cell=job.cell), encoding="utf-8")
 
 
 def _plot_arm(path: Path, job: Job, profile: Profile) -> None:
     from .views import plot_arm_motion
 
-    plot_arm_motion(path, job.robot, profile, _title(job, profile))
+    plot_arm_motion(path, job.robot, profile, _title(job, profile), job.cell)
 
 
 def run_job_file(path: str | Path, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobOutcome:

@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import gc
 import logging
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 from .errors import ConfigurationError
-from .geometry import compute_arm_path, robot_size
+from .geometry import compute_arm_path, robot_size, shape_outline
 from .profile import Profile
 
 log = logging.getLogger(__name__)
@@ -30,6 +29,8 @@ DEFAULT_POSES = 6
 AXIS_ARROW_FRACTION = 0.12
 TRIAD_FRACTION = 0.15
 TRIAD_COLOURS = ("tab:red", "tab:green", "tab:blue")
+#: Obstacles are drawn within this fraction of the robot's size around the drawn arm.
+CELL_MARGIN_FRACTION = 0.25
 
 
 # -- matplotlib -------------------------------------------------------------------------------------
@@ -115,9 +116,30 @@ def arm_figure(robot, q, ax=None, title: str | None = None):
     return figure
 
 
-def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, title: str | None = None):
+def cell_outlines(cell, low: np.ndarray, high: np.ndarray) -> list[np.ndarray]:
+    """The cell's obstacles as line drawings in the robot's base frame [m], clipped to the box
+    ``low``..``high`` (3,) [m] (a floor would dwarf the arm)."""
+    X_BW = np.linalg.inv(cell.X_WB)
+    return [np.clip(points, low, high) for shape in cell.objects
+            for points in shape_outline(shape.kind, shape.size, X_BW @ shape.X)]
+
+
+def _draw_cell(ax, robot, cell, drawn: np.ndarray) -> np.ndarray:
+    """Draw the cell's obstacles in grey around the ``drawn`` points (k, 3) [m] (a margin of
+    CELL_MARGIN_FRACTION of the robot's size); returns the drawn points (k, 3) [m]."""
+    margin = CELL_MARGIN_FRACTION * robot_size(robot)
+    lines = cell_outlines(cell, drawn.min(axis=0) - margin, drawn.max(axis=0) + margin)
+    for k, points in enumerate(lines):
+        ax.plot(points[:, 0], points[:, 1], points[:, 2], color="0.55", linewidth=0.8,
+                label="obstacles" if k == 0 else None)
+    return np.vstack(lines) if lines else np.zeros((0, 3))
+
+
+def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, title: str | None = None,
+                  cell=None):
     """The arm along a profile -> matplotlib Figure: ``poses`` configurations evenly spaced in time,
-    coloured by time (the first with its joint axes and frames), and the end frame's path dashed."""
+    coloured by time (the first with its joint axes and frames), the end frame's path dashed, and the
+    obstacles of ``cell`` (a Cell) in grey."""
     from matplotlib import colormaps
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
@@ -135,6 +157,8 @@ def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, 
     flange = robot.fk_batch(profile.q)[:, :3, 3]
     ax.plot(flange[:, 0], flange[:, 1], flange[:, 2], "k--", linewidth=1.0, label="end-frame path")
     drawn.append(flange)
+    if cell is not None:
+        drawn.append(_draw_cell(ax, robot, cell, np.vstack(drawn)))
     handles, labels = ax.get_legend_handles_labels()
     order = [len(indices) - 1, *range(len(indices) - 1), *range(len(indices), len(handles))]   # by time
     ax.legend([handles[i] for i in order], [labels[i] for i in order], loc="upper left", fontsize=7)
@@ -144,9 +168,9 @@ def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, 
     return figure
 
 
-def plot_arm_motion(path: str | Path, robot, profile: Profile, title: str | None = None) -> None:
-    """Write ``motion_figure(robot, profile)`` as a PNG at ``path``."""
-    motion_figure(robot, profile, title=title).savefig(path, dpi=100, format="png")
+def plot_arm_motion(path: str | Path, robot, profile: Profile, title: str | None = None, cell=None) -> None:
+    """Write ``motion_figure(robot, profile, cell=cell)`` as a PNG at ``path``."""
+    motion_figure(robot, profile, title=title, cell=cell).savefig(path, dpi=100, format="png")
 
 
 # -- Meshcat ----------------------------------------------------------------------------------------
@@ -162,11 +186,12 @@ def sample_profile(profile: Profile, fps: float = DEFAULT_FPS) -> tuple[np.ndarr
     return t, q
 
 
-def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS):
+def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cell=None):
     """Play a profile in a running Meshcat (e.g. ``pydrake.geometry.StartMeshcat()`` in a notebook): the
     arm (replacing one shown before under the visualizer's path) is drawn at the first sample and the
     motion published as an animation sampled at ``fps`` [1/s] (play, pause, scrub in Meshcat's
-    Animations controls). Returns the VisualModel (diagram, plant, scene graph, visualizer)."""
+    Animations controls), with the obstacles and tool shapes of ``cell`` (a Cell) if given. Returns the
+    VisualModel (diagram, plant, scene graph, visualizer)."""
     from pydrake.geometry import MeshcatVisualizerParams
 
     from .drake_model import build_visual_diagram
@@ -174,7 +199,7 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS):
     params = MeshcatVisualizerParams()
     params.publish_period = 1.0 / fps          # the visualizer records at 1 / publish_period frames/s
     params.delete_on_initialization_event = False
-    model = build_visual_diagram(robot.spec, meshcat, params)
+    model = build_visual_diagram(robot.spec, meshcat, params, cell)
     times, Q = sample_profile(profile, fps)
     context = model.diagram.CreateDefaultContext()
     plant_context = model.plant.GetMyMutableContextFromRoot(context)
@@ -193,20 +218,7 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS):
     return model
 
 
-@contextmanager
-def _quiet_drake_log():
-    """Drake's log (Python's ``drake`` logger, which pydrake keeps in step with Drake's C++ log) at
-    WARNING inside the block: Meshcat announces its URL at INFO."""
-    drake_log = logging.getLogger("drake")
-    previous = drake_log.level
-    drake_log.setLevel(max(logging.WARNING, previous))
-    try:
-        yield
-    finally:
-        drake_log.setLevel(previous)
-
-
-def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS) -> str:
+def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None) -> str:
     """A standalone HTML page (its JavaScript inlined, no server needed) of a Meshcat animation of the
     profile: the arm with its visual geometry, ``fps`` frames per second, played once on opening (replay
     it from the Animations controls).
@@ -216,13 +228,15 @@ def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS) -> str:
     """
     from pydrake.geometry import Meshcat, MeshcatParams
 
+    from .drake_model import quiet_drake_log
+
     params = MeshcatParams()
     params.host = "localhost"
     params.port = 0
-    with _quiet_drake_log():
+    with quiet_drake_log():
         meshcat = Meshcat(params)
     try:
-        show_profile(robot, profile, meshcat, fps)       # the VisualModel it returns is not kept
+        show_profile(robot, profile, meshcat, fps, cell)       # the VisualModel it returns is not kept
         html = meshcat.StaticHtml()
     finally:
         # The diagram's Python objects hold the Meshcat (through the visualizer) in reference cycles:
