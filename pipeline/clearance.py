@@ -8,7 +8,9 @@ between them, per joint (A: the joint's acceleration bound), and any point of th
 evaluated configuration whose margin (distance minus the clearance) is m, the next ``m - tube`` of
 that displacement measure is certified without looking (conservative advancement): the evaluations
 crowd where the robot is close to something and thin out where it is far, and nothing can pass
-between them. A margin below zero at an evaluation is a measured violation and ends the check.
+between them. A margin below zero at an evaluation is a measured violation and ends the check; a
+margin within the interpolation tube cannot prove the stretch ahead, so the check goes on sample by
+sample from there (to find a violation if there is one) and fails as "not certified" otherwise.
 """
 
 from __future__ import annotations
@@ -79,26 +81,38 @@ def certify_clearance(model, t: np.ndarray, q: np.ndarray, qdd_bound: np.ndarray
     steps = np.abs(np.diff(q, axis=0)) @ model.lever_arms
     along = np.concatenate([[0.0], np.cumsum(steps)])          # the displacement measure at the samples
     best = {"obstacle": (math.inf, None, None), "self": (math.inf, None, None)}
-    s, end, evaluations = 0.0, float(along[-1]), 0
+    s, end, evaluations, uncertain = 0.0, float(along[-1]), 0, ""
     while True:
-        k = min(int(np.searchsorted(along, s, side="right")) - 1, len(t) - 2) if len(t) > 1 else 0
-        width = along[k + 1] - along[k] if len(t) > 1 else 0.0
-        f = 0.0 if width <= 0.0 else min((s - along[k]) / width, 1.0)
-        q_s = q[k] if len(t) == 1 else q[k] + f * (q[k + 1] - q[k])
-        t_s = float(t[k]) if len(t) == 1 else float(t[k] + f * (t[k + 1] - t[k]))
+        q_s, t_s = _at(along, t, q, s)
         margin, c = model.margin(q_s)
         evaluations += 1
         if c.obstacle < best["obstacle"][0]:
             best["obstacle"] = (c.obstacle, c.obstacle_pair, t_s)
         if c.self < best["self"][0]:
             best["self"] = (c.self, c.self_pair, t_s)
-        reason = ""
         if margin < 0.0:
-            reason = f"{model.why_not_free(q_s)} at t = {t_s:.4f} s"
-        elif margin - tube < MIN_ADVANCE_M and s < end:
-            reason = (f"the margin at t = {t_s:.4f} s is {margin * 1e3:.3f} mm, within the {tube * 1e3:.3f} mm the "
-                      "motion may stray between samples: not certified (a smaller dt certifies it)")
-        if reason or s >= end:
-            return ClearanceReport(model.clearance_m, *best["obstacle"], *best["self"], tube, evaluations,
-                                   not reason, reason, t_s if reason else None)
-        s = min(s + margin - tube, end)
+            return ClearanceReport(model.clearance_m, *best["obstacle"], *best["self"], tube, evaluations, False,
+                                   f"{model.why_not_free(q_s)} at t = {t_s:.4f} s", t_s)
+        if s >= end:
+            break
+        if margin - tube >= MIN_ADVANCE_M:
+            s = min(s + margin - tube, end)
+            continue
+        if not uncertain:       # too close to prove the stretch ahead: go on sample by sample
+            uncertain = (f"{model.why_not_free(q_s)} at t = {t_s:.4f} s, within the {tube * 1e3:.3f} mm the motion "
+                         "may stray between samples: not certified (a smaller dt certifies it)", t_s)
+        s = float(along[min(int(np.searchsorted(along, s, side="right")), len(along) - 1)])
+    if uncertain:
+        return ClearanceReport(model.clearance_m, *best["obstacle"], *best["self"], tube, evaluations, False,
+                               *uncertain)
+    return ClearanceReport(model.clearance_m, *best["obstacle"], *best["self"], tube, evaluations, True)
+
+
+def _at(along: np.ndarray, t: np.ndarray, q: np.ndarray, s: float) -> tuple[np.ndarray, float]:
+    """The straight-line interpolation of the samples at displacement measure ``s``: (q, t)."""
+    if len(t) == 1:
+        return q[0], float(t[0])
+    k = min(int(np.searchsorted(along, s, side="right")) - 1, len(t) - 2)
+    width = along[k + 1] - along[k]
+    f = 0.0 if width <= 0.0 else min((s - along[k]) / width, 1.0)
+    return q[k] + f * (q[k + 1] - q[k]), float(t[k] + f * (t[k + 1] - t[k]))
