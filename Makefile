@@ -13,11 +13,13 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
-# Demo: check every preset robot (Drake vs NumPy vs finite differences), then run every demo job in
+# Demo: check every preset robot (Drake vs NumPy vs finite differences), print every demo cell
+# (check-cell: its collision model and clearance at q = 0), then run every demo job in
 # trajectories/jobs/ into $(OUT)/<job name>/ (profile CSV/NPZ, JSON report, PNG plot).
 run: $(STAMP)
 	$(PY) -m pipeline check all --samples 200 --out $(OUT)/check
 	@set -e; for robot in gp7 lrmate200id irb1600 arm5 arm6; do $(PY) -m pipeline export $$robot --urdf $(OUT)/urdf/$$robot.urdf; done
+	@set -e; for cell in models/cells/*.yaml; do echo "== $$cell"; $(PY) -m pipeline check-cell $$cell; done
 	@set -e; for job in trajectories/jobs/*.yaml; do \
 		name=$$(basename $$job .yaml); \
 		echo "== $$job"; \

@@ -1,5 +1,5 @@
-"""The README's Python example runs as pasted (from a folder holding the repository's trajectories/,
-as a user's checkout does), writing only into that folder."""
+"""The README's Python example runs as pasted (from a folder holding the repository's trajectories/
+and models/, as a user's checkout does), writing only into that folder."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ def test_the_readme_example_runs_as_pasted(tmp_path):
     assert blocks, "the README has no Python example"
     (tmp_path / "trajectories").mkdir()     # a real folder: only the job files are the repository's
     (tmp_path / "trajectories" / "jobs").symlink_to(ROOT / "trajectories" / "jobs")
+    (tmp_path / "models").symlink_to(ROOT / "models")      # the demo cells (and the job's path to them)
     jobs_before = sorted(p.name for p in (ROOT / "trajectories" / "jobs").iterdir())
     for k, code in enumerate(blocks):
         script = tmp_path / f"block{k}.py"
