@@ -85,29 +85,15 @@ class CollisionModel:
         plant.WeldFrames(plant.world_frame(), base.body_frame(), _transform(X_WB))
         links = add_robot(plant, robot.spec, instance, base.body_frame())
         self.bodies = [base, *links]
-        friction = CoulombFriction()
-        for k, capsule in enumerate(link_capsules(robot)):
-            shape = DrakeCapsule(capsule.radius, capsule.length) if capsule.length > 0 else Sphere(capsule.radius)
-            plant.RegisterCollisionGeometry(self.bodies[capsule.body], _capsule_pose(capsule.p, capsule.r), shape,
-                                            f"capsule{k}", friction)
+        capsules = link_capsules(robot)
+        self._add_capsules(capsules)
         tool_shapes = () if cell is None else cell.tool_shapes
         self.tool_reach = max((np.linalg.norm(s.X[:3, 3]) + s.bounding_radius for s in tool_shapes), default=0.0)
         if tool_shapes:
-            tool = plant.AddRigidBody("tool", instance, SpatialInertia.Zero())
-            plant.WeldFrames(links[-1].body_frame(), tool.body_frame(), _transform(robot.spec.X_DnE))
-            for shape in tool_shapes:
-                plant.RegisterCollisionGeometry(tool, _transform(shape.X), drake_shape(shape),
-                                                shape.name, friction)
-        obstacle_instance = plant.AddModelInstance("cell")
-        self.obstacles = []
-        for shape in () if cell is None else cell.objects:
-            body = plant.AddRigidBody(shape.name, obstacle_instance, SpatialInertia.Zero())
-            plant.WeldFrames(plant.world_frame(), body.body_frame(), _transform(shape.X))
-            plant.RegisterCollisionGeometry(body, RigidTransform(), drake_shape(shape), shape.name,
-                                            friction)
-            self.obstacles.append(body)
+            self._add_tool(instance, tool_shapes)
+        self.obstacles = self._add_obstacles(() if cell is None else cell.objects)
         plant.Finalize()
-        joined = self._filter_joined(builder.scene_graph(), link_capsules(robot))
+        joined = self._filter_joined(builder.scene_graph(), capsules)
         self.diagram = builder.Build()
         params = CollisionCheckerParams()
         params.model = self.diagram
@@ -118,6 +104,34 @@ class CollisionModel:
         with quiet_drake_log():
             self.checker = SceneGraphCollisionChecker(params)
         self.filtered_pairs = joined + self._filter_mounts(X_WB) + self._filter_always_touching()
+
+    # -- geometry ---------------------------------------------------------------------------------
+    def _add_capsules(self, capsules) -> None:
+        """The link capsules as collision geometry (a sphere where a capsule has no length)."""
+        for k, capsule in enumerate(capsules):
+            shape = DrakeCapsule(capsule.radius, capsule.length) if capsule.length > 0 else Sphere(capsule.radius)
+            self.plant.RegisterCollisionGeometry(self.bodies[capsule.body], _capsule_pose(capsule.p, capsule.r),
+                                                 shape, f"capsule{k}", CoulombFriction())
+
+    def _add_tool(self, instance, tool_shapes) -> None:
+        """A body ``tool`` welded to the last link at the end frame, carrying the tool shapes."""
+        tool = self.plant.AddRigidBody("tool", instance, SpatialInertia.Zero())
+        self.plant.WeldFrames(self.bodies[-1].body_frame(), tool.body_frame(), _transform(self.robot.spec.X_DnE))
+        for shape in tool_shapes:
+            self.plant.RegisterCollisionGeometry(tool, _transform(shape.X), drake_shape(shape), shape.name,
+                                                 CoulombFriction())
+
+    def _add_obstacles(self, objects) -> list:
+        """One body per obstacle, named after it, welded to the world at its pose."""
+        instance = self.plant.AddModelInstance("cell")
+        bodies = []
+        for shape in objects:
+            body = self.plant.AddRigidBody(shape.name, instance, SpatialInertia.Zero())
+            self.plant.WeldFrames(self.plant.world_frame(), body.body_frame(), _transform(shape.X))
+            self.plant.RegisterCollisionGeometry(body, RigidTransform(), drake_shape(shape), shape.name,
+                                                 CoulombFriction())
+            bodies.append(body)
+        return bodies
 
     # -- filters ----------------------------------------------------------------------------------
     def _filter_joined(self, scene_graph, capsules) -> list[tuple[str, str]]:
