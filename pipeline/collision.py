@@ -40,8 +40,8 @@ INFLUENCE_DISTANCE_M = 1.0
 MOUNT_TOLERANCE_M = 1e-3
 #: Self-collision: link capsules may come this close (they are envelopes already) [m].
 SELF_CLEARANCE_M = 0.0
-#: Drake's edge checks step at most this far in joint space (Euclidean norm) [rad]; the certificate
-#: checks the timed profile rigorously, so this only sets how finely the planner looks.
+#: Drake's edge checks step at most this far in joint space (Euclidean norm) [rad] (the planner's
+#: padded checker steps finer where its margin needs it: ``padded_checker``).
 EDGE_STEP_RAD = 0.02
 
 
@@ -104,6 +104,7 @@ class CollisionModel:
         with quiet_drake_log():
             self.checker = SceneGraphCollisionChecker(params)
         self.filtered_pairs = joined + self._filter_mounts(X_WB) + self._filter_always_touching()
+        self._padded = {}
 
     # -- geometry ---------------------------------------------------------------------------------
     def _add_capsules(self, capsules) -> None:
@@ -223,6 +224,19 @@ class CollisionModel:
         parallel edge check: 2x faster than the serial one on 2 cores)."""
         return bool(self.checker.CheckEdgeCollisionFreeParallel(np.asarray(q_a, dtype=float),
                                                                 np.asarray(q_b, dtype=float)))
+
+    def padded_checker(self, extra_m: float, self_m: float):
+        """A clone of the checker keeping ``extra_m`` [m] beyond the clearance to obstacles and ``self_m``
+        [m] between links, its edge step small enough that no point of the robot dips more than
+        ``extra_m`` below what the steps see (half a step's displacement, ``step * |lever_arms|``)."""
+        key = (extra_m, self_m)
+        if key not in self._padded:
+            checker = self.checker.Clone()
+            checker.SetPaddingAllRobotEnvironmentPairs(self.clearance_m + extra_m)
+            checker.SetPaddingAllRobotRobotPairs(self_m)
+            checker.set_edge_step_size(min(EDGE_STEP_RAD, 2.0 * extra_m / float(np.linalg.norm(self.lever_arms))))
+            self._padded[key] = checker
+        return self._padded[key]
 
     def why_not_free(self, q) -> str:
         """The closest pair of q and its distance, in words (for error messages)."""

@@ -2,18 +2,18 @@
 
 ``plan_joint_path(model, q_start, q_goal)``: the straight joint-space edge when it is free, else a
 search by an OMPL geometric planner (RRTConnect unless named) in the joint box, each state checked by
-``CollisionModel.is_free`` and each edge by Drake's edge check (``CollisionModel.edge_is_free``), then
-OMPL's ``PathSimplifier`` on the result (vertex reduction, then rope shortcutting: on a wall query of
-the demo cell 0.39 of the raw length against 0.55 by ``simplify``, in a third of its time). While planning, obstacles
-are kept PLANNING_MARGIN_M farther than the clearance and links SELF_PLANNING_MARGIN_M apart (unless
-the start or goal is closer than that), so the smooth path the timing draws through the vertices keeps
-the clearance the certificate then proves.
+Drake's checker and each edge by Drake's parallel edge check, then OMPL's ``PathSimplifier`` on the
+result (vertex reduction, then rope shortcutting: on a wall query of the demo cell 0.39 of the raw
+length against 0.55 by ``simplify``, in a third of its time). While planning, obstacles are kept
+PLANNING_MARGIN_M farther than the clearance and links SELF_PLANNING_MARGIN_M apart (the edges from a
+start or goal closer than that keep the clearance alone), with edge steps fine enough that no point
+dips by the margin between them, so the smooth path the timing draws through the vertices keeps the
+clearance the certificate then proves.
 """
 
 from __future__ import annotations
 
 import time
-from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,17 +52,27 @@ def path_length(waypoints: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum())
 
 
-@contextmanager
-def planning_margins(model):
-    """The model's checker with the planning margins added to its paddings, restored afterwards."""
-    checker = model.checker
-    checker.SetPaddingAllRobotEnvironmentPairs(model.clearance_m + PLANNING_MARGIN_M)
-    checker.SetPaddingAllRobotRobotPairs(SELF_PLANNING_MARGIN_M)
-    try:
-        yield
-    finally:
-        checker.SetPaddingAllRobotEnvironmentPairs(model.clearance_m)
-        checker.SetPaddingAllRobotRobotPairs(0.0)
+class _Checks:
+    """State and edge checks with the planning margins (``CollisionModel.padded_checker``: its edge
+    steps fine enough that a checked straight edge keeps the clearance between its steps). An end
+    (start or goal) that keeps the clearance but not the margins is still a valid state, and the edges
+    from it are checked against the clearance alone: the rest of the path keeps the margins."""
+
+    def __init__(self, model, ends: tuple[np.ndarray, ...]):
+        self.model = model
+        self.padded = model.padded_checker(PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M)
+        self.tight = [end for end in ends if not self.padded.CheckConfigCollisionFree(end)]
+
+    def _is_tight(self, q: np.ndarray) -> bool:
+        return any(np.array_equal(q, end) for end in self.tight)
+
+    def state(self, q: np.ndarray) -> bool:
+        return bool(self.padded.CheckConfigCollisionFree(q)) or self._is_tight(q)
+
+    def edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+        if self._is_tight(q_a) or self._is_tight(q_b):
+            return self.model.edge_is_free(q_a, q_b)
+        return bool(self.padded.CheckEdgeCollisionFreeParallel(q_a, q_b))
 
 
 def _check_endpoint(model, q: np.ndarray, which: str) -> None:
@@ -83,17 +93,15 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     q_start, q_goal = (model.robot.as_configuration(q) for q in (q_start, q_goal))
     _check_endpoint(model, q_start, "start")
     _check_endpoint(model, q_goal, "goal")
-    with planning_margins(model):
-        keep_margins = model.is_free(q_start) and model.is_free(q_goal)
-    with planning_margins(model) if keep_margins else nullcontext():
-        if model.edge_is_free(q_start, q_goal):
-            straight = np.array([q_start, q_goal])
-            length = path_length(straight)
-            return PlannedPath(straight, "direct", 0.0, 0.0, length, length)
-        return _search(model, q_start, q_goal, planner, time_budget, seed)
+    checks = _Checks(model, (q_start, q_goal))
+    if checks.edge(q_start, q_goal):
+        straight = np.array([q_start, q_goal])
+        length = path_length(straight)
+        return PlannedPath(straight, "direct", 0.0, 0.0, length, length)
+    return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
 
 
-def _search(model, q_start, q_goal, planner_name, time_budget, seed) -> PlannedPath:
+def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, seed) -> PlannedPath:
     from ompl import base as ob, geometric as og, util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
@@ -114,11 +122,11 @@ def _search(model, q_start, q_goal, planner_name, time_budget, seed) -> PlannedP
         return np.array([state[j] for j in range(dof)])
 
     def valid(state) -> bool:
-        return model.is_free(values(state))
+        return checks.state(values(state))
 
     class DrakeEdges(ob.MotionValidator):
         def checkMotion(self, s1, s2, *rest):
-            return bool(model.edge_is_free(values(s1), values(s2)))
+            return bool(checks.edge(values(s1), values(s2)))
 
     info.setStateValidityChecker(valid)
     validator = DrakeEdges(info)
