@@ -192,10 +192,11 @@ class CollisionModel:
         return lever_arms(self.robot, self.tool_reach)
 
     def clearance(self, q) -> Clearance:
-        """The smallest robot-obstacle and link-link distances at q and their pairs [m]."""
+        """The smallest robot-obstacle and link-link distances at q and their pairs [m] (Drake reports
+        them less the checker's padding, which is added back here)."""
         result = self.checker.CalcRobotClearance(np.asarray(q, dtype=float), INFLUENCE_DISTANCE_M)
-        distances = result.distances()
         kinds = np.array([kind.name == "kSelfCollision" for kind in result.collision_types()], dtype=bool)
+        distances = result.distances() + np.where(kinds, SELF_CLEARANCE_M, self.clearance_m)
         best = {}
         for is_self in (False, True):
             rows = np.flatnonzero(kinds == is_self)

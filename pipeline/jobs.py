@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,7 +26,7 @@ from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FULL_POSE
 from .errors import ConfigurationError, JobFileError, MissingFieldError, RobotNotFoundError
 from .configurations import parse_configuration
 from .robot import Robot, load_robot, robot_with_tool
-from .robot_spec import preset_names
+from .robot_spec import preset_names, resolve_robot_path
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
@@ -165,7 +166,7 @@ class _JobReader(Reader):
         if not self.has(("cell",)):
             return None
         value = Path(self.text(("cell",), max_chars=4096))
-        path = value if value.is_absolute() else self.base_dir / value
+        path = Path(os.path.normpath(value if value.is_absolute() else self.base_dir / value))
         if not path.is_file():
             self.fail(("cell",), f"no cell file at {path}", str(value))
         return load_cell(path)
@@ -175,7 +176,7 @@ class _JobReader(Reader):
         name only the cell's robot."""
         self.cell = self.load_cell()
         reference = self.robot_reference()
-        if self.cell is not None and Path(str(reference)).resolve() != Path(str(self.cell.robot)).resolve():
+        if self.cell is not None and _robot_file(reference) != _robot_file(self.cell.robot):
             self.fail(("robot",), f"the cell {self.cell.name} holds {self.cell.robot}; a job in it moves that robot "
                       "(leave robot out)", self.get(("robot",)))
         try:
@@ -375,6 +376,14 @@ class _JobReader(Reader):
         return {"plan": plan, "planner": self.choice(("planner",), PLANNERS, DEFAULT_PLANNER),
                 "plan_time_budget": self.number(("plan_time_budget",), PLAN_TIME_BUDGET_S, low=0.0, high=600.0,
                                                 low_open=True, unit="s")}
+
+
+def _robot_file(reference: str | Path) -> Path | None:
+    """The robot file a preset name or path stands for, resolved (None when there is none)."""
+    try:
+        return resolve_robot_path(reference).resolve()
+    except RobotNotFoundError:
+        return None
 
 
 def _reach_interval(robot: Robot) -> tuple[float, float]:

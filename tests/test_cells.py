@@ -123,7 +123,7 @@ def test_demo_cell_filters_and_home_pose(wall):
     assert ("link4", "link6") in wall.filtered_pairs             # the wrist's links meet in its centre
     assert wall.is_free(np.zeros(6))
     clearance = wall.clearance(np.zeros(6))
-    assert clearance.obstacle == pytest.approx(0.2, abs=1e-9) and clearance.obstacle_pair == ("link1", "table")
+    assert clearance.obstacle == pytest.approx(0.21, abs=1e-9) and clearance.obstacle_pair == ("link1", "table")
 
 
 def test_self_collision_is_found_for_a_folded_arm():

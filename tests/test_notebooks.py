@@ -1,6 +1,6 @@
-"""The notebooks in notebooks/: one per seed paper, committed without outputs, executed headless, and
-their key numbers asserted against expectations derived here (the seed papers, models/SOURCES.md,
-our own FK), not only shown.
+"""The notebooks in notebooks/: one per seed paper and one per topic (TOPICS: work cells and planning),
+committed without outputs, executed headless, and their key numbers asserted against expectations
+derived here (the seed papers, models/SOURCES.md, our own FK, the demo cell), not only shown.
 
 Each notebook runs in a fresh ``python3`` kernel of *this* interpreter (a kernel spec written into a
 temporary JUPYTER_PATH, so no other installed kernel is picked up), with the repository first on
@@ -27,6 +27,8 @@ ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOK_DIR = ROOT / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 SEEDS = ("seed000", "seed001", "seed002", "seed003", "seed004")
+#: Notebooks that follow a feature rather than a paper (their first cell is a "# title").
+TOPICS = ("cells_and_planning",)
 KEY_TAG = "key-numbers"
 #: Per cell; the slowest cell (three timings of one path) takes a few seconds [s].
 CELL_TIMEOUT_S = 300
@@ -41,17 +43,27 @@ MM = 1e-3
 YASKAWA_FANUC_AXES = [[0, 0, 1], [0, 1, 0], [0, -1, 0], [-1, 0, 0], [0, -1, 0], [-1, 0, 0]]
 
 
+def notebook_key(path: Path) -> str:
+    """What a notebook's checks are filed under: ``seedNNN`` for a seed paper's, else its stem (a topic)."""
+    return path.name[:7] if path.name.startswith("seed") else path.stem
+
+
 # -- committed state ---------------------------------------------------------------------------------
-def test_one_notebook_per_seed_paper():
-    assert [p.name[:7] for p in NOTEBOOKS] == list(SEEDS), [p.name for p in NOTEBOOKS]
+def test_one_notebook_per_seed_paper_and_topic():
+    seeds = [p.name[:7] for p in NOTEBOOKS if p.name.startswith("seed")]
+    topics = [p.stem for p in NOTEBOOKS if not p.name.startswith("seed")]
+    assert seeds == list(SEEDS) and topics == sorted(TOPICS), [p.name for p in NOTEBOOKS]
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_committed_notebook_has_no_outputs(path):
     nb = json.loads(path.read_text(encoding="utf-8"))
     assert nb["metadata"]["kernelspec"]["name"] == "python3"
+    assert (nb["nbformat"], nb["nbformat_minor"]) >= (4, 5) and all("id" in cell for cell in nb["cells"])
     first = nb["cells"][0]
-    assert first["cell_type"] == "markdown" and f"Seed {path.name[4:7]}" in "".join(first["source"])
+    title = "".join(first["source"])
+    assert first["cell_type"] == "markdown"
+    assert f"Seed {path.name[4:7]}" in title if path.name.startswith("seed") else title.startswith("# ")
     for k, cell in enumerate(nb["cells"]):
         if cell["cell_type"] == "code":
             assert cell["outputs"] == [], f"{path.name}: cell {k} has outputs (clear them before committing)"
@@ -111,7 +123,7 @@ def test_notebook_runs_and_its_key_numbers_hold(path, kernel_env):
     assert Path(kernel["pipeline"]).resolve().is_relative_to(ROOT)
     assert not list(kernel_env.iterdir()), "a notebook wrote into its working directory"
     (tagged,) = [c for c in nb.cells if KEY_TAG in c.metadata.get("tags", [])]
-    CHECKS[path.name[:7]](stdout_json(tagged))
+    CHECKS[notebook_key(path)](stdout_json(tagged))
 
 
 # -- independent expectations ------------------------------------------------------------------------
@@ -275,5 +287,77 @@ def check_seed004(n: dict) -> None:
     assert n["html_bytes"] > 10_000
 
 
+def _tcp_pointing_down(yaw_deg: float, xyz_mm) -> np.ndarray:
+    """The pose rpy (180, 0, yaw) deg at xyz [mm], written out: R = Rz(yaw) Rx(180 deg)."""
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    X = np.eye(4)
+    X[:3, :3] = [[c, s, 0], [s, -c, 0], [0, 0, -1]]
+    X[:3, 3] = np.asarray(xyz_mm) * MM
+    return X
+
+
+def check_cells_and_planning(n: dict) -> None:
+    """The demo wall cell as its file says; the IK answers reach the demo job's poses above the pick and
+    the place (TCP 120 mm out of the flange) and are free; the direct move between them is refused for
+    the wall; the planned path runs from the one to the other along edges this test's own collision model
+    finds free; its profile is certified, within the limits, at rest at both ends, and keeps the clearance
+    on every sample; the demo job's report carries the same verdicts."""
+    from pipeline.cell import load_cell
+    from pipeline.collision import CollisionModel
+    from pipeline.robot import robot_with_tool
+
+    cell = load_cell(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
+    robot = cell.load_robot()
+    model = CollisionModel(robot, cell)
+    clearance = 10 * MM
+    assert n["cell"] == "gp7_wall_cell" and n["robot"] == "gp7" and n["clearance_m"] == pytest.approx(clearance)
+    assert n["objects"] == ["table", "wall", "floor"] and n["home_free"] is True
+    assert ["link1", "floor"] in n["filtered_pairs"] and ["link4", "link6"] in n["filtered_pairs"]
+    # The poses of the demo job's waypoints 0 and 3 and its tool.
+    np.testing.assert_allclose(n["tool_xyz_m"], [0, 0, 120 * MM], atol=1e-15)
+    np.testing.assert_allclose(n["targets"]["pick"], _tcp_pointing_down(30, [550, 300, 400]), atol=1e-12)
+    np.testing.assert_allclose(n["targets"]["place"], _tcp_pointing_down(-30, [550, -300, 400]), atol=1e-12)
+    X_ET = np.eye(4)
+    X_ET[:3, 3] = n["tool_xyz_m"]
+    tcp = robot_with_tool(robot, X_ET)
+    q_pick, q_place = np.array(n["q_pick_rad"]), np.array(n["q_place_rad"])
+    for q, X in ((q_pick, n["targets"]["pick"]), (q_place, n["targets"]["place"])):
+        np.testing.assert_allclose(tcp.fk(q), X, atol=1e-9)
+        assert np.all(q >= robot.limits.q_min) and np.all(q <= robot.limits.q_max) and model.is_free(q)
+    for counts in n["ik_counts"].values():
+        assert 1 <= counts["free"] <= counts["all"]
+    # The direct move: refused for the wall, and it does go into it.
+    direct = n["direct"]
+    assert direct["passed"] is False and direct["clearance_passed"] is False and "wall" in direct["pair"]
+    assert direct["plain_min_distance_m"] < clearance and not model.edge_is_free(q_pick, q_place)
+    # The planned path: from the pick to the place exactly, every edge free here too.
+    plan = n["plan"]
+    vertices = np.array(plan["vertices_rad"])
+    assert plan["planner"] == "RRTConnect" and len(vertices) >= 3
+    np.testing.assert_array_equal(vertices[[0, -1]], [q_pick, q_place])
+    assert all(model.edge_is_free(a, b) for a, b in zip(vertices[:-1], vertices[1:]))
+    length = float(np.linalg.norm(np.diff(vertices, axis=0), axis=1).sum())
+    assert plan["length_after_rad"] == pytest.approx(length, rel=1e-12)
+    assert np.linalg.norm(q_place - q_pick) < plan["length_after_rad"] <= plan["length_before_rad"]
+    # Its profile.
+    planned = n["planned"]
+    assert planned["passed"] is True and planned["clearance"]["passed"] is True and planned["duration_s"] > 0
+    assert planned["clearance"]["min_distance_m"] >= clearance and planned["plain_min_distance_m"] >= clearance
+    assert planned["clearance"]["pair"][1] in n["objects"] and planned["clearance"]["self_min_distance_m"] > 0
+    assert max(planned["max_ratio"].values()) <= RATIO_LIMIT
+    np.testing.assert_allclose(planned["start_q"], q_pick, atol=1e-9)
+    np.testing.assert_allclose(planned["end_q"], q_place, atol=1e-9)
+    assert planned["end_qd_max"] <= 1e-9
+    # The demo job, run in the notebook.
+    job = n["job"]
+    assert job["passed"] is True and max(job["max_ratio"].values()) <= RATIO_LIMIT
+    section = job["cell"]
+    assert section["name"] == "gp7_wall_cell" and section["plan"] == "collision_free"
+    assert Path(section["file"]).resolve() == (ROOT / "models" / "cells" / "gp7_wall_cell.yaml").resolve()
+    assert section["clearance"]["passed"] is True and section["clearance"]["min_distance_m"] >= clearance
+    assert section["clearance"]["clearance_m"] == pytest.approx(clearance)
+    assert [move["planner"] for move in section["planned_moves"]] == ["RRTConnect", "RRTConnect"]
+
+
 CHECKS = {"seed000": check_seed000, "seed001": check_seed001, "seed002": check_seed002,
-          "seed003": check_seed003, "seed004": check_seed004}
+          "seed003": check_seed003, "seed004": check_seed004, "cells_and_planning": check_cells_and_planning}
