@@ -42,6 +42,7 @@ bench: $(STAMP)
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench ik
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench timing
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cartesian
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench plan
 
 clean:
 	rm -rf $(VENV) $(OUT)

@@ -138,6 +138,10 @@ def cmd_bench(args) -> int:
 
         report = run_ik_benchmark(_names(args.robots, ROBOTS), targets=args.targets, seed=args.seed,
                                   methods=_names(args.methods, METHODS))
+    elif args.suite == "plan":
+        from .bench.plan import run_plan_benchmark
+
+        report = run_plan_benchmark(pairs=args.pairs, seed=args.seed)
     elif args.suite == "cartesian":
         from .bench.cartesian import ROBOTS, run_cartesian_benchmark
 
@@ -223,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     check_cell.set_defaults(func=cmd_check_cell)
 
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan"])
     bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -232,6 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="cartesian only: seeded random 0.5 m straight-line moves per robot (default 20)")
     bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake); "
                        "timing: rows to run (default toppra,raw,drake,topp3,ruckig; toppra always)")
+    bench.add_argument("--pairs", type=POSITIVE, default=100, metavar="N",
+                       help="plan only: seeded random start/goal pairs per cell (default 100)")
     bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")
     bench.add_argument("--batch", type=POSITIVE, default=100_000, help="kinematics: configurations in the batch timing")
     bench.add_argument("--calls", type=POSITIVE, default=2000, help="kinematics: single calls timed per implementation")
