@@ -31,9 +31,10 @@ def free_solutions(model, result):
 
 
 def collision_free_ik(robot, model, X_target, q_seed, method: str, target_kind: str, options: dict, rng):
-    """A successful IkResult whose solutions are all collision-free, or (None, why): the closed form
-    checks every branch it returns; numeric methods are restarted from IK_COLLISION_RESTARTS random seeds
-    while every answer collides."""
+    """(IkResult, why): a successful result keeps only its collision-free solutions ("" why); a failed
+    solve comes back as it is (the caller reports its reason); when every answer collides, (None, why
+    naming the closest pair). The closed form checks every branch it returns; numeric methods are
+    restarted from IK_COLLISION_RESTARTS random seeds while every answer collides."""
     result = robot.ik(X_target, q_seed=q_seed, method=method, target_kind=target_kind, **options)
     if not result.success:
         return result, ""

@@ -3,7 +3,8 @@ over the whole motion, proven between the configurations it evaluates (no Drake 
 come from a ``CollisionModel``).
 
 Between two profile samples the true joint motion stays within ``A dt^2 / 8`` of the straight line
-between them, per joint (A: the joint's acceleration bound), and any point of the robot moves at most
+between them, per joint (A: the joint's acceleration bound: its limit, or where the robot has none the
+largest sampled |qdd|, which makes the proof rest on the samples), and any point of the robot moves at most
 ``sum_j |dq_j| * lever_j`` when the joints move by dq (``CollisionModel.lever_arms``). So from an
 evaluated configuration whose margin (distance minus the clearance) is m, the next ``m - tube`` of
 that displacement measure is certified without looking (conservative advancement): the evaluations

@@ -104,6 +104,28 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
 
 
+def joint_space(robot, q_start, q_goal):
+    """OMPL's view of the robot's joint box: (RealVectorStateSpace bounded by the joint limits, a function
+    state -> joint values (dof,), the start and goal states)."""
+    from ompl import base as ob
+
+    dof, limits = robot.dof, robot.limits
+    space = ob.RealVectorStateSpace(dof)
+    bounds = ob.RealVectorBounds(dof)
+    for j in range(dof):
+        bounds.setLow(j, float(limits.q_min[j]))
+        bounds.setHigh(j, float(limits.q_max[j]))
+    space.setBounds(bounds)
+    start, goal = space.allocState(), space.allocState()
+    for j in range(dof):
+        start[j], goal[j] = float(q_start[j]), float(q_goal[j])
+
+    def values(state) -> np.ndarray:
+        return np.array([state[j] for j in range(dof)])
+
+    return space, values, start, goal
+
+
 def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, seed) -> PlannedPath:
     from ompl import base as ob, geometric as og, util as ou
 
@@ -111,18 +133,8 @@ def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, 
     if not _seeded:
         ou.RNG.setSeed(int(seed) + 1)           # OMPL refuses 0
         _seeded.append(seed)
-    dof = model.robot.dof
-    limits = model.robot.limits
-    space = ob.RealVectorStateSpace(dof)
-    bounds = ob.RealVectorBounds(dof)
-    for j in range(dof):
-        bounds.setLow(j, float(limits.q_min[j]))
-        bounds.setHigh(j, float(limits.q_max[j]))
-    space.setBounds(bounds)
+    space, values, start, goal = joint_space(model.robot, q_start, q_goal)
     info = ob.SpaceInformation(space)
-
-    def values(state) -> np.ndarray:
-        return np.array([state[j] for j in range(dof)])
 
     def valid(state) -> bool:
         return checks.state(values(state))
@@ -136,9 +148,6 @@ def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, 
     info.setMotionValidator(validator)
     info.setup()
     problem = ob.ProblemDefinition(info)
-    start, goal = space.allocState(), space.allocState()
-    for j in range(dof):
-        start[j], goal[j] = float(q_start[j]), float(q_goal[j])
     problem.setStartAndGoalStates(start, goal)
     search = getattr(og, planner_name)(info)
     search.setProblemDefinition(problem)

@@ -47,7 +47,7 @@ from ..cell import load_cell
 from ..cell_motion import time_clear
 from ..collision import CollisionModel
 from ..errors import PipelineError
-from ..planning import path_length, plan_joint_path
+from ..planning import joint_space, path_length, plan_joint_path
 from ..timing import retime
 from ..versions import installed_version
 from .goals import Goal, GoalReport, fmt, goal_lines
@@ -114,26 +114,14 @@ def run_ours(model, q_a, q_b, budget: float, seed: int) -> tuple[Run, str]:
 
 def run_peer(model, q_a, q_b, budget: float) -> Run:
     """OMPL by hand: SimpleSetup, a Python validity callback on Drake's checker, RRTConnect, simplify."""
-    from ompl import base as ob, geometric as og, util as ou
+    from ompl import geometric as og, util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
-    dof, limits, checker = model.robot.dof, model.robot.limits, model.checker
-    space = ob.RealVectorStateSpace(dof)
-    bounds = ob.RealVectorBounds(dof)
-    for j in range(dof):
-        bounds.setLow(j, float(limits.q_min[j]))
-        bounds.setHigh(j, float(limits.q_max[j]))
-    space.setBounds(bounds)
+    checker = model.checker
+    space, values, start, goal = joint_space(model.robot, q_a, q_b)
     setup = og.SimpleSetup(space)
-
-    def values(state) -> np.ndarray:
-        return np.array([state[j] for j in range(dof)])
-
     setup.setStateValidityChecker(lambda state: bool(checker.CheckConfigCollisionFree(values(state))))
     setup.getSpaceInformation().setStateValidityCheckingResolution(PEER_STEP_RAD / space.getMaximumExtent())
-    start, goal = space.allocState(), space.allocState()
-    for j in range(dof):
-        start[j], goal[j] = float(q_a[j]), float(q_b[j])
     setup.setStartAndGoalStates(start, goal)
     setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
     began = time.perf_counter()
