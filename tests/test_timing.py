@@ -219,3 +219,13 @@ def test_the_profile_carries_its_certificate_and_typed_details(method):
     assert json.loads(json.dumps(details)) == {k: list(v) if isinstance(v, tuple) else v for k, v in details.items()}
     values = [x for v in details.values() for x in (v if isinstance(v, tuple) else [v])]
     assert all(isinstance(x, (bool, int, float)) for x in values), details
+
+
+@pytest.mark.parametrize("method", ["toppra", "ruckig", "topp3"])
+def test_waypoints_a_hair_apart_are_no_motion(method):
+    # found by the slow property run: ruckig timed a 7e-90 rad move as a zero-length profile
+    robot = load_robot("arm6")
+    waypoints = np.zeros((2, 6))
+    waypoints[1, 5] = 7.455748874786169e-90
+    with pytest.raises(PipelineError, match="same configuration"):
+        retime(robot, waypoints, method=method)

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..choices import DEFAULT_MAX_SAMPLES
 from ..errors import TimingError
-from ..path import check_waypoints
+from ..path import NO_MOTION_DISTANCE, check_waypoints
 from ..profile import CERTIFY_TOLERANCE, Profile, TimingDetails
 from ..robot_spec import Limits
 from .toppra_backend import check_sample_count, sample_times
@@ -168,8 +168,9 @@ def _check_velocities(waypoints: np.ndarray, velocities: np.ndarray, limits: Lim
         k, j = too_fast[0]
         raise TimingError(f"waypoint {k}: velocity of joint {j + 1} = {velocities[k, j]:.6g} exceeds "
                           f"qd_max {limits.qd_max[j]:.6g}")
-    if np.ptp(waypoints, axis=0).max() == 0.0 and np.abs(velocities).max() == 0.0:
-        raise TimingError("all waypoints are the same configuration: there is no motion to time")
+    if np.ptp(waypoints, axis=0).max() <= NO_MOTION_DISTANCE and np.abs(velocities).max() == 0.0:
+        raise TimingError(f"all waypoints are the same configuration (within {NO_MOTION_DISTANCE:g}): there is no "
+                          "motion to time")
     if np.abs(velocities[[0, -1]]).max() > REST_TOLERANCE:
         raise TimingError("waypoint_velocities must be zero at the first and last waypoint "
                           "(the profile starts and ends at rest)")

@@ -445,4 +445,6 @@ def sample_times(duration: float, dt: float, max_samples: int = DEFAULT_MAX_SAMP
     """0, dt, 2 dt, ... and the end time itself [s]; ProfileSizeError beyond ``max_samples``."""
     check_sample_count(duration, dt, max_samples)
     t = np.arange(0.0, duration, dt)
+    if t.size == 0:                                # no duration: the one sample at 0
+        return np.zeros(1)
     return np.append(t, duration) if duration - t[-1] > 1e-12 else t
