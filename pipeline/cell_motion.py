@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from .errors import CollisionError
-from .planning import PlannedPath, plan_joint_path
+from .planning import plan_joint_path
 from .profile import Profile, certify
 
 #: Most vertices added to a planned piece to bring its timed path within the clearance.
@@ -90,6 +90,18 @@ def time_clear(model, vertices: np.ndarray, time, refine: bool) -> tuple[Profile
     raise CollisionError(f"the profile does not keep the clearance: {clearance.reason}{hint}")
 
 
+def time_joint_moves(model, waypoints: np.ndarray, timed, plan: str, planner: str,
+                     time_budget: float) -> tuple[Profile, list, int, int]:
+    """Joint moves through ``waypoints`` (k, dof) in a cell: planned first with ``plan``
+    "collision_free" (``planned_waypoints``), then ``timed`` and certified clear (``time_clear``, which
+    refines planned paths only). Returns (profile, the PlannedPaths, vertices timed, vertices added)."""
+    plans = []
+    if plan == "collision_free":
+        waypoints, plans = planned_waypoints(model, waypoints, planner, time_budget)
+    profile, added = time_clear(model, waypoints, timed, refine=plan == "collision_free")
+    return profile, plans, len(waypoints), added
+
+
 def check_samples(model, Q: np.ndarray) -> int | None:
     """The index of the first configuration of Q (k, dof) that is not collision-free (None: all are)."""
     for k, q in enumerate(Q):
@@ -97,7 +109,3 @@ def check_samples(model, Q: np.ndarray) -> int | None:
             return k
     return None
 
-
-def plans_report(plans: list[PlannedPath]) -> list[dict]:
-    """The planned moves as JSON-ready dicts (direct edges included, planner "direct")."""
-    return [plan.to_dict() for plan in plans]

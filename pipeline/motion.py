@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cell_motion import check_samples, planned_waypoints, time_clear
+from .cell_motion import check_samples, time_joint_moves
 from .errors import CollisionError
 from .jobs import Job, PoseWaypoint
 from .profile import Profile, TcpSamples, TimingDetails, certify
@@ -104,12 +104,10 @@ def _time_joint_piece(job: Job, scene, waypoints: np.ndarray, timing: dict, plan
 
     if scene is None:
         return timed(waypoints), {}
-    planned = job.plan == "collision_free"
-    if planned:
-        waypoints, piece_plans = planned_waypoints(scene, waypoints, job.planner, job.plan_time_budget)
-        plans += piece_plans
-    profile, added = time_clear(scene, waypoints, timed, refine=planned)
-    return profile, {"vertices": len(waypoints), "vertices_added_for_clearance": added}
+    profile, piece_plans, vertices, added = time_joint_moves(scene, waypoints, timed, job.plan, job.planner,
+                                                              job.plan_time_budget)
+    plans += piece_plans
+    return profile, {"vertices": vertices, "vertices_added_for_clearance": added}
 
 
 def _check_tool_samples(robot, scene, along) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .controller_formats import write_json_trajectory, write_ros2_yaml
-from .cell_motion import collision_free_ik, planned_waypoints, time_clear
+from .cell_motion import collision_free_ik, time_joint_moves
 from .errors import CollisionError, ConfigurationError, JobFileError, PlanningError, TimingError
 from .ik import with_drake_model
 from .ik.branches import branch_change_reason, choose_solution, configuration_labels
@@ -242,10 +242,8 @@ def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int, scene=None) 
 
         if scene is None:
             return timed(Q), []
-        plans = []
-        if job.plan == "collision_free":
-            Q, plans = planned_waypoints(scene, Q, job.planner, job.plan_time_budget)
-        return time_clear(scene, Q, timed, refine=job.plan == "collision_free")[0], plans
+        profile, plans, _, _ = time_joint_moves(scene, Q, timed, job.plan, job.planner, job.plan_time_budget)
+        return profile, plans
     except (TimingError, ConfigurationError, CollisionError, PlanningError) as exc:
         raise type(exc)(f"{job.source}: {exc}") from exc
 
