@@ -22,12 +22,12 @@ from functools import cached_property
 
 import numpy as np
 from pydrake.geometry import Capsule as DrakeCapsule, CollisionFilterDeclaration, GeometrySet, Sphere
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import SpatialInertia
 from pydrake.planning import CollisionCheckerParams, RobotDiagramBuilder, SceneGraphCollisionChecker
 
-from .drake_model import add_robot, drake_shape, quiet_drake_log
+from .drake_model import add_robot, as_rigid_transform, drake_shape, pose_between, quiet_drake_log
 from .geometry import link_capsules, lever_arms
 
 log = logging.getLogger(__name__)
@@ -43,18 +43,6 @@ SELF_CLEARANCE_M = 0.0
 #: Drake's edge checks step at most this far in joint space (Euclidean norm) [rad] (the planner's
 #: padded checker steps finer where its margin needs it: ``padded_checker``).
 EDGE_STEP_RAD = 0.02
-
-
-def _transform(X: np.ndarray) -> RigidTransform:
-    return RigidTransform(RotationMatrix(X[:3, :3]), X[:3, 3])
-
-
-def _capsule_pose(p: np.ndarray, r: np.ndarray) -> RigidTransform:
-    """Pose of a shape centred between p and r with its z along r - p."""
-    axis = r - p
-    if np.linalg.norm(axis) < 1e-12:
-        return RigidTransform(p)
-    return RigidTransform(RotationMatrix.MakeFromOneVector(axis, 2), (p + r) / 2.0)
 
 
 @dataclass(frozen=True)
@@ -82,7 +70,7 @@ class CollisionModel:
         instance = plant.AddModelInstance("robot")
         base = plant.AddRigidBody("robot_base", instance, SpatialInertia.Zero())
         X_WB = np.eye(4) if cell is None else cell.X_WB
-        plant.WeldFrames(plant.world_frame(), base.body_frame(), _transform(X_WB))
+        plant.WeldFrames(plant.world_frame(), base.body_frame(), as_rigid_transform(X_WB))
         links = add_robot(plant, robot.spec, instance, base.body_frame())
         self.bodies = [base, *links]
         capsules = link_capsules(robot)
@@ -111,15 +99,15 @@ class CollisionModel:
         """The link capsules as collision geometry (a sphere where a capsule has no length)."""
         for k, capsule in enumerate(capsules):
             shape = DrakeCapsule(capsule.radius, capsule.length) if capsule.length > 0 else Sphere(capsule.radius)
-            self.plant.RegisterCollisionGeometry(self.bodies[capsule.body], _capsule_pose(capsule.p, capsule.r),
+            self.plant.RegisterCollisionGeometry(self.bodies[capsule.body], pose_between(capsule.p, capsule.r),
                                                  shape, f"capsule{k}", CoulombFriction())
 
     def _add_tool(self, instance, tool_shapes) -> None:
         """A body ``tool`` welded to the last link at the end frame, carrying the tool shapes."""
         tool = self.plant.AddRigidBody("tool", instance, SpatialInertia.Zero())
-        self.plant.WeldFrames(self.bodies[-1].body_frame(), tool.body_frame(), _transform(self.robot.spec.X_DnE))
+        self.plant.WeldFrames(self.bodies[-1].body_frame(), tool.body_frame(), as_rigid_transform(self.robot.spec.X_DnE))
         for shape in tool_shapes:
-            self.plant.RegisterCollisionGeometry(tool, _transform(shape.X), drake_shape(shape), shape.name,
+            self.plant.RegisterCollisionGeometry(tool, as_rigid_transform(shape.X), drake_shape(shape), shape.name,
                                                  CoulombFriction())
 
     def _add_obstacles(self, objects) -> list:
@@ -128,7 +116,7 @@ class CollisionModel:
         bodies = []
         for shape in objects:
             body = self.plant.AddRigidBody(shape.name, instance, SpatialInertia.Zero())
-            self.plant.WeldFrames(self.plant.world_frame(), body.body_frame(), _transform(shape.X))
+            self.plant.WeldFrames(self.plant.world_frame(), body.body_frame(), as_rigid_transform(shape.X))
             self.plant.RegisterCollisionGeometry(body, RigidTransform(), drake_shape(shape), shape.name,
                                                  CoulombFriction())
             bodies.append(body)
@@ -251,8 +239,9 @@ class CollisionModel:
 
     def describe(self) -> str:
         """The geometry and filters in a few lines."""
-        radii = ", ".join(f"{r * 1e3:.0f}" for r in {c.body: c.radius for c in link_capsules(self.robot)}.values())
-        lines = [f"collision model of {self.robot.name}: {len(link_capsules(self.robot))} capsules (radii {radii} mm), "
+        capsules = link_capsules(self.robot)
+        radii = ", ".join(f"{r * 1e3:.0f}" for r in {c.body: c.radius for c in capsules}.values())
+        lines = [f"collision model of {self.robot.name}: {len(capsules)} capsules (radii {radii} mm), "
                  f"{len(self.obstacles)} obstacles, clearance {self.clearance_m * 1e3:g} mm"]
         lines += [f"  not checked: {a} - {b}" for a, b in self.filtered_pairs]
         return "\n".join(lines)

@@ -31,7 +31,7 @@ from pydrake.multibody.tree import (
 )
 from pydrake.systems.framework import Diagram, DiagramBuilder
 
-from .geometry import compute_link_polylines, visual_radius
+from .geometry import MIN_SEGMENT_M, body_polylines, visual_radius
 from .kinematics import DhKinematics
 from .robot_spec import DhJoint, RobotSpec
 
@@ -79,7 +79,7 @@ def link_inertia(joint: DhJoint) -> SpatialInertia:
     return SpatialInertia.MakeFromCentralInertia(m.mass, m.p_LoLcm, rotational)
 
 
-def _as_rigid_transform(X: np.ndarray) -> RigidTransform:
+def as_rigid_transform(X: np.ndarray) -> RigidTransform:
     return RigidTransform(RotationMatrix(X[:3, :3]), X[:3, 3])
 
 
@@ -92,7 +92,7 @@ def add_robot(plant: MultibodyPlant, spec: RobotSpec, model_instance=None, mount
     instance = default_model_instance() if model_instance is None else model_instance
     base = plant.AddFrame(FixedOffsetFrame(BASE_FRAME, plant.world_frame() if mount is None else mount,
                                            RigidTransform(), instance))
-    parent = plant.AddFrame(FixedOffsetFrame("dh0", base, _as_rigid_transform(spec.X_BaseD0), instance))
+    parent = plant.AddFrame(FixedOffsetFrame("dh0", base, as_rigid_transform(spec.X_BaseD0), instance))
     bodies = []
     for i, joint in enumerate(spec.joints, start=1):
         body = plant.AddRigidBody(f"link{i}", instance, link_inertia(joint))
@@ -107,7 +107,7 @@ def add_robot(plant: MultibodyPlant, spec: RobotSpec, model_instance=None, mount
             drake_joint.set_acceleration_limits([-joint.qdd_max], [joint.qdd_max])
         bodies.append(body)
         parent = body.body_frame()
-    plant.AddFrame(FixedOffsetFrame(END_FRAME, parent, _as_rigid_transform(spec.X_DnE), instance))
+    plant.AddFrame(FixedOffsetFrame(END_FRAME, parent, as_rigid_transform(spec.X_DnE), instance))
     return bodies
 
 
@@ -121,8 +121,6 @@ def build_plant(spec: RobotSpec) -> MultibodyPlant:
 
 
 # -- visual geometry ------------------------------------------------------------------------------
-#: Segments shorter than this are not drawn [m].
-MIN_SEGMENT_M = 1e-6
 LINK_COLOURS = ((0.93, 0.55, 0.13, 1.0), (0.75, 0.75, 0.78, 1.0))   # alternate: orange, light grey
 JOINT_COLOUR = (0.25, 0.25, 0.28, 1.0)
 BASE_COLOUR = (0.35, 0.35, 0.38, 1.0)
@@ -130,15 +128,18 @@ FLANGE_COLOUR = (0.20, 0.45, 0.85, 1.0)
 OBSTACLE_COLOUR = (0.55, 0.60, 0.65, 0.6)
 
 
-def _cylinder_between(p: np.ndarray, r: np.ndarray) -> RigidTransform:
-    """Pose of a Cylinder (centred, along its z) spanning the segment p -> r."""
+def pose_between(p: np.ndarray, r: np.ndarray) -> RigidTransform:
+    """Pose of a shape centred between p and r with its z along r - p (a cylinder or capsule spanning
+    the segment; at p itself when the segment has no length)."""
     axis = r - p
+    if np.linalg.norm(axis) < MIN_SEGMENT_M:
+        return RigidTransform(p)
     return RigidTransform(RotationMatrix.MakeFromOneVector(axis, 2), (p + r) / 2.0)
 
 
 def _on_z(X: np.ndarray, offset: float = 0.0) -> RigidTransform:
     """Pose X (4, 4) shifted by ``offset`` along its own z."""
-    return _as_rigid_transform(X) @ _shift(z=offset)
+    return as_rigid_transform(X) @ _shift(z=offset)
 
 
 def register_visual_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: list[RigidBody]) -> int:
@@ -152,7 +153,6 @@ def register_visual_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: lis
     radius = visual_radius(robot)
     X_BD = robot.fk_all(q0)                   # DH frames 0..dof, then the end frame
     joint_frames, X_BE = robot.joint_frames(q0)
-    polylines = compute_link_polylines(robot, q0)
     owners = [plant.world_body(), *bodies]
     X_owner = [np.eye(4), *X_BD[1:-1]]        # body frames in the base frame at q = 0
     count = 0
@@ -164,21 +164,19 @@ def register_visual_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: lis
 
     add(plant.world_body(), RigidTransform(np.array([0.0, 0.0, -radius / 2.0])), Cylinder(3.0 * radius, radius),
         "base_disc", BASE_COLOUR)
-    for i, (body, X, points) in enumerate(zip(owners, X_owner, polylines)):
-        X_inv = np.linalg.inv(X)
-        local = points @ X_inv[:3, :3].T + X_inv[:3, 3]
+    for i, (body, local) in enumerate(zip(owners, body_polylines(robot))):
         colour = BASE_COLOUR if i == 0 else LINK_COLOURS[(i - 1) % len(LINK_COLOURS)]
         name = "pedestal" if i == 0 else f"link{i}"
         for k, (p, r) in enumerate(zip(local[:-1], local[1:])):
             length = float(np.linalg.norm(r - p))
             if length < MIN_SEGMENT_M:
                 continue
-            add(body, _cylinder_between(p, r), Cylinder(radius, length), f"{name}_segment{k}", colour)
+            add(body, pose_between(p, r), Cylinder(radius, length), f"{name}_segment{k}", colour)
         for k, p in enumerate(local[1:-1]):                     # round the corners
             add(body, RigidTransform(p), Sphere(radius), f"{name}_corner{k}", colour)
     for i, joint in enumerate(spec.joints):
         X_parent = np.linalg.inv(X_owner[i]) @ joint_frames[i]
-        add(owners[i], _as_rigid_transform(X_parent), Cylinder(1.5 * radius, 4.0 * radius),
+        add(owners[i], as_rigid_transform(X_parent), Cylinder(1.5 * radius, 4.0 * radius),
             f"{joint.name}_axis", JOINT_COLOUR)
     X_DnE = np.linalg.inv(X_owner[-1]) @ X_BE
     add(bodies[-1], _on_z(X_DnE, -radius / 4.0), Cylinder(1.6 * radius, radius / 2.0), "flange", FLANGE_COLOUR)
@@ -209,10 +207,10 @@ def register_cell_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: list[
     Returns the count."""
     X_BW = np.linalg.inv(cell.X_WB)
     for shape in cell.objects:
-        plant.RegisterVisualGeometry(plant.world_body(), _as_rigid_transform(X_BW @ shape.X), drake_shape(shape),
+        plant.RegisterVisualGeometry(plant.world_body(), as_rigid_transform(X_BW @ shape.X), drake_shape(shape),
                                      f"obstacle_{shape.name}", np.array(OBSTACLE_COLOUR))
     for shape in cell.tool_shapes:
-        plant.RegisterVisualGeometry(bodies[-1], _as_rigid_transform(spec.X_DnE @ shape.X), drake_shape(shape),
+        plant.RegisterVisualGeometry(bodies[-1], as_rigid_transform(spec.X_DnE @ shape.X), drake_shape(shape),
                                      f"tool_{shape.name}", np.array(FLANGE_COLOUR))
     return len(cell.objects) + len(cell.tool_shapes)
 

@@ -94,7 +94,7 @@ class Capsule:
         return float(np.linalg.norm(self.r - self.p))
 
 
-#: Segments shorter than this are points: a sphere of the radius instead of a capsule [m].
+#: Segments shorter than this are points: not drawn, a sphere of the radius instead of a capsule [m].
 MIN_SEGMENT_M = 1e-6
 
 
