@@ -126,6 +126,11 @@ def joint_space(robot, q_start, q_goal):
     return space, values, start, goal
 
 
+def path_vertices(path, values) -> np.ndarray:
+    """The states of an OMPL ``PathGeometric`` as joint values (k, dof), by ``values`` (``joint_space``)."""
+    return np.array([values(path.getState(k)) for k in range(path.getStateCount())])
+
+
 def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, seed) -> PlannedPath:
     from ompl import base as ob, geometric as og, util as ou
 
@@ -159,12 +164,12 @@ def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, 
         raise PlanningError(f"{planner_name} found no collision-free path in {plan_time:.3f} s (budget "
                             f"{time_budget:g} s; {status})")
     path = problem.getSolutionPath()
-    raw = np.array([values(path.getState(k)) for k in range(path.getStateCount())])
+    raw = path_vertices(path, values)
     began = time.perf_counter()
     simplifier = og.PathSimplifier(info)
     simplifier.reduceVertices(path)
     simplifier.ropeShortcutPath(path, ROPE_STEP)
     simplify_time = time.perf_counter() - began
-    simplified = np.array([values(path.getState(k)) for k in range(path.getStateCount())])
+    simplified = path_vertices(path, values)
     simplified[0], simplified[-1] = q_start, q_goal
     return PlannedPath(simplified, planner_name, plan_time, simplify_time, path_length(raw), path_length(simplified))

@@ -58,7 +58,7 @@ from ..cell import load_cell
 from ..cell_motion import time_clear
 from ..collision import EDGE_STEP_RAD, SELF_CLEARANCE_M, CollisionModel
 from ..errors import PipelineError
-from ..planning import joint_space, path_length, plan_joint_path
+from ..planning import joint_space, path_length, path_vertices, plan_joint_path
 from ..progress import Progress
 from ..timing import retime
 from ..versions import version_table
@@ -178,15 +178,11 @@ def run_peer(model, q_a, q_b, budget: float) -> Run:
     search = time.perf_counter() - began
     if not setup.haveExactSolutionPath():
         return Run(False, search, search, reason=f"no exact solution in {budget:g} s")
-    raw = _vertices(setup.getSolutionPath(), values)
+    raw = path_vertices(setup.getSolutionPath(), values)
     setup.simplifySolution()
     total = time.perf_counter() - began
-    return _checked(model, _vertices(setup.getSolutionPath(), values), total, search, total - search,
+    return _checked(model, path_vertices(setup.getSolutionPath(), values), total, search, total - search,
                     path_length(raw))
-
-
-def _vertices(path, values) -> np.ndarray:
-    return np.array([values(path.getState(k)) for k in range(path.getStateCount())])
 
 
 # -- the problem set --------------------------------------------------------------------------------
