@@ -85,10 +85,10 @@ def as_rigid_transform(X: np.ndarray) -> RigidTransform:
 
 def add_robot(plant: MultibodyPlant, spec: RobotSpec, model_instance=None, mount=None) -> list[RigidBody]:
     """Add the chain of a RobotSpec to an unfinalised plant: bodies ``link1..n``, joints named as in the
-    file (limits set), frames ``base``, ``dh0``, ``<joint>_parent``, ``<joint>_child`` and ``end``, in
-    ``model_instance`` (default: the plant's default instance), the base frame on ``mount`` (a frame;
-    default the world frame). Returns the link bodies in order. The one place the DH kinematics become
-    Drake joints."""
+    file (limits set; a continuous joint has no position limits: Drake's -inf, +inf), frames ``base``,
+    ``dh0``, ``<joint>_parent``, ``<joint>_child`` and ``end``, in ``model_instance`` (default: the
+    plant's default instance), the base frame on ``mount`` (a frame; default the world frame). Returns
+    the link bodies in order. The one place the DH kinematics become Drake joints."""
     instance = default_model_instance() if model_instance is None else model_instance
     base = plant.AddFrame(FixedOffsetFrame(BASE_FRAME, plant.world_frame() if mount is None else mount,
                                            RigidTransform(), instance))

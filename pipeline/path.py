@@ -255,8 +255,8 @@ def _blend_pieces(s_knots: np.ndarray, waypoints: np.ndarray, blend: float):
 
 def make_path(waypoints, q_min: np.ndarray, q_max: np.ndarray, shape: str = DEFAULT_PATH_SHAPE,
               blend: float = DEFAULT_BLEND) -> JointPath:
-    """A geometric path through joint waypoints (K, dof) [rad or m], checked against the limits
-    (``blend``: the corner blend of the ``linear`` shape)."""
+    """A geometric path through joint waypoints (K, dof) [rad or m], checked against the limits (a
+    continuous joint's -inf, +inf never bind; ``blend``: the corner blend of the ``linear`` shape)."""
     if shape not in SHAPES:
         raise PathError(f"path shape must be one of {', '.join(SHAPES)}, got {shape!r}")
     if not 0.0 <= blend <= 0.5:

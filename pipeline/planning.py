@@ -1,7 +1,8 @@
 """Collision-free joint paths: OMPL's sampling planners with Drake's checker as their validity checker.
 
 ``plan_joint_path(model, q_start, q_goal)``: the straight joint-space edge when it is free, else a
-search by an OMPL geometric planner (RRTConnect unless named) in the joint box, each state checked by
+search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``: a
+continuous joint searches half a turn beyond its start and goal values), each state checked by
 Drake's checker and each edge by Drake's parallel edge check, then OMPL's ``PathSimplifier`` on the
 result (vertex reduction, then rope shortcutting at ROPE_STEP). While planning, obstacles are kept
 PLANNING_MARGIN_M farther than the clearance and links SELF_PLANNING_MARGIN_M apart (the edges from a
@@ -104,17 +105,28 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
 
 
+def planning_box(limits, q_start: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (dof,) of the joint box a planner searches [rad or m]: the joint limits, and for a
+    continuous joint (no limits; OMPL needs finite bounds) the window from half a turn below the lower
+    of its start and goal values to half a turn above the higher: at least a turn wide, so every angle
+    of the joint is in it, and a path may swing past either end by up to half a turn."""
+    low = np.where(limits.continuous, np.minimum(q_start, q_goal) - np.pi, limits.q_min)
+    high = np.where(limits.continuous, np.maximum(q_start, q_goal) + np.pi, limits.q_max)
+    return low, high
+
+
 def joint_space(robot, q_start, q_goal):
-    """OMPL's view of the robot's joint box: (RealVectorStateSpace bounded by the joint limits, a function
+    """OMPL's view of the robot's joint box: (RealVectorStateSpace bounded by ``planning_box``, a function
     state -> joint values (dof,), the start and goal states)."""
     from ompl import base as ob
 
-    dof, limits = robot.dof, robot.limits
+    dof = robot.dof
+    low, high = planning_box(robot.limits, np.asarray(q_start, dtype=float), np.asarray(q_goal, dtype=float))
     space = ob.RealVectorStateSpace(dof)
     bounds = ob.RealVectorBounds(dof)
     for j in range(dof):
-        bounds.setLow(j, float(limits.q_min[j]))
-        bounds.setHigh(j, float(limits.q_max[j]))
+        bounds.setLow(j, float(low[j]))
+        bounds.setHigh(j, float(high[j]))
     space.setBounds(bounds)
     start, goal = space.allocState(), space.allocState()
     for j in range(dof):

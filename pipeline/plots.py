@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
@@ -38,8 +39,9 @@ def _limit_lines(profile: Profile, quantity: str):
 
 def profile_figure(profile: Profile, revolute: Sequence[bool], title: str) -> Figure:
     """Stacked axes q, qd, qdd, jerk (and torque when the profile has it) against t [s], one line per
-    joint, its limits dashed in the same colour (q: min and max; the others: +-limit, the limits the
-    profile was timed against: the robot's x the speed scale, as the legend says)."""
+    joint, its limits dashed in the same colour (q: min and max, none for a continuous joint; the
+    others: +-limit, the limits the profile was timed against: the robot's x the speed scale, as the
+    legend says)."""
     quantities = ("q", "qd", "qdd", "qddd") + (("tau",) if profile.tau is not None else ())
     figure = Figure(figsize=(10, 2.75 * len(quantities)), layout="constrained")
     axes = figure.subplots(len(quantities), 1, sharex=True)
@@ -52,7 +54,8 @@ def profile_figure(profile: Profile, revolute: Sequence[bool], title: str) -> Fi
             ax.plot(profile.t, values[:, j], color=colour, linewidth=1.2, label=f"{j + 1} {name}")
             if bounds is not None:
                 for bound in (bounds[0][j], bounds[1][j]):
-                    ax.axhline(bound, color=colour, linestyle="--", linewidth=0.7, alpha=0.6)
+                    if np.isfinite(bound):           # a continuous joint has no q limits to draw
+                        ax.axhline(bound, color=colour, linestyle="--", linewidth=0.7, alpha=0.6)
         ax.set_ylabel(_ylabel(quantity, revolute))
         if bounds is None:
             ax.text(0.99, 0.95, "not limited", transform=ax.transAxes, ha="right", va="top", fontsize=8)

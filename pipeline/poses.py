@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .arrays import float_array
+from .compiled import is_pose
 from .errors import ConfigurationError
 
 #: How far a 3x3 matrix may be from orthonormal with det +1 and still count as a rotation.
@@ -20,6 +21,8 @@ ROTATION_TOLERANCE = 1e-6
 
 def check_pose(X, what: str = "pose") -> np.ndarray:
     """Validate a homogeneous transform (4, 4): finite, a proper rotation, last row [0 0 0 1]."""
+    if type(X) is np.ndarray and X.dtype == np.float64 and X.shape == (4, 4) and is_pose(X, ROTATION_TOLERANCE):
+        return X                                     # the compiled check passed: no error to word
     X = float_array(X, what, (4, 4))
     R = X[:3, :3]
     if (np.abs(R).max() > 1.0 + ROTATION_TOLERANCE or np.abs(R.T @ R - np.eye(3)).max() > ROTATION_TOLERANCE

@@ -5,7 +5,9 @@ peak/limit ratios of q, qd, qdd and qddd (and torques) on the profile's samples,
 acceleration ratios when the limits bound them, the worst sample, and in a cell the clearance
 (``pipeline.clearance``), pass/fail.
 A position ratio is the peak distance from the middle of the range over half the range, so 1 is
-"on a limit" for every quantity.
+"on a limit" for every quantity; a continuous joint (no position limits) has position ratio 0.
+In JSON (``limit_values``) an infinite limit, a continuous joint's q_min and q_max, is null, as a
+quantity without limits is.
 """
 
 from __future__ import annotations
@@ -129,8 +131,8 @@ class LimitReport:
 
 def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
     """|value| / limit per sample (N, dof) for every quantity that has a limit."""
-    middle, half = (limits.q_max + limits.q_min) / 2.0, (limits.q_max - limits.q_min) / 2.0
-    out = {"q": np.abs(profile.q - middle) / half, "qd": np.abs(profile.qd) / limits.qd_max}
+    half = (limits.q_max - limits.q_min) / 2.0            # +inf for a continuous joint: its ratio is 0
+    out = {"q": np.abs(profile.q - limits.q_middle) / half, "qd": np.abs(profile.qd) / limits.qd_max}
     if limits.qdd_max is not None:
         out["qdd"] = np.abs(profile.qdd) / limits.qdd_max
     if limits.qddd_max is not None:
@@ -185,9 +187,18 @@ def jerk_reversal_rate(profile: Profile) -> np.ndarray:
 
 
 def limit_values(limits: Limits) -> dict:
-    """The limit arrays as JSON-ready lists (None where a quantity is not limited) [SI units]."""
-    return {name: None if value is None else np.asarray(value).tolist()
-            for name, value in dataclasses.asdict(limits).items()}
+    """The limit arrays as JSON-ready lists (None where a quantity is not limited, and for each infinite
+    entry: a continuous joint's q_min and q_max) [SI units]."""
+    return {name: _json_limit(value) for name, value in dataclasses.asdict(limits).items()}
+
+
+def _json_limit(value) -> list | float | None:
+    """A limit array (or number) as a list (or number), None for every infinite entry (JSON has no
+    infinity) and for a limit not given."""
+    if value is None:
+        return None
+    array = np.asarray(value, dtype=float)
+    return np.where(np.isinf(array), None, array).tolist()
 
 
 def limits_summary(profile: Profile) -> dict:

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import compiled
+from .errors import ConfigurationError
 from .kinematics import DhKinematics
 from .robot_spec import Limits, RobotSpec, load_robot_spec
 
@@ -16,11 +18,58 @@ class Robot(DhKinematics):
 
     ``fk(q)``: pose X_BE (4x4) of the end frame E in the robot base frame B [m].
     ``jacobian(q)``: (6, dof) geometric Jacobian, rows [v; w], base frame, at E's origin.
+    ``fk``, ``fk_batch``, ``jacobian``, ``jacobian_batch`` and ``fk_and_jacobian`` run compiled
+    (``pipeline.compiled``); the NumPy ones of ``DhKinematics`` are the oracle they are checked against.
     """
 
     def __init__(self, spec: RobotSpec):
         super().__init__(spec)
         self.name = spec.name
+        self._chain, self._axes = compiled.pack_chain(self._P, self._C, self._S, self._V, self._K0, self._sign,
+                                                      self._revolute)
+
+    # -- the compiled core: float64 arrays go straight in; anything else, or a kernel's ValueError,
+    # -- gets the typed check of DhKinematics -------------------------------------------------------
+    def _vector(self, q) -> np.ndarray:
+        return q if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 else self.as_configuration(q)
+
+    def _batch(self, Q) -> np.ndarray:
+        return Q if type(Q) is np.ndarray and Q.dtype == np.float64 and Q.ndim == 2 else self.as_batch(Q)
+
+    def _refused(self, q, batch: bool = False) -> ConfigurationError:
+        """The typed error for an input a kernel refused (raised by the NumPy check itself)."""
+        (self.as_batch if batch else self.as_configuration)(q)
+        return ConfigurationError(f"{self.name}: the compiled kinematics refused q of shape {np.shape(q)}")
+
+    def fk(self, q) -> np.ndarray:
+        try:
+            return compiled.fk(self._chain, self._vector(q))
+        except ValueError:
+            raise self._refused(q) from None
+
+    def fk_batch(self, Q) -> np.ndarray:
+        try:
+            return compiled.fk_batch(self._chain, self._batch(Q))
+        except ValueError:
+            raise self._refused(Q, batch=True) from None
+
+    def jacobian(self, q) -> np.ndarray:
+        try:
+            return compiled.jacobian(self._chain, self._axes, self._vector(q))
+        except ValueError:
+            raise self._refused(q) from None
+
+    def jacobian_batch(self, Q) -> np.ndarray:
+        try:
+            return compiled.jacobian_batch(self._chain, self._axes, self._batch(Q))
+        except ValueError:
+            raise self._refused(Q, batch=True) from None
+
+    def fk_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        try:
+            return compiled.fk_and_jacobian(self._chain, self._axes, self._vector(q))
+        except ValueError:
+            raise self._refused(q) from None
 
     @property
     def limits(self) -> Limits:
@@ -32,10 +81,14 @@ class Robot(DhKinematics):
         return [j.name for j in self.spec.joints]
 
     def random_configurations(self, rng: np.random.Generator, count: int, margin: float = 0.0) -> np.ndarray:
-        """Uniform random configurations (count, dof) inside the limits shrunk by ``margin`` of each range."""
-        lo, hi = self.limits.q_min, self.limits.q_max
-        span = hi - lo
-        return rng.uniform(lo + margin * span, hi - margin * span, size=(count, self.dof))
+        """Uniform random configurations (count, dof) inside the limits shrunk by ``margin`` of each range;
+        a continuous joint (no limits) draws uniformly in [-pi, pi] [rad], whatever the margin (it has no
+        limit to keep away from, and every angle it can take is there once)."""
+        continuous = self.limits.continuous
+        lo = np.where(continuous, -np.pi, self.limits.q_min)
+        hi = np.where(continuous, np.pi, self.limits.q_max)
+        inset = np.where(continuous, 0.0, margin * (hi - lo))
+        return rng.uniform(lo + inset, hi - inset, size=(count, self.dof))
 
     # -- inverse kinematics (pipeline.ik) ------------------------------------------------------
     def ik(self, X_target, q_seed=None, method: str = "auto", target_kind: str = "pose", **options):

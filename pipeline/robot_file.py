@@ -1,7 +1,8 @@
 """RobotSpec -> a robot file (the documented YAML format of ``models/README.md``), in mm and deg by default.
 
 The inverse of ``robot_spec``: reading the written file gives back the same kinematics to 1e-13 m and
-1e-14 rad (values are rounded to those resolutions, so 486.49999999999994 mm is written as 486.5).
+1e-14 rad (values are rounded to those resolutions, so 486.49999999999994 mm is written as 486.5). A
+continuous joint (no position limits) is written as ``continuous: true`` without ``q_min`` and ``q_max``.
 """
 
 from __future__ import annotations
@@ -65,13 +66,14 @@ def _joint(joint: DhJoint, units: _Units) -> dict:
     if not revolute:
         row["type"] = "prismatic"
     row.update(a=units.length(joint.a), alpha=units.angle(joint.alpha), d=units.length(joint.d),
-               theta_offset=units.angle(joint.theta_offset), sign=int(joint.sign),
-               q_min=units.q(joint.q_min, revolute), q_max=units.q(joint.q_max, revolute))
+               theta_offset=units.angle(joint.theta_offset), sign=int(joint.sign))
+    if joint.is_continuous:
+        row["continuous"] = True
+    else:
+        row.update(q_min=units.q(joint.q_min, revolute), q_max=units.q(joint.q_max, revolute))
     for key in ("qd_max", "qdd_max", "qddd_max"):
         if getattr(joint, key) is not None:
             row[key] = units.q(getattr(joint, key), revolute)
-    if joint.q_max - joint.q_min > 6.0 * math.pi:
-        row["continuous"] = True
     if joint.tau_max is not None:
         row["tau_max"] = float(joint.tau_max)
     if joint.radius is not None:

@@ -69,12 +69,18 @@ class DhJoint:
     def is_revolute(self) -> bool:
         return self.kind == "revolute"
 
+    @property
+    def is_continuous(self) -> bool:
+        """A revolute joint that turns without end: no position limits (q_min = -inf, q_max = +inf)."""
+        return math.isinf(self.q_min) and math.isinf(self.q_max)
+
 
 @dataclass(frozen=True, eq=False)
 class Limits:
     """Joint limits as SI arrays of length dof; ``qdd_max``, ``qddd_max``, ``tau_max`` [N m or N] are
-    None when not given. ``tcp_speed_max`` [m/s] and ``tcp_accel_max`` [m/s^2]: limits of the TCP (the
-    robot's end frame) that a job may add for its tool moves (None: not limited)."""
+    None when not given; a continuous joint has ``q_min`` -inf and ``q_max`` +inf. ``tcp_speed_max``
+    [m/s] and ``tcp_accel_max`` [m/s^2]: limits of the TCP (the robot's end frame) that a job may add for
+    its tool moves (None: not limited)."""
 
     q_min: np.ndarray
     q_max: np.ndarray
@@ -84,6 +90,17 @@ class Limits:
     tau_max: np.ndarray | None = None
     tcp_speed_max: float | None = None
     tcp_accel_max: float | None = None
+
+    @property
+    def continuous(self) -> np.ndarray:
+        """(dof,) bool: the joints without position limits (continuous joints)."""
+        return np.isinf(self.q_min) & np.isinf(self.q_max)
+
+    @property
+    def q_middle(self) -> np.ndarray:
+        """(dof,) the middle of each joint's range [rad or m]; 0 for a continuous joint, which has none."""
+        continuous = self.continuous
+        return (np.where(continuous, 0.0, self.q_min) + np.where(continuous, 0.0, self.q_max)) / 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,9 +180,9 @@ class RobotSpec:
 MAX_LENGTH_M = 100.0          # any a, d, xyz, com or prismatic limit: farther is mm written under m
 MIN_REACH_M = 0.01            # the sum of all lengths: shorter is metres written under mm
 MAX_ANGLE_RAD = 2.0 * math.pi  # alpha, theta_offset, rpy: more than a turn is degrees written under rad
-MAX_RANGE_RAD = 6.0 * math.pi  # a revolute range wider than three turns needs ``continuous: true``
-                               # (real wrists reach +-450 deg, 2.5 turns; degrees under rad give ~50)
-MAX_TURNS = 1000              # even a continuous joint stays within this many turns of zero
+MAX_RANGE_RAD = 6.0 * math.pi  # a revolute range wider than three turns is a unit mistake or a continuous
+                               # joint (real wrists reach +-450 deg, 2.5 turns; degrees under rad give ~50)
+MAX_TURNS = 1000              # a revolute limit stays within this many turns of zero
 MAX_SPEED_RAD_S = 100.0       # a revolute qd_max above ~5700 deg/s is a unit mistake
 MIN_RATE = 1e-9               # qd_max, qdd_max, qddd_max [unit/s^k]: smaller cannot move
 MAX_RATE = 1e9                # qdd_max, qddd_max, tau_max: beyond any drive
@@ -174,9 +191,11 @@ MAX_RADIUS_M = 2.0            # a link radius [m]: thicker is mm written under m
 
 _TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
 _TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
-_JOINT_REQUIRED = ("a", "alpha", "d", "q_min", "q_max", "qd_max")
-_JOINT_OPTIONAL = ("theta_offset", "sign", "type", "name", "continuous", "qdd_max", "qddd_max", "tau_max",
-                   "inertia", "radius", "note")
+#: Required on every row but a continuous joint's, which must not give them.
+POSITION_LIMITS = ("q_min", "q_max")
+_JOINT_REQUIRED = ("a", "alpha", "d", "qd_max")
+_JOINT_OPTIONAL = (*POSITION_LIMITS, "continuous", "theta_offset", "sign", "type", "name", "qdd_max", "qddd_max",
+                   "tau_max", "inertia", "radius", "note")
 
 
 class _RobotReader(Reader):
@@ -213,7 +232,14 @@ class _RobotReader(Reader):
         return value
 
     def joint_range(self, path, kind: str, q_scale: float) -> tuple[float, float]:
-        """(q_min, q_max) in SI, q_min < q_max, revolute ranges within three turns unless continuous."""
+        """(q_min, q_max) in SI: (-inf, +inf) for a continuous joint (``continuous_range``); else both
+        given, q_min < q_max, and a revolute range within three turns."""
+        if self.flag((*path, "continuous")):
+            return self.continuous_range(path, kind)
+        for key in POSITION_LIMITS:
+            if key not in self.get(path):
+                self.fail((*path, key), "required key is missing (a joint that turns without end says "
+                          "continuous: true instead)", kind=MissingFieldError)
         q_min = self.number((*path, "q_min")) * q_scale
         q_max = self.number((*path, "q_max")) * q_scale
         if q_min >= q_max:
@@ -224,15 +250,25 @@ class _RobotReader(Reader):
                     self.fail((*path, key), f"is {abs(value):.4g} m, longer than any axis ({MAX_LENGTH_M:g} m): "
                               f"is length_unit: {self.length_unit} right?", self.get((*path, key)))
             return q_min, q_max
-        continuous = self.flag((*path, "continuous"))
         if max(abs(q_min), abs(q_max)) > MAX_TURNS * 2.0 * math.pi:
             self.fail((*path, "q_max"), f"is more than {MAX_TURNS} turns from zero", self.get((*path, "q_max")))
-        if q_max - q_min > MAX_RANGE_RAD + 1e-9 and not continuous:
+        if q_max - q_min > MAX_RANGE_RAD + 1e-9:
             hint = ("are these degrees? (angle_unit: rad)" if self.angle_unit == "rad"
-                    else "a joint that turns without end says continuous: true")
+                    else "a joint that turns without end says continuous: true instead of q_min and q_max")
             self.fail((*path, "q_max"), f"the range q_min..q_max is wider than three turns (1080 deg): {hint}",
                       self.get((*path, "q_max")))
         return q_min, q_max
+
+    def continuous_range(self, path, kind: str) -> tuple[float, float]:
+        """(-inf, +inf) [rad] for a row with ``continuous: true``: revolute, and with neither q_min nor
+        q_max (a limit that would be ignored is refused, not dropped)."""
+        if kind != "revolute":
+            self.fail((*path, "continuous"), "only a revolute joint turns without end (this one is prismatic)", True)
+        for key in POSITION_LIMITS:
+            if key in self.get(path):
+                self.fail((*path, key), "a continuous joint has no position limits: drop q_min and q_max, or drop "
+                          "continuous: true to keep the joint within them", self.get((*path, key)))
+        return -math.inf, math.inf
 
     def inertia(self, path) -> LinkInertia:
         self.mapping(path, ("mass",), ("com", "I"))

@@ -106,17 +106,16 @@ def _ratios(report: LimitReport) -> str:
 
 def solve_waypoints(job: Job, scene=None) -> list[WaypointIk]:
     """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
-    previous waypoint's joint values (the first: ``job.start`` or the middle of the limits), and of its
-    in-limit solutions one is kept by the rule of ``pipeline.ik.branches`` (of the configuration the
-    waypoint names, the one nearest the previous joint values; a joint waypoint's own configuration
-    counts as the previous branch). A JobFileError
-    names the waypoint when a pose is unreachable, has no solution of the configuration asked for, or
-    changes branch from the previous pose waypoint (naming both branches and the joint that forces it)
-    unless the job allows branch changes. With ``scene`` (a CollisionModel) a joint waypoint that collides
-    is an error naming the pair, and IK answers that collide are skipped (``cell_motion``)."""
+    previous waypoint's joint values (the first: ``job.start`` or the middle of the limits, 0 for a
+    continuous joint), and of its in-limit solutions one is kept by the rule of ``pipeline.ik.branches``
+    (of the configuration the waypoint names, the one nearest the previous joint values; a joint
+    waypoint's own configuration counts as the previous branch). A JobFileError names the waypoint when
+    a pose is unreachable, has no solution of the configuration asked for, or changes branch from the
+    previous pose waypoint (naming both branches and the joint that forces it) unless the job allows
+    branch changes. With ``scene`` (a CollisionModel) a joint waypoint that collides is an error naming
+    the pair, and IK answers that collide are skipped (``cell_motion``)."""
     robot = job.robot
-    limits = robot.limits
-    previous = job.start if job.start is not None else (limits.q_min + limits.q_max) / 2.0
+    previous = job.start if job.start is not None else robot.limits.q_middle
     previous_branch = ""
     options = with_drake_model(robot, job.ik, {}) if job.has_poses else {}
     solved = []

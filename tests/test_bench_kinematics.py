@@ -1,13 +1,16 @@
-"""The kinematics benchmark: its report, and peers built from the spec that agree with our model."""
+"""The kinematics benchmark: its report, peers built from the spec that agree with our model, the
+first calls in a fresh process and the goals."""
 
 from __future__ import annotations
 
 import json
 import sys
+import tempfile
 
 import numpy as np
 import pytest
 
+import pipeline.bench.kinematics as kinematics_bench
 from pipeline.bench.kinematics import (
     DRAKE,
     OURS,
@@ -16,6 +19,8 @@ from pipeline.bench.kinematics import (
     VERIFY_CONFIGURATIONS,
     Implementation,
     drake_implementation,
+    first_call_seconds,
+    kinematics_goals,
     pinocchio_implementation,
     rtb_implementation,
     run_kinematics_benchmark,
@@ -47,7 +52,7 @@ def _mixed_robots() -> list[Robot]:
 
 @pytest.mark.parametrize("name", ["gp7", "arm5"])
 def test_benchmark_report(name):
-    report = run_kinematics_benchmark(name, batch=200, single_calls=50)
+    report = run_kinematics_benchmark(name, batch=200, single_calls=50, first_calls=False)
     rows = {row.name: row for row in report.rows}
     assert report.rows[0].name == OURS
     drake = rows[DRAKE]
@@ -59,16 +64,68 @@ def test_benchmark_report(name):
     assert set(rows) | set(report.unavailable) == {OURS, DRAKE, RTB, PINOCCHIO}
     table = report.format_table()
     assert name in table and DRAKE in table and "ours / Drake" in table
-    assert json.loads(json.dumps(report.to_dict()))["robot_name"] == name
+    assert "First calls in a fresh process: not measured" in table
+    data = json.loads(json.dumps(report.to_dict()))
+    assert data["robot_name"] == name and data["first_call"] is None
+    fk, jacobian = report.goals
+    if PINOCCHIO in report.ratio:
+        assert fk.value == report.ratio[PINOCCHIO]["fk_single"]
+        assert jacobian.value == report.ratio[PINOCCHIO]["jacobian_single"]
+        assert data["passed"] == (fk.value <= 1.0 and jacobian.value <= 1.0)
+    assert f"  {'PASS' if fk.passed else 'FAIL'}  FK single call, ours / {PINOCCHIO} [x]: " in table
 
 
 def test_missing_optional_peers_are_reported_not_fatal(monkeypatch):
     monkeypatch.setitem(sys.modules, "roboticstoolbox", None)
     monkeypatch.setitem(sys.modules, "pinocchio", None)
-    report = run_kinematics_benchmark("arm5", batch=50, single_calls=10)
+    report = run_kinematics_benchmark("arm5", batch=50, single_calls=10, first_calls=False)
     assert set(report.unavailable) == {RTB, PINOCCHIO}
     assert [row.name for row in report.rows] == [OURS, DRAKE]
-    assert f"unavailable: {RTB}" in report.format_table()
+    table = report.format_table()
+    assert f"unavailable: {RTB}" in table
+    assert not report.passed and all(goal.value is None and not goal.passed for goal in report.goals)
+    assert f"FAIL  Jacobian single call, ours / {PINOCCHIO} [x]: - (<= 1; not measured, {PINOCCHIO} unavailable: " \
+           in table
+
+
+def test_goals_verdicts():
+    ratio = {PINOCCHIO: {"fk_single": 0.8, "jacobian_single": 1.2, "fk_per_config": 0.1, "jacobian_per_config": 0.1}}
+    fk, jacobian = kinematics_goals(ratio, {})
+    assert (fk.value, fk.passed, fk.bound) == (0.8, True, "<= 1")
+    assert (jacobian.value, jacobian.passed) == (1.2, False)
+
+
+def test_first_calls_share_one_new_cache_directory_and_remove_it(monkeypatch, tmp_path):
+    """The cold run finds the cache empty, the warm one finds what the cold one left; then it is gone."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(kinematics_bench, "FIRST_CALL_SCRIPT", (
+        "import json, os, sys\n"
+        "cache = os.environ['NUMBA_CACHE_DIR']\n"
+        "found = {'empty': float(not os.listdir(cache)), 'marked': float(os.path.exists(cache + '/marker'))}\n"
+        "open(cache + '/marker', 'w').close()\n"
+        "import pipeline.robot\n"
+        "found['gp7'] = float(sys.argv[1] == 'gp7')\n"
+        "print(json.dumps(found))\n"))
+    assert first_call_seconds() == {"cold": {"empty": 1.0, "marked": 0.0, "gp7": 1.0},
+                                    "warm": {"empty": 0.0, "marked": 1.0, "gp7": 1.0}}
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failing_first_call_process_is_an_error(monkeypatch):
+    monkeypatch.setattr(kinematics_bench, "FIRST_CALL_SCRIPT", "import sys; sys.exit('no compiler here')")
+    with pytest.raises(RuntimeError, match="exited with status 1: no compiler here"):
+        first_call_seconds()
+
+
+@pytest.mark.slow
+def test_first_calls_cold_then_warm():
+    """Real fresh processes: the cold one compiles every kernel it calls, the warm one loads them."""
+    first_call = first_call_seconds()
+    steps = ["import", "load", "fk", "jacobian", "ik analytic", "ik jacobian"]
+    assert list(first_call) == ["cold", "warm"]
+    for seconds in first_call.values():
+        assert list(seconds) == steps and all(value > 0 for value in seconds.values())
+    assert first_call["warm"]["fk"] < first_call["cold"]["fk"]
 
 
 def test_a_wrong_peer_is_refused(rng):

@@ -313,11 +313,13 @@ def test_unknown_links_and_files_are_typed_errors(tmp_path):
         import_urdf(tmp_path / "missing.urdf")
 
 
-def test_a_continuous_joint_gets_one_turn_either_way_and_says_so(tmp_path):
+def test_a_continuous_joint_stays_continuous_without_an_assumption(tmp_path):
     text = two_finger_urdf().replace('name="shoulder" type="revolute"', 'name="shoulder" type="continuous"', 1)
     imported = import_urdf(write(tmp_path, text), tip="left_finger")
-    assert imported.document["joints"][0]["q_min"] == -360.0 and imported.document["joints"][0]["q_max"] == 360.0
-    assert any("continuous" in note for note in imported.document["assumptions"])
+    row = imported.document["joints"][0]
+    assert row["continuous"] is True and "q_min" not in row and "q_max" not in row
+    assert imported.robot.spec.joints[0].is_continuous
+    assert not any("continuous" in note for note in imported.document["assumptions"])
 
 
 # -- the command line ---------------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""Kinematics benchmark: our NumPy DH model against Drake, Robotics Toolbox and Pinocchio.
+"""Kinematics benchmark: our DH model (``robot.fk``, ``robot.jacobian`` and their batches) against Drake,
+Robotics Toolbox and Pinocchio, and the time of our first calls in a fresh process.
 
 Every peer is built generically from the robot's ``RobotSpec`` (never hand-coded per robot) and is
 checked against our FK and Jacobian before it is timed: a benchmark of a wrong model is worthless.
@@ -11,13 +12,27 @@ over distinct random in-limit configurations, each call timed on its own (so it 
 ``BATCH_REPEATS`` runs over the whole batch, divided by the batch size. Implementations take turns
 (in chunks of configurations, and run by run for batches) so that drift of a shared or throttled
 machine's speed biases no ratio.
+
+First calls: our kernels are compiled by Numba on their first call and cached on disk. A fresh
+Python process (``FIRST_CALL_SCRIPT``) imports the pipeline, loads ``FIRST_CALL_ROBOT`` and times its
+first ``fk``, ``jacobian``, ``ik(method="analytic")`` and ``ik(method="jacobian")`` calls [s]. It runs
+twice with ``NUMBA_CACHE_DIR`` set to one new temporary directory: the first run compiles into the
+empty cache (cold), the second loads what the first cached (warm). The directory is removed after.
+
+Goals (issue 15, ratios in the same run): FK and Jacobian single calls at most ``SINGLE_CALL_GOAL_RATIO``
+= 1.0x Pinocchio's; not measured (so not passed) when Pinocchio is unavailable.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -32,8 +47,9 @@ from ..drake_model import (
 from ..errors import ConfigurationError
 from ..versions import version_table
 from ..robot import Robot, load_robot
+from .goals import Goal, GoalReport, goal_lines
 
-OURS = "ours (NumPy)"
+OURS = "ours"
 DRAKE = "Drake"
 RTB = "Robotics Toolbox (C++ ETS)"
 PINOCCHIO = "Pinocchio"
@@ -43,6 +59,9 @@ VERIFY_TOLERANCE = 1e-9
 WARMUP_CALLS = 50
 TIMING_ROUNDS = 5
 BATCH_REPEATS = 3
+SINGLE_CALL_GOAL_RATIO = 1.0    # ours / Pinocchio, FK and Jacobian single calls
+FIRST_CALL_ROBOT = "gp7"
+FIRST_CALL_TIMEOUT_S = 900
 
 #: Rx(pi): conjugating a +z joint motion by it gives the same motion about/along -z.
 _FLIP_Z = np.diag([1.0, -1.0, -1.0, 1.0])
@@ -76,7 +95,7 @@ class TimingRow:
 
 
 @dataclass(frozen=True)
-class KinematicsBenchReport:
+class KinematicsBenchReport(GoalReport):
     """Result of one benchmark run.
 
     ``rows``: ours first, then each available peer. ``ratio[peer]``: time ratios ours / peer
@@ -84,7 +103,10 @@ class KinematicsBenchReport:
     and ``fk_per_config``, ``jacobian_per_config`` (ours batched vs the peer's fastest time per
     configuration: its batch API where it has one, else its single call). ``max_error[peer]``: the
     largest FK [m] and Jacobian element differences to ours found by the check before timing.
-    ``unavailable``: peers that could not be imported, with the reason.
+    ``unavailable``: peers that could not be imported, with the reason. ``first_call``: for the
+    ``cold`` and the ``warm`` run of a fresh process, the seconds of each of its steps (import,
+    load, fk, jacobian, ik analytic, ik jacobian); None when not measured. ``goals``: the
+    single-call ratios to Pinocchio.
     """
 
     robot_name: str
@@ -98,9 +120,11 @@ class KinematicsBenchReport:
     max_error: dict[str, dict[str, float]]
     versions: dict[str, str]
     unavailable: dict[str, str]
+    first_call: dict[str, dict[str, float]] | None
+    goals: tuple[Goal, ...]
 
     def format_table(self) -> str:
-        """A plain-text table of the times, then one line of ratios per peer."""
+        """A plain-text table of the times, one line of ratios per peer, the first calls, then the goals."""
         head = ("implementation", "FK single [µs/call]", "Jacobian single [µs/call]",
                 "FK batch [µs/config]", "Jacobian batch [µs/config]")
         body = [(r.name, *(_format_us(t) for t in (r.fk_single_us, r.jacobian_single_us,
@@ -119,7 +143,8 @@ class KinematicsBenchReport:
             *(self._ratio_line(peer, r) for peer, r in self.ratio.items()),
         ]
         lines += [f"unavailable: {peer}: {why}" for peer, why in self.unavailable.items()]
-        lines.append("versions: " + ", ".join(f"{k} {v}" for k, v in self.versions.items()))
+        lines += _first_call_lines(self.first_call)
+        lines += goal_lines("Goals:", self.goals, self.versions)
         return "\n".join(lines)
 
     @staticmethod
@@ -128,9 +153,17 @@ class KinematicsBenchReport:
                 f"call; ours batched vs its fastest per configuration: FK {r['fk_per_config']:.3g}x, "
                 f"Jacobian {r['jacobian_per_config']:.3g}x")
 
-    def to_dict(self) -> dict:
-        """The report as JSON-serialisable builtins (None where a peer has no batch API)."""
-        return dataclasses.asdict(self)
+
+def _first_call_lines(first_call: dict[str, dict[str, float]] | None) -> list[str]:
+    """The first-call report: one line per run, the seconds of each step and their total."""
+    if first_call is None:
+        return ["First calls in a fresh process: not measured"]
+    lines = [f"First calls in a fresh process ({FIRST_CALL_ROBOT}) [s], NUMBA_CACHE_DIR a new temporary directory:"]
+    for run, label in (("cold", "cold (empty cache: compiles)"), ("warm", "warm (second run: cached)")):
+        steps = first_call[run]
+        lines.append(f"  {label}: " + ", ".join(f"{step} {seconds:.3g}" for step, seconds in steps.items())
+                     + f"; total {sum(steps.values()):.3g}")
+    return lines
 
 
 def _format_us(value: float | None) -> str:
@@ -139,7 +172,7 @@ def _format_us(value: float | None) -> str:
 
 # -- implementations ------------------------------------------------------------------------------
 def ours_implementation(robot: Robot) -> Implementation:
-    """Our NumPy DH model, with its batch API."""
+    """Our DH model as a user calls it (``robot.fk``, ``robot.jacobian``), with its batch API."""
     return Implementation(OURS, robot.fk, robot.jacobian, robot.fk_batch, robot.jacobian_batch)
 
 
@@ -334,13 +367,82 @@ def time_ratios(ours: TimingRow, peer: TimingRow) -> dict[str, float]:
     }
 
 
+# -- first calls ---------------------------------------------------------------------------------
+#: ``python -c FIRST_CALL_SCRIPT ROBOT``: prints the seconds of each step as one JSON object.
+FIRST_CALL_SCRIPT = """\
+import json, sys, time
+
+seconds = {}
+
+
+def step(name, call):
+    start = time.perf_counter()
+    value = call()
+    seconds[name] = time.perf_counter() - start
+    return value
+
+
+load_robot = step("import", lambda: __import__("pipeline.robot", fromlist=["load_robot"]).load_robot)
+robot = step("load", lambda: load_robot(sys.argv[1]))
+import numpy as np
+q, q_seed = robot.random_configurations(np.random.default_rng(0), 2)
+X = step("fk", lambda: robot.fk(q))
+step("jacobian", lambda: robot.jacobian(q))
+step("ik analytic", lambda: robot.ik(X, q_seed, method="analytic"))
+step("ik jacobian", lambda: robot.ik(X, q_seed, method="jacobian"))
+print(json.dumps(seconds))
+"""
+
+#: The folder holding the ``pipeline`` package: the fresh process imports this very copy.
+_SOURCE_ROOT = str(Path(__file__).resolve().parents[2])
+
+
+def first_call_seconds() -> dict[str, dict[str, float]]:
+    """Seconds of each step of ``FIRST_CALL_SCRIPT`` in a fresh process, run twice on one new, empty
+    Numba cache directory (removed after): ``cold`` compiles into it, ``warm`` loads what it cached.
+
+    Raises RuntimeError when the process fails.
+    """
+    with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
+        path = os.pathsep.join(filter(None, [_SOURCE_ROOT, os.environ.get("PYTHONPATH")]))
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": path}
+        return {run: _first_calls(env) for run in ("cold", "warm")}
+
+
+def _first_calls(env: dict[str, str]) -> dict[str, float]:
+    done = subprocess.run([sys.executable, "-c", FIRST_CALL_SCRIPT, FIRST_CALL_ROBOT], env=env, capture_output=True,
+                          text=True, timeout=FIRST_CALL_TIMEOUT_S)
+    if done.returncode != 0:
+        raise RuntimeError(f"the first-call process exited with status {done.returncode}: "
+                           f"{done.stderr.strip()[-2000:]}")
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+# -- goals ----------------------------------------------------------------------------------------
+def kinematics_goals(ratio: dict[str, dict[str, float]], unavailable: dict[str, str]) -> tuple[Goal, ...]:
+    """FK and Jacobian single calls, ours / Pinocchio <= ``SINGLE_CALL_GOAL_RATIO``; without a
+    Pinocchio row both are not measured (value None, not passed)."""
+    peer = ratio.get(PINOCCHIO)
+    bound = f"<= {SINGLE_CALL_GOAL_RATIO:g}"
+    if peer is None:
+        bound += f"; not measured, {PINOCCHIO} unavailable: {unavailable.get(PINOCCHIO, 'not run')}"
+    goals = []
+    for label, key in (("FK", "fk_single"), ("Jacobian", "jacobian_single")):
+        value = None if peer is None else peer[key]
+        goals.append(Goal(f"{label} single call, ours / {PINOCCHIO} [x]", value, bound,
+                          value is not None and value <= SINGLE_CALL_GOAL_RATIO))
+    return tuple(goals)
+
+
 # -- the benchmark --------------------------------------------------------------------------------
 def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, single_calls: int = 2000,
-                             seed: int = 0) -> KinematicsBenchReport:
-    """Verify, then time, FK and Jacobian of ours, Drake, Robotics Toolbox and Pinocchio on one robot.
+                             seed: int = 0, first_calls: bool = True) -> KinematicsBenchReport:
+    """Verify, then time, FK and Jacobian of ours, Drake, Robotics Toolbox and Pinocchio on one robot;
+    time our first calls in a fresh process (cold and warm cache).
 
     ``robot_name``: a preset name or robot file; ``batch``: configurations per batch run;
-    ``single_calls``: configurations timed one call at a time; ``seed``: of the random configurations.
+    ``single_calls``: configurations timed one call at a time; ``seed``: of the random configurations;
+    ``first_calls``: False skips the two fresh processes (the cold one compiles for up to minutes).
     """
     if batch < 1 or single_calls < 1:
         raise ConfigurationError(f"batch and single_calls must be >= 1, got {batch} and {single_calls}")
@@ -349,7 +451,7 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
     Q_verify = robot.random_configurations(rng, VERIFY_CONFIGURATIONS)
     Q_single = robot.random_configurations(rng, single_calls)
     Q_batch = robot.random_configurations(rng, batch)
-    versions = version_table("numpy", "drake")
+    versions = version_table("numpy", "numba", "drake")
     implementations, unavailable = [ours_implementation(robot), drake_implementation(robot)], {}
     for name, build, distribution in _OPTIONAL_PEERS:
         try:
@@ -360,6 +462,7 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
             versions.update(version_table(distribution))
     max_error = {impl.name: verify_implementation(robot, impl, Q_verify) for impl in implementations[1:]}
     rows = time_implementations(implementations, Q_single, Q_batch)
+    ratio = {peer.name: time_ratios(rows[0], peer) for peer in rows[1:]}
     return KinematicsBenchReport(
         robot_name=robot.name,
         convention=robot.spec.convention,
@@ -368,8 +471,10 @@ def run_kinematics_benchmark(robot_name: str = "gp7", batch: int = 100_000, sing
         single_calls=single_calls,
         seed=seed,
         rows=tuple(rows),
-        ratio={peer.name: time_ratios(rows[0], peer) for peer in rows[1:]},
+        ratio=ratio,
         max_error=max_error,
         versions=versions,
         unavailable=unavailable,
+        first_call=first_call_seconds() if first_calls else None,
+        goals=kinematics_goals(ratio, unavailable),
     )

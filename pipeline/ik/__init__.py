@@ -37,7 +37,9 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     target = make_target(X_target, target_kind)
     seed = _seed(robot, q_seed)
     _check_options(options)
-    method = _resolve_method(robot, method, target.kind)
+    requested, method = method, _resolve_method(robot, method, target.kind)
+    if requested == "auto" and method == "analytic":
+        return _with_fallback(robot, solve_ik(robot, target.X_BE, seed, "analytic", target.kind), target, seed, options)
     options = {name: value for name, value in options.items() if name in OPTIONS[method]}
     if method == "analytic":
         from .analytic import solve_analytic
@@ -63,6 +65,18 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
                                      f"{', '.join(MATCHED_COMPONENTS[POSITION_AND_AXIS])} (target_kind='position+axis') "
                                      f"or {', '.join(MATCHED_COMPONENTS[POSITION_ONLY])} (target_kind='position')")
     return result
+
+
+def _with_fallback(robot, result: IkResult, target: IkTarget, seed: np.ndarray, options: dict) -> IkResult:
+    """``auto``: a closed-form failure (a shoulder singularity whose free q1 was not sampled well, a
+    numerical failure) is tried again by ``jacobian`` before it is reported; the closed form's reason
+    stays in the details (or, when both fail, in the reason)."""
+    if result.success:
+        return result
+    fallback = solve_ik(robot, target.X_BE, seed, "jacobian", target.kind, **options)
+    if fallback.success:
+        return dataclasses.replace(fallback, details={**fallback.details, "analytic_failed": result.reason})
+    return dataclasses.replace(result, reason=f"{result.reason}; jacobian: {fallback.reason}")
 
 
 def with_drake_model(robot, method: str, options: dict) -> dict:
@@ -95,9 +109,18 @@ def _resolve_method(robot, method: str, kind: str) -> str:
         raise ConfigurationError(f"unknown IK method {method!r}; choose one of {', '.join(METHODS)}")
     if method != "auto":
         return method
+    return "analytic" if kind == FULL_POSE and has_closed_form(robot) else "jacobian"
+
+
+def has_closed_form(robot) -> bool:
+    """Whether the closed form (``analytic``: our spherical-wrist solver, else EAIK's) solves this arm."""
     from .analytic import analytic_solver_for
 
-    return "analytic" if analytic_solver_for(robot).applicable and kind == FULL_POSE else "jacobian"
+    if analytic_solver_for(robot).applicable:
+        return True
+    from .subproblem import subproblem_solver_for
+
+    return subproblem_solver_for(robot).applicable
 
 
 def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_kind: str = FULL_POSE,
@@ -114,7 +137,11 @@ def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_
     if _resolve_method(robot, method, target_kind) == "analytic":
         from .analytic import solve_analytic_batch
 
-        return solve_analytic_batch(robot, X_targets, seeds, target_kind)
+        results = solve_analytic_batch(robot, X_targets, seeds, target_kind)
+        if method != "auto":
+            return results
+        return [_with_fallback(robot, result, target, seed, options)
+                for result, target, seed in zip(results, targets, seeds)]
     options = with_drake_model(robot, method, options)
     results = []
     with Progress(len(targets), f"IK {method} {robot.name}") as tick:

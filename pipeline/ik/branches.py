@@ -95,12 +95,11 @@ def why_not_on_branch(robot, X_target: np.ndarray, branch: str, seed: np.ndarray
     solver = analytic_solver_for(robot)
     if not solver.applicable or not branch:
         return "no in-limit solution on that branch was found"
-    branches = solve_branches(solver, np.asarray(X_target, dtype=float)[None], np.asarray(seed, dtype=float)[None])
-    on_branch = [b for b in range(branches.Q.shape[1])
-                 if branches.labels[0, b] == branch and branches.reachable[0, b]]
+    branches = solve_branches(robot, solver, np.asarray(X_target, dtype=float), np.asarray(seed, dtype=float))
+    on_branch = [b for b, label in enumerate(branches.labels) if label == branch and branches.reachable[b]]
     if not on_branch:
         return "the pose is out of reach on that branch"
     limits = robot.limits
-    j, value, _ = closest_limit_violation(robot, branches.Q[0, on_branch])
+    j, value, _ = closest_limit_violation(robot, branches.Q[on_branch])
     return (f"{robot.joint_names[j]} would be {np.degrees(value):.4g} deg there, outside its limits "
             f"[{np.degrees(limits.q_min[j]):.4g}, {np.degrees(limits.q_max[j]):.4g}] deg")

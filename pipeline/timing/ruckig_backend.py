@@ -6,8 +6,8 @@ sends ``intermediate_positions`` to a cloud service, so we never set them: every
 ``Ruckig(dof).calculate(InputParameter, Trajectory)`` call. Offline Ruckig ignores position limits
 (``min_position``/``max_position`` are used only by the cloud; "ErrorPositionalLimits ... only in
 Ruckig Pro"), so every segment's exact position extrema (``Trajectory.position_extrema``) are checked
-against q_min/q_max instead; velocity, acceleration and jerk limits hold by construction, and the
-returned samples are certified.
+against q_min/q_max instead (a continuous joint's -inf, +inf: Ruckig is never given position limits);
+velocity, acceleration and jerk limits hold by construction, and the returned samples are certified.
 """
 
 from __future__ import annotations

@@ -2,7 +2,8 @@
 
 The DH table comes from the joint axes at q = 0 (``dh_from_axes``); every sign is +1 and every offset
 is the joint value at the URDF's zero, so q is the URDF's own joint vector. Limits are copied
-(position, velocity; effort as ``tau_max`` when every joint has one and every link its inertia).
+(position, velocity; effort as ``tau_max`` when every joint has one and every link its inertia); a
+continuous joint becomes ``continuous: true``.
 Mass properties of the links welded to each moving link are summed into its DH frame. The robot-file
 document goes through the strict robot-file reader, and the imported FK is compared with the URDF's
 own chain on random configurations (``max_fk_error_m``), so an import never hands over a different
@@ -30,8 +31,6 @@ from .chain import SerialChain, serial_chain
 from .dh_from_axes import dh_from_axes
 from .reader import read_urdf
 
-#: A continuous URDF joint gets this range [rad] (a robot file needs one): one turn either way.
-CONTINUOUS_RANGE_RAD = 2.0 * math.pi
 #: Configurations on which the imported FK is compared with the URDF chain's, and the seed.
 CHECK_CONFIGURATIONS = 200
 CHECK_SEED = 0
@@ -53,12 +52,12 @@ class UrdfImport:
         return write_robot_file(self.document, path)
 
 
-def _limits(joint, source: str, assumptions: list[str]) -> tuple[float, float, float]:
-    """(q_min, q_max, qd_max) [rad or m] of a URDF joint; UrdfChainError naming it when absent."""
+def _limits(joint, source: str) -> tuple[float, float, float]:
+    """(q_min, q_max, qd_max) [rad or m] of a URDF joint (-inf, +inf for a continuous joint: a robot file's
+    ``continuous: true``); UrdfChainError naming it when absent."""
     field = f"joint[{joint.name}].limit"
     if joint.kind == "continuous":
-        assumptions.append(f"joint {joint.name} is continuous in the URDF: limited to +-360 deg here")
-        lower, upper = -CONTINUOUS_RANGE_RAD, CONTINUOUS_RANGE_RAD
+        lower, upper = -math.inf, math.inf
     else:
         lower, upper = joint.lower or 0.0, joint.upper or 0.0
         if not lower < upper:
@@ -132,7 +131,7 @@ def import_urdf(path: str | Path, base: str | None = None, tip: str | None = Non
     joints = []
     for chain_joint, row in zip(chain.joints, geometry.rows):
         joint = chain_joint.joint
-        q_min, q_max, qd_max = _limits(joint, model.source, assumptions)
+        q_min, q_max, qd_max = _limits(joint, model.source)
         joints.append(DhJoint(name=joint.name, kind="prismatic" if joint.kind == "prismatic" else "revolute",
                               a=row.a, alpha=row.alpha, d=row.d, theta_offset=row.theta_offset, sign=1.0,
                               q_min=q_min, q_max=q_max, qd_max=qd_max, qdd_max=None, qddd_max=None, inertia=None))

@@ -5,7 +5,8 @@ DH frames of the chain, which lie on their own joint's axis: link_i is frame i o
 (for a standard table, the same chain rewritten by ``standard_to_modified``; its frame i is then the
 standard frame i moved back along the common normal). The joints keep the robot file's names, zero
 and positive direction (axis ``0 0 sign``), position and velocity limits, and ``tau_max`` as effort
-(0, as ROS-Industrial packages write it, where the file gives none). Visual and collision shapes are
+(0, as ROS-Industrial packages write it, where the file gives none); a continuous joint is
+``type="continuous"``, its ``<limit>`` without lower and upper. Visual and collision shapes are
 the cylinders and spheres of the stick figure (``pipeline.geometry``); inertias are written where the
 robot file has them. Acceleration and jerk limits have no place in URDF: a comment lists them.
 """
@@ -22,7 +23,7 @@ from ..geometry import compute_link_polylines, visual_radius
 from ..io import write_text_atomic
 from ..kinematics import DhKinematics
 from ..poses import rotation_to_rpy
-from ..robot_spec import RobotSpec
+from ..robot_spec import DhJoint, RobotSpec
 from .chain import ROS_BASE_LINK, ROS_TIP_LINK
 
 #: Segments shorter than this get no cylinder [m].
@@ -110,19 +111,26 @@ def urdf_text(spec: RobotSpec) -> str:
             _inertial(link, spec.joints[i - 1].inertia, X_inv @ X_BD[i])
     ET.SubElement(root, "link", name=ROS_TIP_LINK)
     for i, joint in enumerate(spec.joints, start=1):
-        element = ET.SubElement(root, "joint", name=joint.name, type=joint.kind)
+        kind = "continuous" if joint.is_continuous else joint.kind
+        element = ET.SubElement(root, "joint", name=joint.name, type=kind)
         ET.SubElement(element, "parent", link=names[i - 1])
         ET.SubElement(element, "child", link=names[i])
         _origin(element, np.linalg.inv(frames[i - 1]) @ frames[i])
         ET.SubElement(element, "axis", xyz=_numbers([0.0, 0.0, joint.sign]))
-        ET.SubElement(element, "limit", lower=_number(joint.q_min), upper=_number(joint.q_max),
-                      effort=_number(joint.tau_max or 0.0), velocity=_number(joint.qd_max))
+        ET.SubElement(element, "limit", attrib=_limit(joint))
     tool = ET.SubElement(root, "joint", name=f"{spec.joints[-1].name}-{ROS_TIP_LINK}", type="fixed")
     ET.SubElement(tool, "parent", link=names[-1])
     ET.SubElement(tool, "child", link=ROS_TIP_LINK)
     _origin(tool, np.linalg.inv(frames[-1]) @ X_BL[-1])
     ET.indent(root, space="  ")
     return f'<?xml version="1.0"?>\n{_comment(spec)}\n{ET.tostring(root, encoding="unicode")}\n'
+
+
+def _limit(joint: DhJoint) -> dict[str, str]:
+    """The attributes of a joint's ``<limit>``: lower and upper (none for a continuous joint), effort and
+    velocity [SI]."""
+    bounds = {} if joint.is_continuous else {"lower": _number(joint.q_min), "upper": _number(joint.q_max)}
+    return {**bounds, "effort": _number(joint.tau_max or 0.0), "velocity": _number(joint.qd_max)}
 
 
 def _comment(spec: RobotSpec) -> str:
