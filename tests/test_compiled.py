@@ -189,3 +189,16 @@ def test_very_wide_limits_give_one_representative_and_bounded_memory():
     assert result.success and len(result.solutions) <= 8 and peak < 5e6
     assert np.abs(result.q - (q + 2.0 * np.pi * np.array([3, 0, -2, 5, 1, -7]))).max() < 1e-6
     assert result.details["variants"][0] > 1e30
+
+
+def test_ik_without_a_seed_works_with_continuous_joints():
+    """The default seed is the middle of each range, 0 for a continuous joint (not inf - inf)."""
+    robot = load_robot("arm6")
+    joints = tuple(dataclasses.replace(j, q_min=-np.inf, q_max=np.inf) if i in (3, 5) else j
+                   for i, j in enumerate(robot.spec.joints))
+    endless = Robot(dataclasses.replace(robot.spec, joints=joints))
+    X = endless.fk(np.array([0.3, -0.4, 0.5, 0.6, 0.7, 0.8]))
+    for method in ("analytic", "jacobian", "auto"):
+        result = endless.ik(X, method=method)
+        assert result.success, (method, result.reason)
+        assert np.all(np.isfinite(result.q))

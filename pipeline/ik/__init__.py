@@ -98,9 +98,8 @@ def _check_options(options: dict) -> None:
 
 
 def _seed(robot, q_seed) -> np.ndarray:
-    """The seed as a checked configuration; default the middle of the joint ranges."""
-    limits = robot.limits
-    return (limits.q_min + limits.q_max) / 2.0 if q_seed is None else robot.as_configuration(q_seed)
+    """The seed as a checked configuration; default the middle of the joint ranges (0 for a continuous joint)."""
+    return robot.limits.q_middle if q_seed is None else robot.as_configuration(q_seed)
 
 
 def _resolve_method(robot, method: str, kind: str) -> str:
