@@ -31,6 +31,12 @@ def pack_chain(P: np.ndarray, C: np.ndarray, S: np.ndarray, V: np.ndarray, K0: n
 
 
 @njit(cache=True)
+def cross(a, b):
+    """a x b of two 3-vectors."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@njit(cache=True)
 def _check(q, dof):
     if q.shape[0] != dof:
         raise ValueError("wrong number of joint values")

@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import _end_pose
+from ..compiled import _end_pose, cross
 from .result import POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
@@ -71,15 +71,10 @@ def _mv(A, v):
 
 
 @njit(cache=True)
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-@njit(cache=True)
 def _rotate(w, angle, v):
     """Rodrigues: v rotated about the unit axis w by angle [rad]."""
-    wv = _cross(w, v)
-    return v + math.sin(angle) * wv + (1.0 - math.cos(angle)) * _cross(w, wv)
+    wv = cross(w, v)
+    return v + math.sin(angle) * wv + (1.0 - math.cos(angle)) * cross(w, wv)
 
 
 @njit(cache=True)
@@ -93,7 +88,7 @@ def _matrix(w, angle):
 @njit(cache=True)
 def _angle(w, u, v):
     """Subproblem 1: the rotation about w taking u's projection onto v's [rad]."""
-    return math.atan2(_dot(w, _cross(u, v)), _dot(u, v) - _dot(u, w) * _dot(v, w))
+    return math.atan2(_dot(w, cross(u, v)), _dot(u, v) - _dot(u, w) * _dot(v, w))
 
 
 @njit(cache=True)
@@ -146,7 +141,7 @@ def _q1_values(w, r, c, p_wrist, seed1, q1_min, q1_max):
     over the limits; and whether the wrist centre is within reach of axis 2's circle."""
     w1, w2 = w[0], w[1]
     v = p_wrist - r[0]
-    A, B = _dot(v, w2 - w1 * _dot(w1, w2)), _dot(v, _cross(w1, w2))
+    A, B = _dot(v, w2 - w1 * _dot(w1, w2)), _dot(v, cross(w1, w2))
     C = _dot(w2, c - r[1]) - _dot(r[0] - r[1], w2) - _dot(v, w1) * _dot(w1, w2)
     rho = math.hypot(A, B)
     if rho < SINGULAR_TOLERANCE:
@@ -172,10 +167,10 @@ def raw_branches(w, r, c, X0, X, seed, q1_min, q1_max):
     w3, w4, w5, w6 = w[2], w[3], w[4], w[5]
     u, vv = c - r[2], r[1] - r[2]
     u_p, v_p = u - w3 * _dot(w3, u), vv - w3 * _dot(w3, vv)
-    theta0 = math.atan2(_dot(w3, _cross(u_p, v_p)), _dot(u_p, v_p))
+    theta0 = math.atan2(_dot(w3, cross(u_p, v_p)), _dot(u_p, v_p))
     c45 = _dot(w4, w5)
-    n45 = _cross(w4, w5)
-    n6 = _cross(w6, np.array([1.0, 0.0, 0.0]) if abs(w6[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+    n45 = cross(w4, w5)
+    n6 = cross(w6, np.array([1.0, 0.0, 0.0]) if abs(w6[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
     n6 = n6 / math.sqrt(_dot(n6, n6))
     for i in range(q1s.size):
         q1 = q1s[i]
@@ -193,7 +188,7 @@ def raw_branches(w, r, c, X0, X, seed, q1_min, q1_max):
             alpha = (c45 * _dot(w5, w6) - _dot(d, w4)) / (c45 ** 2 - 1.0)
             beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
             gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / _dot(n45, n45), 0.0))
-            singular = math.sqrt(_dot(_cross(w4, d), _cross(w4, d))) < SINGULAR_TOLERANCE
+            singular = math.sqrt(_dot(cross(w4, d), cross(w4, d))) < SINGULAR_TOLERANCE
             for f in range(2):
                 z = alpha * w4 + beta * w5 + (gamma if f == 0 else -gamma) * n45
                 q4 = seed[3] if singular else _angle(w4, z, d)

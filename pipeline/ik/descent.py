@@ -13,7 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import _jacobian_into
+from ..compiled import _jacobian_into, cross
 
 #: Newton iterations stop once the error is this small (well inside the strict 1e-6 test) [m, rad].
 CONVERGED = 1e-10
@@ -52,11 +52,6 @@ def _rotation_log(R):
 
 
 @njit(cache=True)
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-@njit(cache=True)
 def residual(X, J, X_target, kind, e, A):
     """Fill e (rows,) with the error the target asks for (base frame) and A (rows, dof) with the
     matching Jacobian rows; returns the number of rows (6, 5 or 3)."""
@@ -74,10 +69,10 @@ def residual(X, J, X_target, kind, e, A):
     if kind == POSITION_AND_AXIS:
         z, z_target = X[:3, 2].copy(), X_target[:3, 2].copy()
         helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        b1 = _cross(z, helper)
+        b1 = cross(z, helper)
         b1 /= math.sqrt(b1 @ b1)
-        b2 = _cross(z, b1)
-        axis = _cross(z, z_target)
+        b2 = cross(z, b1)
+        axis = cross(z, z_target)
         norm = math.sqrt(axis @ axis)
         angle = math.atan2(norm, z @ z_target)
         e_axis = axis * (angle / norm) if norm > 1e-12 else b1 * angle     # parallel (0) or opposite (pi)
