@@ -19,9 +19,11 @@ from .errors import ConfigurationError
 ROTATION_TOLERANCE = 1e-6
 
 
-def check_pose(X, what: str = "pose") -> np.ndarray:
-    """Validate a homogeneous transform (4, 4): finite, a proper rotation, last row [0 0 0 1]."""
-    if type(X) is np.ndarray and X.dtype == np.float64 and X.shape == (4, 4) and is_pose(X, ROTATION_TOLERANCE):
+def check_pose(X, what: str = "pose", max_position: float = math.inf) -> np.ndarray:
+    """Validate a homogeneous transform (4, 4): finite, a proper rotation, last row [0 0 0 1], and no
+    position coordinate beyond ``max_position`` [m]."""
+    if type(X) is np.ndarray and X.dtype == np.float64 and X.shape == (4, 4) and \
+            is_pose(X, ROTATION_TOLERANCE, max_position):
         return X                                     # the compiled check passed: no error to word
     X = float_array(X, what, (4, 4))
     R = X[:3, :3]
@@ -30,6 +32,9 @@ def check_pose(X, what: str = "pose") -> np.ndarray:
         raise ConfigurationError(f"{what}: the 3x3 block is not a rotation matrix (R^T R != I or det < 0)")
     if np.abs(X[3] - [0.0, 0.0, 0.0, 1.0]).max() > 0.0:
         raise ConfigurationError(f"{what}: last row must be [0, 0, 0, 1], got {X[3]}")
+    if np.abs(X[:3, 3]).max() > max_position:
+        raise ConfigurationError(f"{what}: position {X[:3, 3]} is beyond {max_position:g} m: no arm reaches it "
+                                 "(are the units metres?)")
     return X
 
 

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 
 from . import compiled
-from .errors import ConfigurationError
 from .kinematics import DhKinematics
 from .robot_spec import Limits, RobotSpec, load_robot_spec
 
@@ -27,49 +26,69 @@ class Robot(DhKinematics):
         self.name = spec.name
         self._chain, self._axes = compiled.pack_chain(self._P, self._C, self._S, self._V, self._K0, self._sign,
                                                       self._revolute)
+        #: q_min and q_max (2, dof) [rad or m] as the closed-form kernels take them.
+        self._limit_rows = np.ascontiguousarray(np.vstack([spec.limits.q_min, spec.limits.q_max]))
 
-    # -- the compiled core: float64 arrays go straight in; anything else, or a kernel's ValueError,
-    # -- gets the typed check of DhKinematics -------------------------------------------------------
-    def _vector(self, q) -> np.ndarray:
-        return q if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 else self.as_configuration(q)
+    # -- the compiled core: C-contiguous float64 arrays go straight in; anything else (the kernel's
+    # -- TypeError or ValueError) is checked by DhKinematics for the typed error, or converted --------
+    def as_configuration(self, q) -> np.ndarray:
+        """Validate one joint vector -> float array (dof,) [rad or m]; a C-contiguous float64 array the
+        compiled check passes is returned as it is."""
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and q.flags.c_contiguous:
+            try:
+                compiled.check_configuration(q, self.dof)
+                return q
+            except ValueError:
+                pass                                  # DhKinematics words the error
+        return super().as_configuration(q)
 
-    def _batch(self, Q) -> np.ndarray:
-        return Q if type(Q) is np.ndarray and Q.dtype == np.float64 and Q.ndim == 2 else self.as_batch(Q)
-
-    def _refused(self, q, batch: bool = False) -> ConfigurationError:
-        """The typed error for an input a kernel refused (raised by the NumPy check itself)."""
-        (self.as_batch if batch else self.as_configuration)(q)
-        return ConfigurationError(f"{self.name}: the compiled kinematics refused q of shape {np.shape(q)}")
+    def _checked(self, q, batch: bool = False) -> np.ndarray:
+        """q as the kernels take it (a C-contiguous float64 copy), or the typed error that names it."""
+        return np.array(self.as_batch(q) if batch else self.as_configuration(q), dtype=np.float64, order="C")
 
     def fk(self, q) -> np.ndarray:
+        X = np.empty((4, 4))
         try:
-            return compiled.fk(self._chain, self._vector(q))
-        except ValueError:
-            raise self._refused(q) from None
+            compiled.fk_into(self._chain, q, X)
+        except (TypeError, ValueError):
+            compiled.fk_into(self._chain, self._checked(q), X)
+        return X
 
     def fk_batch(self, Q) -> np.ndarray:
         try:
-            return compiled.fk_batch(self._chain, self._batch(Q))
-        except ValueError:
-            raise self._refused(Q, batch=True) from None
+            out = np.empty((len(Q), 4, 4))
+            compiled.fk_batch_into(self._chain, Q, out)
+        except (TypeError, ValueError):
+            Q = self._checked(Q, batch=True)
+            out = np.empty((len(Q), 4, 4))
+            compiled.fk_batch_into(self._chain, Q, out)
+        return out
 
     def jacobian(self, q) -> np.ndarray:
+        J = np.empty((6, self.dof))
         try:
-            return compiled.jacobian(self._chain, self._axes, self._vector(q))
-        except ValueError:
-            raise self._refused(q) from None
+            compiled.jacobian_into(self._chain, self._axes, q, J)
+        except (TypeError, ValueError):
+            compiled.jacobian_into(self._chain, self._axes, self._checked(q), J)
+        return J
 
     def jacobian_batch(self, Q) -> np.ndarray:
         try:
-            return compiled.jacobian_batch(self._chain, self._axes, self._batch(Q))
-        except ValueError:
-            raise self._refused(Q, batch=True) from None
+            out = np.empty((len(Q), 6, self.dof))
+            compiled.jacobian_batch_into(self._chain, self._axes, Q, out)
+        except (TypeError, ValueError):
+            Q = self._checked(Q, batch=True)
+            out = np.empty((len(Q), 6, self.dof))
+            compiled.jacobian_batch_into(self._chain, self._axes, Q, out)
+        return out
 
     def fk_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        X, J = np.empty((4, 4)), np.empty((6, self.dof))
         try:
-            return compiled.fk_and_jacobian(self._chain, self._axes, self._vector(q))
-        except ValueError:
-            raise self._refused(q) from None
+            compiled.fk_and_jacobian_into(self._chain, self._axes, q, X, J)
+        except (TypeError, ValueError):
+            compiled.fk_and_jacobian_into(self._chain, self._axes, self._checked(q), X, J)
+        return X, J
 
     @property
     def limits(self) -> Limits:

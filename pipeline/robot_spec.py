@@ -99,6 +99,10 @@ class Limits:
     @property
     def q_middle(self) -> np.ndarray:
         """(dof,) the middle of each joint's range [rad or m]; 0 for a continuous joint, which has none."""
+        return self._middle.copy()
+
+    @cached_property
+    def _middle(self) -> np.ndarray:
         continuous = self.continuous
         return (np.where(continuous, 0.0, self.q_min) + np.where(continuous, 0.0, self.q_max)) / 2.0
 

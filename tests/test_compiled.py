@@ -129,7 +129,7 @@ def shoulder_singular_configuration(robot):
 
     def reach(q3):
         X = robot.fk(np.array([2.0, -1.5, q3, 0.0, 1.0, 0.0]))
-        return closed_form.wrist_centre(solver.wrist_centre, solver.X_BE0, X)[:2] @ [np.cos(2.0), np.sin(2.0)]
+        return np.array(closed_form.wrist_centre(solver.geometry, X))[:2] @ [np.cos(2.0), np.sin(2.0)]
 
     return np.array([2.0, -1.5, brentq(reach, -2.0, -1.2), 0.0, 1.0, 0.0])
 

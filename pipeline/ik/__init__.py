@@ -13,11 +13,10 @@ import dataclasses
 import numpy as np
 
 from ..choices import IK_METHODS
-from ..arrays import float_array
 from ..errors import ConfigurationError
 from ..progress import Progress
 from .result import (FULL_POSE, MATCHED_COMPONENTS, POSITION_AND_AXIS, POSITION_ONLY, IkResult, IkTarget, Solution,
-                     make_target)
+                     check_targets, make_target)
 
 METHODS = IK_METHODS
 #: The options each method takes (``solve_jacobian``, ``solve_drake``); a call may give any of them.
@@ -36,29 +35,12 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     """
     target = make_target(X_target, target_kind)
     seed = _seed(robot, q_seed)
-    _check_options(options)
-    requested, method = method, _resolve_method(robot, method, target.kind)
-    if requested == "auto" and method == "analytic":
-        return _with_fallback(robot, solve_ik(robot, target.X_BE, seed, "analytic", target.kind), target, seed, options)
-    options = {name: value for name, value in options.items() if name in OPTIONS[method]}
-    if method == "analytic":
-        from .analytic import solve_analytic
-
-        result = solve_analytic(robot, target, seed)
-    elif method == "jacobian":
-        from .jacobian import solve_jacobian
-
-        result = solve_jacobian(robot, target, seed, **options)
-    else:
-        from .drake_ik import solve_drake
-
-        result = solve_drake(robot, target, seed, **options)
-    if method != "analytic" and result.solutions:
-        from .branches import configuration_labels
-
-        labels = configuration_labels(robot, np.array([s.q for s in result.solutions]))
-        result = dataclasses.replace(result, solutions=tuple(s._replace(branch=label)
-                                                             for s, label in zip(result.solutions, labels)))
+    if options:
+        _check_options(options)
+    resolved = _resolve_method(robot, method, target.kind)
+    result = _solve(robot, target, seed, resolved, options)
+    if method == "auto" and resolved == "analytic":
+        result = _with_fallback(robot, result, target, seed, options)
     if not result.success and robot.dof < 6 and target.kind == FULL_POSE:
         result = dataclasses.replace(result, reason=f"{result.reason}; {robot.name} has {robot.dof} joints and cannot "
                                      "match a full pose (6 components) in general: ask for "
@@ -67,13 +49,29 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     return result
 
 
+def _solve(robot, target: IkTarget, seed: np.ndarray, method: str, options: dict) -> IkResult:
+    """One method on a checked target and seed."""
+    if method == "analytic":
+        from .analytic import solve_analytic
+
+        return solve_analytic(robot, target, seed)
+    options = {name: value for name, value in options.items() if name in OPTIONS[method]}
+    if method == "jacobian":
+        from .jacobian import solve_jacobian
+
+        return solve_jacobian(robot, target, seed, **options)
+    from .drake_ik import solve_drake
+
+    return solve_drake(robot, target, seed, **options)
+
+
 def _with_fallback(robot, result: IkResult, target: IkTarget, seed: np.ndarray, options: dict) -> IkResult:
     """``auto``: a closed-form failure (a shoulder singularity whose free q1 was not sampled well, a
     numerical failure) is tried again by ``jacobian`` before it is reported; the closed form's reason
     stays in the details (or, when both fail, in the reason)."""
     if result.success:
         return result
-    fallback = solve_ik(robot, target.X_BE, seed, "jacobian", target.kind, **options)
+    fallback = _solve(robot, target, seed, "jacobian", options)
     if fallback.success:
         return dataclasses.replace(fallback, details={**fallback.details, "analytic_failed": result.reason})
     return dataclasses.replace(result, reason=f"{result.reason}; jacobian: {fallback.reason}")
@@ -125,27 +123,29 @@ def has_closed_form(robot) -> bool:
 def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_kind: str = FULL_POSE,
                    **options) -> list[IkResult]:
     """IK for N targets (N, 4, 4); ``q_seeds`` (N, dof), (dof,) or None. The closed form is vectorised."""
-    X_targets = float_array(X_targets, "IK targets", (None, 4, 4))
-    targets = [make_target(X, target_kind) for X in X_targets]
+    X_targets = check_targets(X_targets, target_kind)
     if q_seeds is None or np.ndim(q_seeds) == 1:
-        seeds = np.tile(_seed(robot, q_seeds), (len(targets), 1))
+        seeds = np.tile(_seed(robot, q_seeds), (len(X_targets), 1))
     else:
         seeds = robot.as_batch(q_seeds)
-        if len(seeds) != len(targets):
-            raise ConfigurationError(f"{len(targets)} targets but {len(seeds)} seeds")
-    if _resolve_method(robot, method, target_kind) == "analytic":
+        if len(seeds) != len(X_targets):
+            raise ConfigurationError(f"{len(X_targets)} targets but {len(seeds)} seeds")
+    if options:
+        _check_options(options)
+    resolved = _resolve_method(robot, method, target_kind)
+    if resolved == "analytic":
         from .analytic import solve_analytic_batch
 
         results = solve_analytic_batch(robot, X_targets, seeds, target_kind)
         if method != "auto":
             return results
-        return [_with_fallback(robot, result, target, seed, options)
-                for result, target, seed in zip(results, targets, seeds)]
+        return [_with_fallback(robot, result, IkTarget(X, target_kind), seed, options)
+                for result, X, seed in zip(results, X_targets, seeds)]
     options = with_drake_model(robot, method, options)
     results = []
-    with Progress(len(targets), f"IK {method} {robot.name}") as tick:
-        for target, seed in zip(targets, seeds):
-            results.append(solve_ik(robot, target.X_BE, seed, method, target_kind, **options))
+    with Progress(len(X_targets), f"IK {method} {robot.name}") as tick:
+        for X, seed in zip(X_targets, seeds):
+            results.append(solve_ik(robot, X, seed, method, target_kind, **options))
             tick()
     return results
 

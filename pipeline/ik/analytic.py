@@ -9,13 +9,14 @@ an arm does not fit it) and turns the solver's arrays into IkResults with named 
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import closed_form
-from .result import FULL_POSE, TWO_PI, IkResult, IkTarget, Solution, pose_errors
+from .result import FULL_POSE, TWO_PI, IkResult, IkTarget, Solutions, pose_errors
 
 #: Axes closer than this [m] meet; directions closer than this [1] are parallel.
 GEOMETRY_TOLERANCE = 1e-9
@@ -51,7 +52,8 @@ class AnalyticSolver:
     """The closed-form solver of one robot, or why the robot does not fit it (``applicable`` False).
 
     ``axes`` (6, 3) unit joint axes and ``points`` (6, 3) points on them at q = 0, base frame [m];
-    ``wrist_centre`` c at q = 0; ``X_BE0`` the end pose at q = 0.
+    ``wrist_centre`` c at q = 0; ``X_BE0`` the end pose at q = 0; ``geometry`` all of them packed for
+    the kernels (``closed_form``'s layout).
     """
 
     applicable: bool
@@ -60,6 +62,7 @@ class AnalyticSolver:
     points: np.ndarray | None = None
     wrist_centre: np.ndarray | None = None
     X_BE0: np.ndarray | None = None
+    geometry: np.ndarray | None = None
 
 
 _SOLVERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -93,7 +96,8 @@ def _derive_solver(robot) -> AnalyticSolver:
         return AnalyticSolver(False, f"{spec.name}: axes 2 and 3 are not parallel")
     if np.linalg.norm(_cross(axes[0], axes[1])) < GEOMETRY_TOLERANCE:
         return AnalyticSolver(False, f"{spec.name}: axes 1 and 2 are parallel")
-    return AnalyticSolver(True, "", axes, points, centre, X_BE0)
+    geometry = np.vstack([axes, points, centre, X_BE0[:3, :3], X_BE0[:3, 3]])
+    return AnalyticSolver(True, "", axes, points, centre, X_BE0, np.ascontiguousarray(geometry))
 
 
 #: Branch names by label code (closed_form's FRONT | UP | FLIP bits).
@@ -113,27 +117,44 @@ class BranchSolutions:
 
 def solve_branches(robot, solver: AnalyticSolver, X_target: np.ndarray, seed: np.ndarray) -> BranchSolutions:
     """Every closed-form branch of one target X (4, 4) [m], in limits or not; the seed breaks singular ties."""
-    Q, reachable = closed_form.raw_branches(solver.axes, solver.points, solver.wrist_centre, solver.X_BE0,
-                                            X_target, seed, robot.limits.q_min[0], robot.limits.q_max[0])
-    p_wrist = closed_form.wrist_centre(solver.wrist_centre, solver.X_BE0, X_target)
-    return BranchSolutions(Q, reachable, tuple(_label(solver, p_wrist, q) for q in Q))
-
-
-def _label(solver: AnalyticSolver, p_wrist: np.ndarray, q: np.ndarray) -> str:
-    return LABELS[closed_form.label_code(solver.axes, solver.points, solver.wrist_centre, p_wrist, q)]
+    Q, reachable = closed_form.raw_branches(solver.geometry, X_target, seed, robot.limits.q_min[0],
+                                            robot.limits.q_max[0])
+    return BranchSolutions(Q, reachable, tuple(configuration_labels_of(robot, solver, Q)))
 
 
 def configuration_labels_of(robot, solver: AnalyticSolver, Q: np.ndarray) -> list[str]:
     """The branch label of each configuration Q (N, 6) of a robot the closed form fits (from any IK
     method): its wrist centre by our FK, then ``closed_form.label_code``."""
     Q = np.ascontiguousarray(Q, dtype=float)
-    return [_label(solver, closed_form.wrist_centre(solver.wrist_centre, solver.X_BE0, X), closed_form.wrap_all(q))
-            for X, q in zip(robot.fk_batch(Q), Q)]
+    codes = np.empty(len(Q), dtype=np.int64)
+    closed_form.label_codes(solver.geometry, robot._chain, Q, codes)
+    return [LABELS[code] for code in codes.tolist()]
 
 
 def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
     """Closed-form IK of one target: every in-limit branch, verified by our FK, nearest the seed first."""
-    return solve_analytic_batch(robot, target.X_BE[None], q_seed[None], target.kind)[0]
+    solver = analytic_solver_for(robot)
+    if not solver.applicable or target.kind != FULL_POSE:
+        return solve_analytic_batch(robot, target.X_BE[None], q_seed[None], target.kind)[0]
+    X, seed = _for_kernel(target.X_BE), _for_kernel(q_seed)
+    out, info = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS)), np.empty(closed_form.INFO)
+    closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out, info)
+    if info[closed_form.COUNT] > SINGLE_CAPACITY:
+        out = np.empty((int(info[closed_form.COUNT]), closed_form.SOLUTION_COLUMNS))
+        closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out, info)
+    return _result(robot, out, info, X)
+
+
+def _for_kernel(array: np.ndarray) -> np.ndarray:
+    """The array as the kernels take it: C-contiguous, writable float64 (a copy only when it is not)."""
+    if array.dtype == np.float64 and array.flags.c_contiguous and array.flags.writeable:
+        return array
+    return np.array(array, dtype=np.float64, order="C")
+
+
+#: Rows of the solution buffer of one target: enough for every branch and its 2 pi variants on most
+#: arms (a call that finds more is repeated with a buffer that holds them all).
+SINGLE_CAPACITY, BATCH_CAPACITY = 64, 32
 
 
 def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: str = FULL_POSE) -> list[IkResult]:
@@ -148,25 +169,34 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
     if not solver.applicable or kind != FULL_POSE:
         reason = solver.reason or f"the closed form solves full poses only, not {kind!r} targets"
         return [_failure(robot, X_targets[i], seeds[i], reason) for i in range(X_targets.shape[0])]
-    limits = robot.limits
-    geometry = (solver.axes, solver.points, solver.wrist_centre, solver.X_BE0, robot._chain, limits.q_min,
-                limits.q_max)
-    return [_result(robot, *closed_form.solve_one(*geometry, np.ascontiguousarray(X), np.ascontiguousarray(seed)), X)
-            for X, seed in zip(X_targets, seeds)]
+    X_targets, seeds = _for_kernel(X_targets), _for_kernel(seeds)
+    out = np.empty((len(X_targets), BATCH_CAPACITY, closed_form.SOLUTION_COLUMNS))
+    info = np.empty((len(X_targets), closed_form.INFO))
+    closed_form.solve_batch(solver.geometry, robot._chain, robot._limit_rows, X_targets, seeds, out, info)
+    results = []
+    for n, X in enumerate(X_targets):
+        if info[n, closed_form.COUNT] > BATCH_CAPACITY:
+            results.append(solve_analytic(robot, IkTarget(X), seeds[n]))
+        else:
+            results.append(_result(robot, out[n], info[n], X))
+    return results
 
 
-def _result(robot, Q, errors, codes, variants, info, raw, X_target) -> IkResult:
-    """An IkResult from ``closed_form.solve_one``'s arrays."""
+def _result(robot, out: np.ndarray, info: np.ndarray, X_target: np.ndarray) -> IkResult:
+    """An IkResult from a closed-form kernel's ``out`` and ``info`` of one target."""
+    count = int(info[closed_form.COUNT])
     details = {"branches_reachable": int(info[closed_form.REACHABLE])}
-    if len(Q) == 0:
-        q = raw[int(info[closed_form.BEST_RAW])]
+    if count == 0:
+        q = out[0, :6].copy()
         position_error, rotation_error = pose_errors(robot.fk(q), IkTarget(X_target))
         return IkResult(False, q, position_error, rotation_error, 1, "analytic", _failure_reason(robot, info), (),
                         details=details)
-    errors, labels = errors.tolist(), [LABELS[code] for code in codes.tolist()]
-    found = tuple(Solution(q, e[0], e[1], label) for q, e, label in zip(Q, errors, labels))
-    details.update(branch=labels[0], variants=[None if np.isinf(v) else v for v in variants.tolist()])
-    return IkResult(True, Q[0], errors[0][0], errors[0][1], 1, "analytic", "", found, details=details)
+    rows = out[:count, :closed_form.VARIANTS].copy()
+    variants = out[:count, closed_form.VARIANTS].tolist()
+    details.update(branch=LABELS[int(rows[0, closed_form.CODE])],
+                   variants=[None if math.isinf(v) else v for v in variants])
+    return IkResult(True, rows[0, :6], rows[0, closed_form.POSITION_ERROR], rows[0, closed_form.ROTATION_ERROR], 1,
+                    "analytic", "", Solutions(rows, LABELS), details=details)
 
 
 def _failure_reason(robot, info: np.ndarray) -> str:

@@ -1,9 +1,9 @@
 """Compiled (Numba) closed-form IK of 6R arms with a spherical wrist: every branch, its 2 pi variants
-inside the limits, each verified by the compiled FK, nearest the seed first.
+inside the limits, verified by the compiled FK, nearest the seed first.
 
 The method (``pipeline.ik.analytic`` derives the geometry and builds the results): the joint screws
-at q = 0 (unit axes ``w`` (6, 3) and points ``r`` (6, 3) on them, base frame [m]), the wrist centre
-``c`` and the end pose ``X0`` at q = 0; Paden-Kahan subproblems then give
+at q = 0 (unit axes ``w`` and points ``r`` on them, base frame [m]), the wrist centre ``c`` and the
+end pose ``X0`` at q = 0; Paden-Kahan subproblems then give
 
 1. q1 from the wrist centre (two roots: shoulder front/back);
 2. q3 from its distance to axis 2 (subproblem 3, two roots: elbow up/down), then q2 (subproblem 1);
@@ -13,9 +13,19 @@ At a wrist singularity (axes 4 and 6 aligned) only q4 +- q6 is fixed: the split 
 returned. At a shoulder singularity (the wrist centre on axis 1) q1 is free: the seed's q1 and
 SHOULDER_SAMPLES values spread over q1's limits are tried, each with its four arm/wrist branches.
 
-Limits are inclusive: a value within LIMIT_SLACK outside a limit is put on it. A joint whose range
-spans more than WIDE_RANGE, four turns (or is continuous), gets one 2 pi variant, the one nearest the seed, and
-the number of variants it has is counted rather than enumerated; narrower joints get every variant.
+Every branch is verified by the compiled FK. Its 2 pi variants are the same pose (their errors are the
+branch's); a variant with a value on a limit is verified again, as that value may have been moved
+there. Limits are inclusive: a value within LIMIT_SLACK outside a limit is put on it. A joint whose range
+spans more than WIDE_RANGE, four turns (or is continuous), gets one 2 pi variant, the one nearest the
+seed, and the number of variants it has is counted rather than enumerated; narrower joints get every
+variant.
+
+Layouts: ``geometry`` (GEOMETRY_ROWS, 3) holds w (rows AXES), r (rows POINTS), c (row CENTRE) and X0
+(its rotation in rows R0, its position in row P0); ``limits`` (2, 6) holds q_min and q_max [rad]. The
+solvers write each target's solutions into ``out`` (capacity, SOLUTION_COLUMNS): q (6), position and
+rotation errors [m, rad], label code, number of 2 pi variants (inf: continuous joint); and its numbers
+into ``info`` (INFO,). Vectors and rotations are tuples inside the kernels: nothing is allocated per
+branch.
 """
 
 from __future__ import annotations
@@ -25,7 +35,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import _end_pose, cross
+from ..compiled import POSE, cross, end_pose, pose_errors
 from .result import POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
@@ -42,12 +52,45 @@ SHOULDER_SAMPLES = 12
 DUPLICATE_TOLERANCE = 1e-6
 #: Label bits of a branch: shoulder front, elbow up, wrist flip.
 FRONT, UP, FLIP = 1, 2, 4
-#: Per-target numbers ``solve_batch`` returns in ``info`` (N, INFO): branches that reach the wrist
-#: centre, branches verified by FK, the joint and amount [rad or m] of the smallest limit violation of
-#: a verified branch (-1, 0 when none), the index into ``raw`` of the branch to report on failure.
-REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION, BEST_RAW = range(5)
+#: Rows of ``geometry``.
+AXES, POINTS, CENTRE, R0, P0 = 0, 6, 12, 13, 16
+GEOMETRY_ROWS = 17
+#: Columns of ``out``: joint values, errors, label code, variant count.
+Q_COLUMNS, POSITION_ERROR, ROTATION_ERROR, CODE, VARIANTS = slice(0, 6), 6, 7, 8, 9
+SOLUTION_COLUMNS = 10
+#: Entries of ``info``: solutions written (more than ``out`` holds: call again with this capacity),
+#: branches that reach the wrist centre, branches verified by FK, the joint and amount [rad] of the
+#: smallest limit violation of a verified branch (-1, 0 when none). With no solution, ``out[0, :6]``
+#: holds the branch nearest to the target (by FK error), to report on.
+COUNT, REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION = range(5)
 INFO = 5
 TWO_PI = 2.0 * math.pi
+
+_SOLVE_SIGNATURE = "void(float64[:, ::1], float64[:, :, :, ::1], float64[:, ::1], float64[:, ::1], float64[::1], " \
+                   "float64[:, ::1], float64[::1])"
+_BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, :, :, ::1], float64[:, ::1], float64[:, :, ::1], " \
+                   "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
+
+
+# -- 3-vectors and rotations (row-major 9-tuples) --------------------------------------------------------
+@njit(cache=True)
+def _row(A, i):
+    return (A[i, 0], A[i, 1], A[i, 2])
+
+
+@njit(cache=True)
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(cache=True)
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(cache=True)
+def _scale(k, a):
+    return (k * a[0], k * a[1], k * a[2])
 
 
 @njit(cache=True)
@@ -56,33 +99,46 @@ def _dot(a, b):
 
 
 @njit(cache=True)
-def _mm(A, B):
-    """A B for 3x3 matrices (no BLAS call: these are too small for it)."""
-    out = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return out
-
-
-@njit(cache=True)
-def _mv(A, v):
-    return np.array([_dot(A[0], v), _dot(A[1], v), _dot(A[2], v)])
-
-
-@njit(cache=True)
 def _rotate(w, angle, v):
     """Rodrigues: v rotated about the unit axis w by angle [rad]."""
     wv = cross(w, v)
-    return v + math.sin(angle) * wv + (1.0 - math.cos(angle)) * cross(w, wv)
+    return _add(_add(v, _scale(math.sin(angle), wv)), _scale(1.0 - math.cos(angle), cross(w, wv)))
 
 
 @njit(cache=True)
 def _matrix(w, angle):
-    """The rotation matrix about the unit axis w by angle [rad]."""
+    """The rotation about the unit axis w by angle [rad]."""
     c, s = math.cos(angle), math.sin(angle)
-    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    return np.eye(3) + s * K + (1.0 - c) * _mm(K, K)
+    t = 1.0 - c
+    return (c + t * w[0] * w[0], t * w[0] * w[1] - s * w[2], t * w[0] * w[2] + s * w[1],
+            t * w[0] * w[1] + s * w[2], c + t * w[1] * w[1], t * w[1] * w[2] - s * w[0],
+            t * w[0] * w[2] - s * w[1], t * w[1] * w[2] + s * w[0], c + t * w[2] * w[2])
+
+
+@njit(cache=True)
+def _mm(A, B):
+    return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+            A[0] * B[2] + A[1] * B[5] + A[2] * B[8], A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
+            A[3] * B[1] + A[4] * B[4] + A[5] * B[7], A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+            A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+            A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
+
+
+@njit(cache=True)
+def _t(A):
+    return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
+
+
+@njit(cache=True)
+def _mv(A, v):
+    return (A[0] * v[0] + A[1] * v[1] + A[2] * v[2], A[3] * v[0] + A[4] * v[1] + A[5] * v[2],
+            A[6] * v[0] + A[7] * v[1] + A[8] * v[2])
+
+
+@njit(cache=True)
+def _rotation_of(X):
+    """The rotation of a 4x4 array."""
+    return (X[0, 0], X[0, 1], X[0, 2], X[1, 0], X[1, 1], X[1, 2], X[2, 0], X[2, 1], X[2, 2])
 
 
 @njit(cache=True)
@@ -97,37 +153,39 @@ def _wrap(angle):
     return angle - TWO_PI * math.ceil((angle - math.pi) / TWO_PI)
 
 
+# -- the branches ----------------------------------------------------------------------------------------
 @njit(cache=True)
-def wrap_all(q):
-    """A copy of q with every value wrapped into (-pi, pi]."""
-    out = np.empty_like(q)
-    for j in range(q.shape[0]):
-        out[j] = _wrap(q[j])
-    return out
-
-
-@njit(cache=True)
-def wrist_centre(c, X0, X):
-    """Where the wrist centre c (at q = 0, pose X0) is when the end frame is at X."""
-    c_in_end = _mv(X0[:3, :3].T, c - X0[:3, 3])
-    return _mv(X[:3, :3], c_in_end) + X[:3, 3]
+def _home_rotation(geometry):
+    """The rotation of X0, the end pose at q = 0."""
+    return (geometry[R0, 0], geometry[R0, 1], geometry[R0, 2], geometry[R0 + 1, 0], geometry[R0 + 1, 1],
+            geometry[R0 + 1, 2], geometry[R0 + 2, 0], geometry[R0 + 2, 1], geometry[R0 + 2, 2])
 
 
 @njit(cache=True)
-def label_code(w, r, c, p_wrist, q):
-    """FRONT | UP | FLIP bits of configuration q (wrapped) whose wrist centre is at p_wrist.
+def wrist_centre(geometry, X):
+    """Where the wrist centre (at q = 0, pose X0) is when the end frame is at X (4, 4) [m]."""
+    c_in_end = _mv(_t(_home_rotation(geometry)), _sub(_row(geometry, CENTRE), _row(geometry, P0)))
+    return _add(_mv(_rotation_of(X), c_in_end), (X[0, 3], X[1, 3], X[2, 3]))
+
+
+@njit(cache=True)
+def label_code(geometry, p_wrist, q):
+    """FRONT | UP | FLIP bits of configuration q (wrapped into (-pi, pi]) whose wrist centre is at p_wrist.
 
     Front: the wrist centre is on the side of axis 1 it is on at q = 0. Up: the elbow (on axis 3) is
     above the shoulder (axis 2) to wrist-centre line. Flip: q5 < 0."""
-    forward0 = (c - r[0]) - w[0] * _dot(w[0], c - r[0])
-    code = FRONT if _dot(_rotate(w[0], q[0], forward0), p_wrist - r[0]) >= 0.0 else 0
-    shoulder = r[0] + _rotate(w[0], q[0], r[1] - r[0])
-    elbow = r[0] + _rotate(w[0], q[0], r[1] - r[0] + _rotate(w[1], q[1], r[2] - r[1]))
-    line = p_wrist - shoulder
+    w1, w2 = _row(geometry, AXES), _row(geometry, AXES + 1)
+    r1, r2, r3 = _row(geometry, POINTS), _row(geometry, POINTS + 1), _row(geometry, POINTS + 2)
+    c = _row(geometry, CENTRE)
+    forward0 = _sub(_sub(c, r1), _scale(_dot(w1, _sub(c, r1)), w1))
+    code = FRONT if _dot(_rotate(w1, q[0], forward0), _sub(p_wrist, r1)) >= 0.0 else 0
+    shoulder = _add(r1, _rotate(w1, q[0], _sub(r2, r1)))
+    elbow = _add(r1, _rotate(w1, q[0], _add(_sub(r2, r1), _rotate(w2, q[1], _sub(r3, r2)))))
+    line = _sub(p_wrist, shoulder)
     norm = math.sqrt(_dot(line, line))
     if norm > 0.0:
-        line = line / norm
-    offset = elbow - shoulder
+        line = _scale(1.0 / norm, line)
+    offset = _sub(elbow, shoulder)
     if offset[2] - line[2] * _dot(offset, line) >= 0.0:
         code |= UP
     if q[4] < 0.0:
@@ -136,87 +194,122 @@ def label_code(w, r, c, p_wrist, q):
 
 
 @njit(cache=True)
-def _q1_values(w, r, c, p_wrist, seed1, q1_min, q1_max):
-    """q1 candidates: the two roots, or (shoulder singularity) the seed's and SHOULDER_SAMPLES spread
-    over the limits; and whether the wrist centre is within reach of axis 2's circle."""
-    w1, w2 = w[0], w[1]
-    v = p_wrist - r[0]
-    A, B = _dot(v, w2 - w1 * _dot(w1, w2)), _dot(v, cross(w1, w2))
-    C = _dot(w2, c - r[1]) - _dot(r[0] - r[1], w2) - _dot(v, w1) * _dot(w1, w2)
+def _shoulder(geometry, p_wrist):
+    """(phi, spread, reach): q1 = phi +- spread are the two roots, reach whether they reach the wrist
+    centre; spread < 0 at a shoulder singularity (q1 is free)."""
+    w1, w2 = _row(geometry, AXES), _row(geometry, AXES + 1)
+    r1, r2 = _row(geometry, POINTS), _row(geometry, POINTS + 1)
+    v = _sub(p_wrist, r1)
+    A, B = _dot(v, _sub(w2, _scale(_dot(w1, w2), w1))), _dot(v, cross(w1, w2))
+    C = _dot(w2, _sub(_row(geometry, CENTRE), r2)) - _dot(_sub(r1, r2), w2) - _dot(v, w1) * _dot(w1, w2)
     rho = math.hypot(A, B)
     if rho < SINGULAR_TOLERANCE:
-        low, high = max(q1_min, seed1 - math.pi), min(q1_max, seed1 + math.pi)
-        values = np.empty(SHOULDER_SAMPLES + 1)
-        values[0] = seed1
-        values[1:] = np.linspace(low, high, SHOULDER_SAMPLES)
-        return values, True
+        return 0.0, -1.0, True
     ratio = C / rho
-    phi, spread = math.atan2(B, A), math.acos(min(max(ratio, -1.0), 1.0))
-    return np.array([phi + spread, phi - spread]), abs(ratio) <= 1.0 + REACH_SLACK
+    return math.atan2(B, A), math.acos(min(max(ratio, -1.0), 1.0)), abs(ratio) <= 1.0 + REACH_SLACK
 
 
 @njit(cache=True)
-def raw_branches(w, r, c, X0, X, seed, q1_min, q1_max):
-    """Every closed-form branch of target X (4, 4): (Q (B, 6) wrapped into (-pi, pi], reachable (B,)),
-    B = 4 per q1 value (8 away from a shoulder singularity)."""
-    R_target = X[:3, :3]
-    p_wrist = wrist_centre(c, X0, X)
-    q1s, reach1 = _q1_values(w, r, c, p_wrist, seed[0], q1_min, q1_max)
-    Q = np.empty((4 * q1s.size, 6))
-    reachable = np.zeros(4 * q1s.size, dtype=np.bool_)
-    w3, w4, w5, w6 = w[2], w[3], w[4], w[5]
-    u, vv = c - r[2], r[1] - r[2]
-    u_p, v_p = u - w3 * _dot(w3, u), vv - w3 * _dot(w3, vv)
+def _q1_count(spread):
+    return SHOULDER_SAMPLES + 1 if spread < 0.0 else 2
+
+
+@njit(cache=True)
+def _q1_value(i, phi, spread, seed1, q1_min, q1_max):
+    """The i-th q1 candidate: a root, or (shoulder singularity) the seed's and then SHOULDER_SAMPLES
+    values spread over the limits within half a turn of it."""
+    if spread >= 0.0:
+        return phi + spread if i == 0 else phi - spread
+    if i == 0:
+        return seed1
+    low, high = max(q1_min, seed1 - math.pi), min(q1_max, seed1 + math.pi)
+    return low + (high - low) * (i - 1) / (SHOULDER_SAMPLES - 1)
+
+
+@njit(cache=True)
+def _arm_branches(geometry, R_target, p_wrist, q1, seed):
+    """The four branches (elbow e, wrist f: index 2 e + f) of one q1: their q as 6-tuples wrapped into
+    (-pi, pi], and whether the elbow reaches."""
+    w3, c = _row(geometry, AXES + 2), _row(geometry, CENTRE)
+    r1, r2, r3 = _row(geometry, POINTS), _row(geometry, POINTS + 1), _row(geometry, POINTS + 2)
+    u, vv = _sub(c, r3), _sub(r2, r3)
+    u_p, v_p = _sub(u, _scale(_dot(w3, u), w3)), _sub(vv, _scale(_dot(w3, vv), w3))
     theta0 = math.atan2(_dot(w3, cross(u_p, v_p)), _dot(u_p, v_p))
+    p_prime = _add(r1, _rotate(_row(geometry, AXES), -q1, _sub(p_wrist, r1)))
+    delta_sq = _dot(_sub(p_prime, r2), _sub(p_prime, r2)) - _dot(w3, _sub(c, r2)) ** 2
+    kappa = (_dot(u_p, u_p) + _dot(v_p, v_p) - delta_sq) / (2.0 * math.sqrt(_dot(u_p, u_p) * _dot(v_p, v_p)))
+    spread3 = math.acos(min(max(kappa, -1.0), 1.0))
+    down = _wrist_branches(geometry, R_target, p_prime, q1, theta0 - spread3, seed)
+    up = _wrist_branches(geometry, R_target, p_prime, q1, theta0 + spread3, seed)
+    return (down[0], down[1], up[0], up[1]), abs(kappa) <= 1.0 + REACH_SLACK
+
+
+@njit(cache=True)
+def _wrist_branches(geometry, R_target, p_prime, q1, q3, seed):
+    """The two wrist branches (noflip, flip) of one q1 and q3: q as 6-tuples wrapped into (-pi, pi]."""
+    w1, w2, w3 = _row(geometry, AXES), _row(geometry, AXES + 1), _row(geometry, AXES + 2)
+    w4, w5, w6 = _row(geometry, AXES + 3), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
+    r2, r3, c = _row(geometry, POINTS + 1), _row(geometry, POINTS + 2), _row(geometry, CENTRE)
     c45 = _dot(w4, w5)
     n45 = cross(w4, w5)
-    n6 = cross(w6, np.array([1.0, 0.0, 0.0]) if abs(w6[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
-    n6 = n6 / math.sqrt(_dot(n6, n6))
-    for i in range(q1s.size):
-        q1 = q1s[i]
-        p_prime = r[0] + _rotate(w[0], -q1, p_wrist - r[0])
-        delta_sq = _dot(p_prime - r[1], p_prime - r[1]) - _dot(w3, c - r[1]) ** 2
-        kappa = (_dot(u_p, u_p) + _dot(v_p, v_p) - delta_sq) / (2.0 * math.sqrt(_dot(u_p, u_p) * _dot(v_p, v_p)))
-        spread3 = math.acos(min(max(kappa, -1.0), 1.0))
-        for e in range(2):
-            q3 = theta0 - spread3 if e == 0 else theta0 + spread3
-            p3 = r[2] + _rotate(w3, q3, c - r[2])
-            q2 = _angle(w[1], p3 - r[1], p_prime - r[1])
-            R_arm = _mm(_mm(_matrix(w[0], q1), _matrix(w[1], q2)), _matrix(w3, q3))
-            R_wrist = _mm(_mm(R_arm.T, R_target), X0[:3, :3].T)
-            d = _mv(R_wrist, w6)
-            alpha = (c45 * _dot(w5, w6) - _dot(d, w4)) / (c45 ** 2 - 1.0)
-            beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
-            gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / _dot(n45, n45), 0.0))
-            singular = math.sqrt(_dot(cross(w4, d), cross(w4, d))) < SINGULAR_TOLERANCE
-            for f in range(2):
-                z = alpha * w4 + beta * w5 + (gamma if f == 0 else -gamma) * n45
-                q4 = seed[3] if singular else _angle(w4, z, d)
-                q5 = _angle(w5, w6, _rotate(w4, -q4, d)) if singular else _angle(w5, w6, z)
-                R45 = _mm(_matrix(w4, q4), _matrix(w5, q5))
-                q6 = _angle(w6, n6, _mv(_mm(R45.T, R_wrist), n6))
-                if singular:                 # only q4 + sigma q6 is fixed: split the change nearest the seed
-                    sigma = 1.0 if _dot(_rotate(w5, q5, w6), w4) >= 0.0 else -1.0
-                    step = _wrap(sigma * (q6 - seed[5]))
-                    q4, q6 = seed[3] + step / 2.0, q6 - sigma * step / 2.0
-                b = 4 * i + 2 * e + f
-                Q[b, 0], Q[b, 1], Q[b, 2], Q[b, 3], Q[b, 4], Q[b, 5] = q1, q2, q3, q4, q5, q6
-                reachable[b] = reach1 and abs(kappa) <= 1.0 + REACH_SLACK
-    for b in range(Q.shape[0]):
-        Q[b] = wrap_all(Q[b])
+    n6 = cross(w6, (1.0, 0.0, 0.0) if abs(w6[0]) < 0.9 else (0.0, 1.0, 0.0))
+    n6 = _scale(1.0 / math.sqrt(_dot(n6, n6)), n6)
+    p3 = _add(r3, _rotate(w3, q3, _sub(c, r3)))
+    q2 = _angle(w2, _sub(p3, r2), _sub(p_prime, r2))
+    R_arm = _mm(_mm(_matrix(w1, q1), _matrix(w2, q2)), _matrix(w3, q3))
+    R_wrist = _mm(_mm(_t(R_arm), R_target), _t(_home_rotation(geometry)))
+    d = _mv(R_wrist, w6)
+    alpha = (c45 * _dot(w5, w6) - _dot(d, w4)) / (c45 ** 2 - 1.0)
+    beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
+    gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / _dot(n45, n45), 0.0))
+    w4d = cross(w4, d)
+    singular = math.sqrt(_dot(w4d, w4d)) < SINGULAR_TOLERANCE
+    arm = (_wrap(q1), _wrap(q2), _wrap(q3))
+    return (_wrist_branch(geometry, arm, R_wrist, d, _add(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
+                          singular, n6, seed),
+            _wrist_branch(geometry, arm, R_wrist, d, _sub(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
+                          singular, n6, seed))
+
+
+@njit(cache=True)
+def _wrist_branch(geometry, arm, R_wrist, d, z, singular, n6, seed):
+    """One branch: the arm's (q1, q2, q3) and the wrist's q4, q5, q6 that put axis 6 along d with axis
+    5 along z; at a wrist singularity, the split of q4 +- q6 nearest the seed."""
+    w4, w5, w6 = _row(geometry, AXES + 3), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
+    q4 = seed[3] if singular else _angle(w4, z, d)
+    q5 = _angle(w5, w6, _rotate(w4, -q4, d)) if singular else _angle(w5, w6, z)
+    R45 = _mm(_matrix(w4, q4), _matrix(w5, q5))
+    q6 = _angle(w6, n6, _mv(_mm(_t(R45), R_wrist), n6))
+    if singular:                         # only q4 + sigma q6 is fixed: split the change nearest the seed
+        sigma = 1.0 if _dot(_rotate(w5, q5, w6), w4) >= 0.0 else -1.0
+        step = _wrap(sigma * (q6 - seed[5]))
+        q4, q6 = seed[3] + step / 2.0, q6 - sigma * step / 2.0
+    return (arm[0], arm[1], arm[2], _wrap(q4), _wrap(q5), _wrap(q6))
+
+
+@njit(cache=True)
+def raw_branches(geometry, X, seed, q1_min, q1_max):
+    """Every closed-form branch of target X (4, 4): (Q (B, 6) wrapped into (-pi, pi], reachable (B,)),
+    B = 4 per q1 value (8 away from a shoulder singularity)."""
+    p_wrist = wrist_centre(geometry, X)
+    phi, spread, reach1 = _shoulder(geometry, p_wrist)
+    count = _q1_count(spread)
+    Q = np.empty((4 * count, 6))
+    reachable = np.zeros(4 * count, dtype=np.bool_)
+    for i in range(count):
+        q1 = _q1_value(i, phi, spread, seed[0], q1_min, q1_max)
+        branches, reach3 = _arm_branches(geometry, _rotation_of(X), p_wrist, q1, seed)
+        for k in range(4):
+            for j in range(6):
+                Q[4 * i + k, j] = branches[k][j]
+            reachable[4 * i + k] = reach1 and reach3
     return Q, reachable
 
 
 @njit(cache=True)
-def pose_error(chain, q, X):
-    """(position error [m], rotation error [rad]) of FK(q) against X."""
-    F = np.empty((4, 4))
-    _end_pose(chain, q, F)
-    dx, dy, dz = F[0, 3] - X[0, 3], F[1, 3] - X[1, 3], F[2, 3] - X[2, 3]
-    E = _mm(F[:3, :3].T, X[:3, :3])
-    sx, sy, sz = E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]
-    angle = math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0))
-    return math.sqrt(dx * dx + dy * dy + dz * dz), angle
+def _pose_error(chain, q, X):
+    """(position error [m], rotation error [rad]) of FK(q) against X (4, 4)."""
+    return pose_errors(end_pose(chain, q), X, POSE)
 
 
 @njit(cache=True)
@@ -225,6 +318,10 @@ def _joint_values(value, seed, low, high, out):
     written, the violation [rad] when there is none)."""
     if high - low > WIDE_RANGE:                                  # one representative, nearest the seed
         nearest = value + TWO_PI * round((seed - value) / TWO_PI)
+        if nearest > high + LIMIT_SLACK:                          # the seed is near or past a limit
+            nearest -= TWO_PI
+        elif nearest < low - LIMIT_SLACK:
+            nearest += TWO_PI
         out[0] = min(max(nearest, low), high)
         return 1, 0.0
     k_low = math.ceil((low - LIMIT_SLACK - value) / TWO_PI)
@@ -241,99 +338,134 @@ def _joint_values(value, seed, low, high, out):
 
 
 @njit(cache=True)
-def solve_one(w, r, c, X0, chain, q_min, q_max, X, seed):
-    """Every in-limit, FK-verified solution of target X nearest seed first: (Q (M, 6), errors (M, 2),
-    label codes (M,), variant counts (M,) (inf: continuous), info (INFO,), raw (B, 6) branches)."""
-    raw, reachable = raw_branches(w, r, c, X0, X, seed, q_min[0], q_max[0])
-    B = raw.shape[0]
-    info = np.zeros(INFO)
-    info[VIOLATING_JOINT] = -1.0
-    values = np.empty((6, 8))
-    counts = np.zeros(6, dtype=np.int64)
-    capacity = 64
-    Q = np.empty((capacity, 6))
-    errors = np.empty((capacity, 2))
-    codes = np.empty(capacity, dtype=np.int64)
-    variants = np.empty(capacity)
-    m = 0
-    best_raw, best_error, best_violation = 0, np.inf, np.inf
-    p_wrist = wrist_centre(c, X0, X)
-    for b in range(B):
-        if not reachable[b]:
-            continue
-        info[REACHABLE] += 1
-        e_p, e_r = pose_error(chain, raw[b], X)
-        if e_p + e_r < best_error:
-            best_raw, best_error = b, e_p + e_r
-        if e_p > POSITION_TOLERANCE or e_r > ROTATION_TOLERANCE:
-            continue
-        info[VERIFIED] += 1
-        total, worst, worst_joint = 1, 0.0, -1
-        for j in range(6):
-            written, violation = _joint_values(raw[b, j], seed[j], q_min[j], q_max[j], values[j])
-            counts[j] = written
-            total *= written
-            if violation > worst:
-                worst, worst_joint = violation, j
-        if total == 0:
-            if worst < best_violation:
-                best_violation = worst
-                info[VIOLATING_JOINT], info[VIOLATION] = worst_joint, worst
-            continue
-        code = label_code(w, r, c, p_wrist, raw[b])
-        for combo in range(total):
-            if m == capacity:
-                capacity *= 2
-                Q, errors = _grown(Q, capacity), _grown(errors, capacity)
-                codes, variants = _grown(codes, capacity), _grown(variants, capacity)
-            rest = combo
-            for j in range(6):
-                Q[m, j] = values[j, rest % counts[j]]
-                rest //= counts[j]
-            errors[m, 0], errors[m, 1] = pose_error(chain, Q[m], X)
-            if errors[m, 0] > POSITION_TOLERANCE or errors[m, 1] > ROTATION_TOLERANCE:
-                continue                                          # put on a limit and no longer exact
-            codes[m] = code
-            variants[m] = _variant_count(raw[b], q_min, q_max)
-            m += 1
-    info[BEST_RAW] = best_raw
-    keep = _distinct_nearest(Q[:m], seed)
-    return Q[keep], errors[keep], codes[keep], variants[keep], info, raw
-
-
-@njit(cache=True)
-def _grown(array, capacity):
-    out = np.empty((capacity,) + array.shape[1:], dtype=array.dtype)
-    out[:array.shape[0]] = array
-    return out
-
-
-@njit(cache=True)
-def _variant_count(q, q_min, q_max):
+def _variant_count(q, limits):
     """How many in-limit 2 pi variants configuration q has in all (a float: inf with a continuous joint)."""
     total = 1.0
     for j in range(6):
-        total *= max(math.floor((q_max[j] - q[j]) / TWO_PI) - math.ceil((q_min[j] - q[j]) / TWO_PI) + 1, 0)
+        low, high = limits[0, j], limits[1, j]
+        if math.isinf(high - low):
+            total = math.inf
+        else:
+            total *= max(math.floor((high - q[j]) / TWO_PI) - math.ceil((low - q[j]) / TWO_PI) + 1, 0)
     return total
 
 
 @njit(cache=True)
-def _distinct_nearest(Q, seed):
-    """Indices of the distinct rows of Q (largest joint difference > DUPLICATE_TOLERANCE), nearest the
-    seed first."""
-    distance = np.empty(Q.shape[0])
-    for i in range(Q.shape[0]):
-        distance[i] = math.sqrt(((Q[i] - seed) ** 2).sum())
+def _solve(geometry, chain, limits, X, seed, out, info):
+    """The solutions of one target X into out, its numbers into info (see the module's layouts)."""
+    capacity = out.shape[0]
+    info[:] = 0.0
+    info[VIOLATING_JOINT] = -1.0
+    values = np.empty((6, 5))                      # a joint's in-limit variants (at most 5 below WIDE_RANGE)
+    counts = np.zeros(6, dtype=np.int64)
+    q = np.empty(6)
+    best = np.zeros(6)
+    best_error, best_violation = np.inf, np.inf
+    R_target = _rotation_of(X)
+    p_wrist = wrist_centre(geometry, X)
+    phi, spread, reach1 = _shoulder(geometry, p_wrist)
+    m = 0
+    for i in range(_q1_count(spread)):
+        q1 = _q1_value(i, phi, spread, seed[0], limits[0, 0], limits[1, 0])
+        branches, reach3 = _arm_branches(geometry, R_target, p_wrist, q1, seed)
+        if not (reach1 and reach3):
+            continue
+        for raw in branches:
+            info[REACHABLE] += 1
+            for j in range(6):
+                q[j] = raw[j]
+            e_p, e_r = _pose_error(chain, q, X)
+            if e_p + e_r < best_error:
+                best[:], best_error = q, e_p + e_r
+            if e_p > POSITION_TOLERANCE or e_r > ROTATION_TOLERANCE:
+                continue
+            info[VERIFIED] += 1
+            total, worst, worst_joint = 1, 0.0, -1
+            for j in range(6):
+                written, violation = _joint_values(raw[j], seed[j], limits[0, j], limits[1, j], values[j])
+                counts[j] = written
+                total *= written
+                if violation > worst:
+                    worst, worst_joint = violation, j
+            if total == 0:
+                if worst < best_violation:
+                    best_violation = worst
+                    info[VIOLATING_JOINT], info[VIOLATION] = worst_joint, worst
+                continue
+            code, variants = label_code(geometry, p_wrist, raw), _variant_count(raw, limits)
+            for combo in range(total):
+                rest, on_limit = combo, False
+                for j in range(6):
+                    q[j] = values[j, rest % counts[j]]
+                    on_limit |= q[j] == limits[0, j] or q[j] == limits[1, j]
+                    rest //= counts[j]
+                errors = _pose_error(chain, q, X) if on_limit else (e_p, e_r)
+                if errors[0] > POSITION_TOLERANCE or errors[1] > ROTATION_TOLERANCE:
+                    continue                                          # put on a limit and no longer exact
+                if m < capacity:
+                    out[m, :6] = q
+                    out[m, POSITION_ERROR], out[m, ROTATION_ERROR] = errors
+                    out[m, CODE], out[m, VARIANTS] = code, variants
+                m += 1
+    info[COUNT] = m
+    if m == 0:
+        out[0, :6] = best
+    elif m <= capacity:
+        info[COUNT] = _sort_distinct(out, m, seed)
+
+
+@njit(cache=True)
+def _sort_distinct(out, m, seed):
+    """Sort the first m rows of out by distance to the seed and drop duplicates (largest joint
+    difference <= DUPLICATE_TOLERANCE); returns how many rows are left."""
+    distance = np.empty(m)
+    for i in range(m):
+        total = 0.0
+        for j in range(6):
+            total += (out[i, j] - seed[j]) ** 2
+        distance[i] = math.sqrt(total)
     order = np.argsort(distance, kind="mergesort")
-    keep = np.empty(Q.shape[0], dtype=np.int64)
+    rows = out[:m].copy()
+    kept_distance = np.empty(m)
     n = 0
     for i in order:
         duplicate = False
-        for k in range(n):
-            if np.abs(Q[keep[k]] - Q[i]).max() <= DUPLICATE_TOLERANCE:
+        for k in range(n - 1, -1, -1):     # a duplicate's distance differs by at most sqrt(6) DUPLICATE_TOLERANCE
+            if distance[i] - kept_distance[k] > 3.0 * DUPLICATE_TOLERANCE:
+                break
+            if np.abs(rows[i, :6] - out[k, :6]).max() <= DUPLICATE_TOLERANCE:
                 duplicate = True
                 break
         if not duplicate:
-            keep[n] = i
+            out[n] = rows[i]
+            kept_distance[n] = distance[i]
             n += 1
-    return keep[:n]
+    return n
+
+
+@njit(_SOLVE_SIGNATURE, cache=True)
+def solve_one(geometry, chain, limits, X, seed, out, info):
+    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out and info."""
+    _solve(geometry, chain, limits, X, seed, out, info)
+
+
+@njit(_BATCH_SIGNATURE, cache=True)
+def solve_batch(geometry, chain, limits, X, seeds, out, info):
+    """``solve_one`` for targets X (N, 4, 4) and seeds (N, 6), into out (N, capacity, SOLUTION_COLUMNS)
+    and info (N, INFO)."""
+    for n in range(X.shape[0]):
+        _solve(geometry, chain, limits, X[n], seeds[n], out[n], info[n])
+
+
+@njit(cache=True)
+def label_codes(geometry, chain, Q, codes):
+    """codes (N,) = the label code of each configuration Q (N, 6), its wrist centre by the compiled FK."""
+    q = np.empty(6)
+    X = np.empty((4, 4))
+    for n in range(Q.shape[0]):
+        x = end_pose(chain, Q[n])
+        for k in range(12):
+            X[k // 4, k % 4] = x[k]
+        for j in range(6):
+            q[j] = _wrap(Q[n, j])
+        codes[n] = label_code(geometry, wrist_centre(geometry, X), q)

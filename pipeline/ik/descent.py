@@ -13,7 +13,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import _jacobian_into, cross
+from ..compiled import POSE, POSITION_AND_AXIS, cross, end_pose, pose_and_jacobian, pose_errors
+from .result import POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Newton iterations stop once the error is this small (well inside the strict 1e-6 test) [m, rad].
 CONVERGED = 1e-10
@@ -23,8 +24,6 @@ MIN_DAMPING, MAX_DAMPING = 1e-12, 1e6
 STALLED_DAMPING = 1e4
 #: ... or after this many accepted steps in a row that each cut the squared error by less than 1 %.
 STALLED_STEPS = 8
-#: Target kinds as the kernel takes them: full pose, position and the z axis, position only.
-POSE, POSITION_AND_AXIS, POSITION = 0, 1, 2
 TWO_PI = 2.0 * math.pi
 
 
@@ -52,27 +51,27 @@ def _rotation_log(R):
 
 
 @njit(cache=True)
-def residual(X, J, X_target, kind, e, A):
-    """Fill e (rows,) with the error the target asks for (base frame) and A (rows, dof) with the
-    matching Jacobian rows; returns the number of rows (6, 5 or 3)."""
+def residual(x, J, X_target, kind, e, A):
+    """Fill e (rows,) with the error of the Pose x the target asks for (base frame) and A (rows, dof)
+    with the matching Jacobian rows; returns the number of rows (6, 5 or 3)."""
     for i in range(3):
-        e[i] = X_target[i, 3] - X[i, 3]
+        e[i] = X_target[i, 3] - x[4 * i + 3]
         A[i] = J[i]
     if kind == POSE:
         R = np.empty((3, 3))                                   # R_target R^T
         for i in range(3):
             for j in range(3):
-                R[i, j] = X_target[i, 0] * X[j, 0] + X_target[i, 1] * X[j, 1] + X_target[i, 2] * X[j, 2]
+                R[i, j] = X_target[i, 0] * x[4 * j] + X_target[i, 1] * x[4 * j + 1] + X_target[i, 2] * x[4 * j + 2]
         e[3:6] = _rotation_log(R)
         A[3:6] = J[3:6]
         return 6
     if kind == POSITION_AND_AXIS:
-        z, z_target = X[:3, 2].copy(), X_target[:3, 2].copy()
+        z, z_target = np.array([x[2], x[6], x[10]]), X_target[:3, 2].copy()
         helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        b1 = cross(z, helper)
+        b1 = np.array(cross(z, helper))
         b1 /= math.sqrt(b1 @ b1)
-        b2 = cross(z, b1)
-        axis = cross(z, z_target)
+        b2 = np.array(cross(z, b1))
+        axis = np.array(cross(z, z_target))
         norm = math.sqrt(axis @ axis)
         angle = math.atan2(norm, z @ z_target)
         e_axis = axis * (angle / norm) if norm > 1e-12 else b1 * angle     # parallel (0) or opposite (pi)
@@ -138,26 +137,25 @@ def into_limits(q, reference, revolute, q_min, q_max):
 
 @njit(cache=True)
 def descend(chain, axes, q_min, q_max, X_target, kind, q, max_iterations):
-    """One damped least-squares descent from q: (q, iterations, converged)."""
+    """One damped least-squares descent from q: (q, iterations, position error [m], rotation error
+    [rad] by the compiled FK, strict: both within the IK tolerances and every joint in its limits)."""
     dof = q.shape[0]
-    X, J = np.empty((4, 4)), np.empty((6, dof))
+    J = np.empty((6, dof))
     e, A = np.empty(6), np.empty((6, dof))
     e_new, A_new = np.empty(6), np.empty((6, dof))
-    _jacobian_into(chain, axes, q, X, J)
-    rows = residual(X, J, X_target, kind, e, A)
+    rows = residual(pose_and_jacobian(chain, axes, q, J), J, X_target, kind, e, A)
     cost = e[:rows] @ e[:rows]
     damping = INITIAL_DAMPING
     slow_steps = iterations = 0
     while iterations < max_iterations:
         if np.abs(e[:rows]).max() <= CONVERGED:
-            return q, iterations, True
+            break
         if damping > STALLED_DAMPING or slow_steps >= STALLED_STEPS:
             break
         iterations += 1
         step = _damped_step(A, e, rows, damping)
         q_new = into_limits(q + step, q, axes[:, 1], q_min, q_max)
-        _jacobian_into(chain, axes, q_new, X, J)
-        residual(X, J, X_target, kind, e_new, A_new)
+        residual(pose_and_jacobian(chain, axes, q_new, J), J, X_target, kind, e_new, A_new)
         cost_new = e_new[:rows] @ e_new[:rows]
         if cost_new < cost:
             slow_steps = slow_steps + 1 if cost_new > 0.99 * cost else 0
@@ -166,4 +164,8 @@ def descend(chain, axes, q_min, q_max, X_target, kind, q, max_iterations):
             damping = max(damping / 10.0, MIN_DAMPING)
         else:
             damping = min(damping * 10.0, MAX_DAMPING)
-    return q, iterations, np.abs(e[:rows]).max() <= CONVERGED
+    position_error, rotation_error = pose_errors(end_pose(chain, q), X_target, kind)
+    strict = position_error <= POSITION_TOLERANCE and rotation_error <= ROTATION_TOLERANCE
+    for j in range(dof):
+        strict &= q_min[j] <= q[j] <= q_max[j]
+    return q, iterations, position_error, rotation_error, strict

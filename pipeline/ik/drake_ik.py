@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import ConfigurationError
 
+from .branches import configuration_labels
 from .result import (
     FULL_POSE,
     MATCHED_COMPONENTS,
@@ -208,7 +209,9 @@ def solve_drake(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Gene
                "polish_options": dict(POLISH_OPTIONS[label])}
     matched = MATCHED_COMPONENTS[target.kind]
     if strict:
-        solutions = tuple(strict[i] for i in distinct_order(np.array([s.q for s in strict]), q_seed))
+        distinct = [strict[i] for i in distinct_order(np.array([s.q for s in strict]), q_seed)]
+        labels = configuration_labels(robot, np.array([s.q for s in distinct]))
+        solutions = tuple(s._replace(branch=label) for s, label in zip(distinct, labels))
         first = solutions[0]
         return IkResult(True, first.q, first.position_error, first.rotation_error, solves, "drake",
                         solutions=solutions, matched=matched, details=details)

@@ -1,8 +1,8 @@
 """The inverse-Jacobian method of seed 000 as damped least-squares (Levenberg-Marquardt) Newton steps.
 
 Each descent runs compiled (``pipeline.ik.descent``); this module adds seeded random restarts inside
-the limits, within an iteration and time budget (checked between descents), and judges the answer
-by our FK.
+the limits, within an iteration and time budget (checked between descents); each descent's answer is
+judged by the compiled FK (checked against the NumPy oracle by the tests).
 """
 
 from __future__ import annotations
@@ -11,28 +11,22 @@ import time
 
 import numpy as np
 
-from ..choices import FULL_POSE, POSITION_AND_AXIS
+from ..choices import FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY
+from .. import compiled
 from . import descent
-from .result import (
-    MATCHED_COMPONENTS,
-    IkResult,
-    IkTarget,
-    Solution,
-    check_search_budget,
-    is_strict,
-    pose_errors,
-    within_limits,
-)
+from .branches import configuration_labels
+from .result import MATCHED_COMPONENTS, IkResult, IkTarget, Solution, check_search_budget
 
 #: The kernel's code of each target kind.
-KIND_CODES = {FULL_POSE: descent.POSE, POSITION_AND_AXIS: descent.POSITION_AND_AXIS}
+KIND_CODES = {FULL_POSE: compiled.POSE, POSITION_AND_AXIS: compiled.POSITION_AND_AXIS, POSITION_ONLY: compiled.POSITION}
 
 
 def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int):
-    """One damped least-squares descent from q; returns (q, iterations, converged)."""
+    """One damped least-squares descent from q: (q, iterations, position error [m], rotation error
+    [rad], strict)."""
     limits = robot.limits
     return descent.descend(robot._chain, robot._axes, limits.q_min, limits.q_max, target.X_BE,
-                           KIND_CODES.get(target.kind, descent.POSITION), q, max_iterations)
+                           KIND_CODES[target.kind], q, max_iterations)
 
 
 def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Generator | None = None,
@@ -54,13 +48,12 @@ def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.G
             if time.perf_counter() > deadline:
                 break
             start = robot.random_configurations(rng, 1)[0]
-        q, iterations, _ = _descend(robot, target, start, max_iterations)
+        q, iterations, position_error, rotation_error, strict = _descend(robot, target, start, max_iterations)
         total_iterations += iterations
-        position_error, rotation_error = pose_errors(robot.fk(q), target)
         if best is None or position_error + rotation_error < best[1] + best[2]:
             best = (q, position_error, rotation_error)
-        if is_strict(position_error, rotation_error) and within_limits(q, limits.q_min, limits.q_max):
-            solution = Solution(q, position_error, rotation_error)
+        if strict:
+            solution = Solution(q, position_error, rotation_error, configuration_labels(robot, q[None])[0])
             return IkResult(True, q, position_error, rotation_error, total_iterations, "jacobian", "", (solution,),
                             MATCHED_COMPONENTS[target.kind], {"restarts": attempt})
     q, position_error, rotation_error = best

@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 
 from ..choices import FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY, TARGET_KINDS
 from ..errors import ConfigurationError
+from ..arrays import float_array
+from ..compiled import first_non_pose
 from ..poses import check_pose
+from .. import poses
 
 POSITION_TOLERANCE = 1e-6   # [m]
 ROTATION_TOLERANCE = 1e-6   # [rad]
@@ -53,13 +57,24 @@ def check_search_budget(max_restarts, time_budget, max_iterations=1) -> None:
 
 def make_target(X_target, kind: str = FULL_POSE) -> IkTarget:
     """Validate a target pose and its kind; raises ConfigurationError on bad input."""
+    _check_kind(kind)
+    return IkTarget(check_pose(X_target, "IK target", MAX_TARGET_COORDINATE_M), kind)
+
+
+def check_targets(X_targets, kind: str = FULL_POSE) -> np.ndarray:
+    """Validate N target poses (N, 4, 4) [m] and their kind -> a C-contiguous float array; the
+    ConfigurationError names the first bad target."""
+    _check_kind(kind)
+    X = np.ascontiguousarray(float_array(X_targets, "IK targets", (None, 4, 4)))
+    bad = first_non_pose(X, poses.ROTATION_TOLERANCE, MAX_TARGET_COORDINATE_M)
+    if bad >= 0:
+        check_pose(X[bad], f"IK target {bad}", MAX_TARGET_COORDINATE_M)
+    return X
+
+
+def _check_kind(kind: str) -> None:
     if kind not in TARGET_KINDS:
         raise ConfigurationError(f"target kind must be one of {', '.join(TARGET_KINDS)}, got {kind!r}")
-    X = check_pose(X_target, "IK target")
-    if np.abs(X[:3, 3]).max() > MAX_TARGET_COORDINATE_M:
-        raise ConfigurationError(f"IK target position {X[:3, 3]} is beyond {MAX_TARGET_COORDINATE_M:g} m: no arm "
-                                 "reaches it (are the units metres?)")
-    return IkTarget(X, kind)
 
 
 class Solution(NamedTuple):
@@ -69,6 +84,43 @@ class Solution(NamedTuple):
     position_error: float
     rotation_error: float
     branch: str = ""
+
+
+class Solutions(Sequence):
+    """The in-limit solutions of one target as a read-only sequence of Solution (compares equal to the
+    tuple of them), built from a kernel's arrays on first use: a batch of many targets pays only for
+    the solutions it looks at. ``rows`` (M, dof + 3): q, position error [m], rotation error [rad] and
+    the index of the branch's name in ``names``."""
+
+    __slots__ = ("_rows", "_names", "_items")
+
+    def __init__(self, rows: np.ndarray, names: Sequence[str]):
+        self._rows, self._names, self._items = rows, names, None
+
+    def _solutions(self) -> tuple[Solution, ...]:
+        if self._items is None:
+            dof, names = self._rows.shape[1] - 3, self._names
+            Q, numbers = self._rows[:, :dof], self._rows[:, dof:].tolist()
+            self._items = tuple([Solution(q, e[0], e[1], names[int(e[2])]) for q, e in zip(Q, numbers)])
+        return self._items
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def __getitem__(self, index):
+        return self._solutions()[index]
+
+    def __iter__(self):
+        return iter(self._solutions())
+
+    def __eq__(self, other) -> bool:
+        return self._solutions() == (tuple(other) if isinstance(other, Sequence) else other)
+
+    def __add__(self, other) -> tuple[Solution, ...]:
+        return self._solutions() + tuple(other)
+
+    def __repr__(self) -> str:
+        return repr(self._solutions())
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,7 +141,7 @@ class IkResult:
     iterations: int
     method: str
     reason: str = ""
-    solutions: tuple[Solution, ...] = ()
+    solutions: Sequence[Solution] = ()
     matched: tuple[str, ...] = MATCHED_COMPONENTS[FULL_POSE]
     details: dict = field(default_factory=dict)
 
