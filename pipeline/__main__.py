@@ -1,8 +1,10 @@
-"""Command line: ``python -m pipeline {run,show,check,check-cell,bench,export,import-urdf} ...``. The only place that configures logging.
+"""Command line: ``python -m pipeline {run,show,check,check-cell,bench,export,import-urdf,batch,reach} ...``. The only
+place that configures logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
 cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
-prints its traceback), exit status 130 when interrupted.
+prints its traceback), exit status 130 when interrupted. ``check`` above tolerance and ``batch`` with a
+failed job (a row of its summary) exit with status 1 too.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import re
 import sys
 import traceback
@@ -124,6 +127,38 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_batch(args) -> int:
+    """Run job files (or folders of them) on Dask workers into DIR/<job name>/, with summary.csv and
+    summary.json; exit 1 when a job failed (its row says why)."""
+    from .scale import dask_client
+    from .scale.batch import SUMMARY_CSV, SUMMARY_JSON, job_files, run_jobs, write_batch
+
+    files = job_files(args.jobs)
+    with staged_output(args.out) as staging, dask_client(args.workers, args.scheduler) as client:
+        outcome = run_jobs(files, client, args.max_samples)
+        write_batch(staging, outcome)
+    print(outcome.summary())
+    print(f"wrote {args.out}/{SUMMARY_CSV}, {args.out}/{SUMMARY_JSON} and a folder per job that ran")
+    return 1 if outcome.failed else 0
+
+
+def cmd_reach(args) -> int:
+    """A reachability map of a robot (or of the robot in a cell) on Dask workers: NPZ, PNG slices,
+    Meshcat HTML and a JSON summary in DIR."""
+    from .scale import dask_client
+    from .scale.reach import plan_map
+    from .scale.result import FILES
+
+    plan = plan_map(args.robot, step=args.step * 1e-3, orientations=args.orientations,
+                    tool_axis_cone=args.tool_axis_cone, seed=args.seed, point=args.point)
+    with staged_output(args.out) as staging, dask_client(args.workers, args.scheduler) as client:
+        reach_map = plan.run(client)
+        reach_map.write_into(staging)
+    print(reach_map.describe())
+    print("wrote " + ", ".join(f"{args.out}/{name}" for name in FILES.values()))
+    return 0
+
+
 def cmd_bench(args) -> int:
     """Benchmarks beside the peers measured in the same run."""
     if args.out:
@@ -142,6 +177,10 @@ def cmd_bench(args) -> int:
         from .bench.plan import run_plan_benchmark
 
         report = run_plan_benchmark(pairs=args.pairs, seed=args.seed)
+    elif args.suite == "scale":
+        from .bench.scale import run_scale_benchmark
+
+        report = run_scale_benchmark(robot=args.robot, poses=args.poses, seed=args.seed)
     elif args.suite == "cartesian":
         from .bench.cartesian import ROBOTS, run_cartesian_benchmark
 
@@ -149,7 +188,8 @@ def cmd_bench(args) -> int:
     else:
         from .bench.kinematics import run_kinematics_benchmark
 
-        report = run_kinematics_benchmark(args.robot, batch=args.batch, single_calls=args.calls, seed=args.seed)
+        report = run_kinematics_benchmark(args.robot or "gp7", batch=args.batch, single_calls=args.calls,
+                                          seed=args.seed)
     print(report.format_table())
     if args.out:
         write_text_atomic(args.out, json.dumps(report.to_dict(), indent=2))
@@ -171,6 +211,26 @@ def _count(minimum: int):
 
 
 POSITIVE, NON_NEGATIVE = _count(1), _count(0)
+
+
+def _millimetres(text: str) -> float:
+    """An argparse type: a positive finite length in millimetres."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of millimetres") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number of millimetres, got {text}")
+    return value
+
+
+def _add_dask_options(parser) -> None:
+    """--workers N | --scheduler ADDRESS, checked together by ``scale.dask_client``."""
+    parser.add_argument("--workers", type=POSITIVE, metavar="N",
+                        help="worker processes of a Dask LocalCluster on this machine (default: one per core; "
+                             "1: everything in this process, no cluster)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (instead of --workers)")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -227,8 +287,8 @@ def build_parser() -> argparse.ArgumentParser:
     check_cell.set_defaults(func=cmd_check_cell)
 
     bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan"])
-    bench.add_argument("--robot", default="gp7", help="kinematics: the robot (default gp7)")
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "scale"])
+    bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
     bench.add_argument("--paths", type=POSITIVE, default=5, help="timing: seeded random 10-waypoint paths per robot")
@@ -239,11 +299,41 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--pairs", type=POSITIVE, default=100, metavar="N",
                        help="plan only: seeded random start/goal pairs per cell (default 100)")
     bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")
+    bench.add_argument("--poses", type=POSITIVE, default=1_000_000, metavar="N",
+                       help="scale only: poses of the timed map (default 1,000,000)")
     bench.add_argument("--batch", type=POSITIVE, default=100_000, help="kinematics: configurations in the batch timing")
     bench.add_argument("--calls", type=POSITIVE, default=2000, help="kinematics: single calls timed per implementation")
     bench.add_argument("--seed", type=NON_NEGATIVE, default=0)
     bench.add_argument("--out", help="JSON file for the results")
     bench.set_defaults(func=cmd_bench)
+
+    batch = sub.add_parser("batch", help="run many job files on Dask workers, each into DIR/<job name>/, with "
+                           "summary.csv and summary.json (exit 1 when a job failed)")
+    batch.add_argument("jobs", nargs="+", metavar="JOB", help="job files, or folders of *.yaml job files")
+    batch.add_argument("--out", required=True, metavar="DIR", help="output folder, replaced whole when the batch is "
+                       "done; only a new, empty or earlier output folder")
+    batch.add_argument("--max-samples", type=POSITIVE, default=DEFAULT_MAX_SAMPLES, metavar="N",
+                       help=f"refuse profiles of more samples (default {DEFAULT_MAX_SAMPLES:,})")
+    _add_dask_options(batch)
+    batch.set_defaults(func=cmd_batch)
+
+    reach = sub.add_parser("reach", help="a reachability map over a voxel grid (fraction of tool orientations "
+                           "reached, manipulability, IK branches) on Dask workers")
+    reach.add_argument("robot", metavar="ROBOT|CELL", help="preset name, robot file or cell file")
+    reach.add_argument("--out", required=True, metavar="DIR", help="output folder (map.npz, slices.png, map.html, "
+                       "summary.json), replaced whole")
+    reach.add_argument("--step", type=_millimetres, default=25.0, metavar="MM", help="voxel size in mm (default 25)")
+    reach.add_argument("--orientations", type=POSITIVE, metavar="N",
+                       help="tool orientations per voxel, uniform over all rotations (default 16); with "
+                            "--tool-axis-cone: tool axes in the cone")
+    reach.add_argument("--tool-axis-cone", type=float, metavar="DEG",
+                       help="tool axes within DEG of straight down (any roll) instead of all orientations")
+    reach.add_argument("--point", default="end", metavar="end|wrist",
+                       help="the point mapped: the end frame (default) or the wrist centre (where datasheets "
+                            "measure reach)")
+    reach.add_argument("--seed", type=NON_NEGATIVE, default=0, help="seed of the orientations (default 0)")
+    _add_dask_options(reach)
+    reach.set_defaults(func=cmd_reach)
     return parser
 
 
@@ -255,6 +345,9 @@ def _one_line(text: str) -> str:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    # Dask's own loggers (read when ``distributed`` is first imported, here and in its worker processes):
+    # its routine INFO lines only with -v.
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "info" if args.verbose else "warning")
     try:
         return args.func(args)
     except PipelineError as exc:

@@ -129,3 +129,20 @@ class UrdfChainError(UrdfFileError):
     """The chain asked for is not a serial chain of revolute and prismatic joints: a branch with
     moving joints on more than one side, a mimic, floating or planar joint, or no path from the base
     link to the tip link. ``field`` names the joint or link."""
+
+
+class ScaleInputError(ConfigurationError):
+    """A bad input of a batch or a reachability map (``pipeline.scale``): ``field`` names the argument or
+    option (e.g. ``step``, ``jobs``, ``--workers``), ``value`` what was given."""
+
+    def __init__(self, field: str, problem: str, value=None):
+        self.field, self.problem, self.value = field, problem, value
+        got = f" (got {shown(value)})" if value is not None else ""
+        super().__init__(f"{field}: {problem}{got}")
+
+    def __reduce__(self):                   # pickles (e.g. across Dask) with its own arguments
+        return type(self), (self.field, self.problem, self.value)
+
+
+class ClusterError(PipelineError):
+    """The Dask scheduler named cannot be reached (names its address and why)."""

@@ -28,7 +28,7 @@ NOTEBOOK_DIR = ROOT / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 SEEDS = ("seed000", "seed001", "seed002", "seed003", "seed004")
 #: Notebooks that follow a feature rather than a paper (their first cell is a "# title").
-TOPICS = ("cells_and_planning",)
+TOPICS = ("cells_and_planning", "reachability_irb1600")
 KEY_TAG = "key-numbers"
 #: Per cell; the slowest cell (three timings of one path) takes a few seconds [s].
 CELL_TIMEOUT_S = 300
@@ -359,5 +359,23 @@ def check_cells_and_planning(n: dict) -> None:
     assert [move["planner"] for move in section["planned_moves"]] == ["RRTConnect", "RRTConnect"]
 
 
+def check_reachability_irb1600(n: dict) -> None:
+    """The IRB 1600's map on 2 Dask workers: its wrist centre's reach is the datasheet's 1.2 m to 2 % and
+    to its rounding, never beyond the stretched arm's a1 + a2 + d4 (models/SOURCES.md), short of it by
+    less than a voxel diagonal; the flange reaches farther, by at most d6; the files are all there."""
+    stretched = (150 + 475 + 600) * MM
+    assert n["robot"] == "irb1600" and n["workers"] == 2 and n["orientations"] == 8 and n["poses"] > 100_000
+    assert n["stretched_m"] == pytest.approx(stretched, abs=1e-12) and n["datasheet_reach_m"] == 1.2
+    reach = n["wrist_reach_m"]
+    assert stretched - n["step_m"] * math.sqrt(3) <= reach <= stretched + 1e-9
+    assert abs(reach - 1.2) <= 0.02 * 1.2 and round(reach, 1) == 1.2
+    assert reach < n["flange_reach_m"] <= stretched + 65 * MM + 1e-9
+    assert n["fraction_range"] == [0.0, 1.0]
+    volumes = list(n["volume_m3"].values())
+    assert volumes == sorted(volumes, reverse=True) and volumes[0] > 1.0
+    assert n["files"] == ["map.html", "map.npz", "slices.png", "summary.json"]
+
+
 CHECKS = {"seed000": check_seed000, "seed001": check_seed001, "seed002": check_seed002,
-          "seed003": check_seed003, "seed004": check_seed004, "cells_and_planning": check_cells_and_planning}
+          "seed003": check_seed003, "seed004": check_seed004, "cells_and_planning": check_cells_and_planning,
+          "reachability_irb1600": check_reachability_irb1600}
