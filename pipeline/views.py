@@ -221,11 +221,13 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cel
 def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None) -> str:
     """A standalone HTML page (its JavaScript inlined, no server needed) of a Meshcat animation of the
     profile: the arm with its visual geometry, ``fps`` frames per second, played once on opening (replay
-    it from the Animations controls).
+    it from the Animations controls)."""
+    return static_meshcat_html(lambda meshcat: show_profile(robot, profile, meshcat, fps, cell))
 
-    A Meshcat server is started on an ephemeral localhost port only to build the page and is shut
-    down before this returns.
-    """
+
+def static_meshcat_html(draw) -> str:
+    """The standalone HTML page of what ``draw(meshcat)`` puts into a Meshcat. The Meshcat server runs
+    on an ephemeral localhost port only while the page is built."""
     from pydrake.geometry import Meshcat, MeshcatParams
 
     from .drake_model import quiet_drake_log
@@ -236,11 +238,10 @@ def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None) -
     with quiet_drake_log():
         meshcat = Meshcat(params)
     try:
-        show_profile(robot, profile, meshcat, fps, cell)       # the VisualModel it returns is not kept
-        html = meshcat.StaticHtml()
+        draw(meshcat)                          # what it builds is not kept
+        return meshcat.StaticHtml()
     finally:
         # The diagram's Python objects hold the Meshcat (through the visualizer) in reference cycles:
         # drop ours and collect them, so the server thread stops and the port closes now.
         del meshcat
         gc.collect()
-    return html

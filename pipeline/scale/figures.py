@@ -3,7 +3,6 @@ Meshcat HTML page (Drake), both in the robot's base frame."""
 
 from __future__ import annotations
 
-import gc
 from pathlib import Path
 
 import numpy as np
@@ -88,29 +87,19 @@ def map_html(reach_map) -> str:
     coloured by fraction (viridis: dark few, yellow all). A Meshcat server runs on an ephemeral localhost
     port only while the page is built."""
     from matplotlib import colormaps
-    from pydrake.geometry import Meshcat, MeshcatParams
     from pydrake.perception import BaseField, Fields, PointCloud
 
-    from ..drake_model import build_visual_diagram, quiet_drake_log
+    from ..drake_model import build_visual_diagram
+    from ..views import static_meshcat_html
 
     points, fraction = cloud_points(reach_map)
-    params = MeshcatParams()
-    params.host = "localhost"
-    params.port = 0
-    with quiet_drake_log():
-        meshcat = Meshcat(params)
-    try:
+
+    def draw(meshcat) -> None:
         model = build_visual_diagram(reach_map.robot.spec, meshcat, None, reach_map.cell)
         model.diagram.ForcedPublish(model.diagram.CreateDefaultContext())
         cloud = PointCloud(len(points), Fields(BaseField.kXYZs | BaseField.kRGBs))
         cloud.mutable_xyzs()[:] = points.T
         cloud.mutable_rgbs()[:] = np.round(255 * colormaps["viridis"](fraction)[:, :3]).astype(np.uint8).T
         meshcat.SetObject("/reachability", cloud, point_size=reach_map.step / 2.0)
-        html = meshcat.StaticHtml()
-    finally:
-        # As views.profile_html: the diagram holds the Meshcat in reference cycles; collect them so the
-        # server thread stops and the port closes now.
-        del meshcat
-        model = None
-        gc.collect()
-    return html
+
+    return static_meshcat_html(draw)
