@@ -4,7 +4,6 @@ checked by our FK, typed failures. Robots with other limits are copies built in 
 
 from __future__ import annotations
 
-import time
 from collections import Counter
 from pathlib import Path
 
@@ -228,29 +227,3 @@ def test_a_spherical_wrist_agrees_with_our_closed_form():
         for s in a.solutions:
             match = [t for t in b.solutions if np.abs(t.q - s.q).max() < 1e-6]
             assert len(match) == 1 and match[0].branch == s.branch
-
-
-def test_timing(capsys):
-    """Printed for the notes, not asserted: one target per call, and 1000 targets in one call."""
-    robot = load_robot(UR5)
-    Q, X = targets(robot, 1000, 12)
-    solve_subproblem_batch(robot, X[:2], Q[:2])
-    start = time.perf_counter()
-    for i in range(200):
-        solve_subproblem_batch(robot, X[i:i + 1], Q[i:i + 1])
-    single = (time.perf_counter() - start) / 200
-    start = time.perf_counter()
-    solve_subproblem_batch(robot, X, Q)
-    batch = (time.perf_counter() - start) / 1000
-    narrow = robot_copy(UR5, 180.0)
-    start = time.perf_counter()
-    for i in range(200):
-        solve_subproblem_batch(narrow, X[i:i + 1], Q[i:i + 1])
-    single_narrow = (time.perf_counter() - start) / 200
-    start = time.perf_counter()
-    solve_subproblem_batch(narrow, X, Q)
-    batch_narrow = (time.perf_counter() - start) / 1000
-    with capsys.disabled():
-        print(f"\nsolve_subproblem_batch on UR5, per target: +-360 deg (64 variants per branch) {single * 1e6:.0f} us "
-              f"alone, {batch * 1e6:.0f} us in a batch of 1000; +-180 deg {single_narrow * 1e6:.0f} us alone, "
-              f"{batch_narrow * 1e6:.0f} us in a batch of 1000")
