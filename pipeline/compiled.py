@@ -1,10 +1,13 @@
 """Compiled (Numba) kinematics of a DH chain: FK, the Jacobian and their batches.
 
-The same factorisation as ``pipeline.kinematics.DhKinematics`` (the NumPy oracle these are checked
-against): ``X_BE(q) = K_0 (M_1 K_1) ... (M_n K_n)`` with ``M_i K_i = P_i + cos(q_i) C_i + sin(q_i) S_i
-+ q_i V_i`` (the joint's sign folded into S_i and V_i). A chain is one float array ``chain`` (dof + 1,
-4, 4, 4): ``chain[0, 0] = K_0`` and ``chain[i] = (P_i, C_i, S_i, V_i)``; ``axes`` (dof, 2) holds each
-joint's sign and 1.0 for revolute (0.0 prismatic).
+The chain is ``X_BE(q) = K_0 M_1(v_1) K_1 ... M_n(v_n) K_n`` with constant transforms ``K_i`` and
+``M_i`` a rotation about z (revolute) or a translation along z (prismatic) by ``v_i = sign_i q_i``; the
+same constants as ``pipeline.kinematics.DhKinematics`` (the NumPy oracle these are checked against),
+which evaluates them another way. Applying ``M_i`` mixes two columns (or adds one into the
+translation), so each joint costs a column update and one dense compose.
+
+A chain is one float array ``chain`` (dof + 1, CHAIN_COLUMNS): row i holds the 12 entries of K_i's top
+three rows, row by row, then (rows 1 to dof) joint i's sign and kind (1.0 revolute, 0.0 prismatic).
 
 Poses travel between kernels as ``Pose`` tuples: the 12 entries of the top three rows of a 4x4
 transform, row by row (the last row is always 0 0 0 1), so no kernel allocates on the way.
@@ -24,19 +27,62 @@ from numba import njit
 
 from .arrays import MAX_MAGNITUDE
 
-#: Types of the kernels Python calls: 1-, 2-, 3- and 4-d C-contiguous float64 arrays.
-_V, _M, _T, _C = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]", "float64[:, :, :, ::1]"
+#: Types of the kernels Python calls: 1-, 2- and 3-d C-contiguous float64 arrays.
+_V, _M, _T = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
+#: Columns of a chain row: K_i (12), then joint i's sign and kind.
+SIGN, REVOLUTE = 12, 13
+CHAIN_COLUMNS = 14
 
 
-def pack_chain(P: np.ndarray, C: np.ndarray, S: np.ndarray, V: np.ndarray, K0: np.ndarray, sign: np.ndarray,
-               revolute: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(chain, axes) of a DhKinematics' constant factors (each (dof, 4, 4); K0 (4, 4); sign, revolute (dof,))."""
-    dof = len(sign)
-    chain = np.zeros((dof + 1, 4, 4, 4))
-    chain[0, 0] = K0
-    chain[1:, 0], chain[1:, 1] = P, C
-    chain[1:, 2], chain[1:, 3] = S * sign[:, None, None], V * sign[:, None, None]
-    return chain, np.ascontiguousarray(np.column_stack([sign, revolute.astype(float)]))
+def pack_chain(K: np.ndarray, sign: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """The chain of constant factors K (dof + 1, 4, 4) and each joint's sign and kind (dof,)."""
+    chain = np.zeros((len(K), CHAIN_COLUMNS))
+    chain[:, :12] = K[:, :3, :].reshape(len(K), 12)
+    chain[1:, SIGN], chain[1:, REVOLUTE] = sign, revolute
+    return chain
+
+
+# -- sin and cos together: the joint angles' trigonometry is most of FK's time --------------------
+# Polynomials and the two-step reduction by pi/2 are those of fdlibm (k_sin.c, k_cos.c, e_rem_pio2.c),
+# in musl's arrangement; fdlibm's notice: "Copyright (C) 1993 by Sun Microsystems, Inc. All rights
+# reserved. Developed at SunSoft, a Sun Microsystems, Inc. business. Permission to use, copy, modify,
+# and distribute this software is freely granted, provided that this notice is preserved."
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+_TO_INTEGER = 1.5 / np.finfo(float).eps              # x + this - this rounds x to an integer
+_TWO_OVER_PI = 6.36619772367581382433e-01
+_PI_2_HIGH, _PI_2_MIDDLE, _PI_2_LOW = 1.57079632673412561417e+00, 6.07710050630396597660e-11, 2.02226624879595063154e-21
+#: Beyond this |angle| [rad], ``sincos`` leaves the reduction to the C library's sin and cos.
+SINCOS_RANGE = 1.0e6
+
+
+@njit(cache=True, inline="always")
+def sincos(angle):
+    """(sin, cos) of an angle [rad], within 1 ulp of ``math.sin`` / ``math.cos`` and about twice as fast
+    (no call, no branch on the quadrant)."""
+    if not abs(angle) <= SINCOS_RANGE:                 # also NaN and inf
+        return math.sin(angle), math.cos(angle)
+    turns = angle * _TWO_OVER_PI + _TO_INTEGER - _TO_INTEGER  # the nearest multiple of pi/2
+    quadrant = int(turns)
+    high = angle - turns * _PI_2_HIGH                  # exact: _PI_2_HIGH has 33 bits
+    w = turns * _PI_2_MIDDLE
+    r = high - w
+    w = turns * _PI_2_LOW - ((high - r) - w)
+    y = r - w                                          # angle - quadrant pi/2 = y + tail, |y| <= pi/4
+    tail = (r - y) - w
+    z = y * y
+    zz = z * z
+    v = z * y
+    rs = _S2 + z * (_S3 + z * _S4) + z * zz * (_S5 + z * _S6)
+    sin = y - ((z * (0.5 * tail - v * rs) - tail) - v * _S1)
+    rc = z * (_C1 + z * (_C2 + z * _C3)) + zz * zz * (_C4 + z * (_C5 + z * _C6))
+    half = 0.5 * z
+    one = 1.0 - half
+    cos = one + (((1.0 - one) - half) + (z * rc - y * tail))
+    odd = quadrant & 1
+    return (1.0 - (quadrant & 2)) * (cos if odd else sin), (1.0 - ((quadrant + 1) & 2)) * (sin if odd else cos)
 
 
 @njit(cache=True)
@@ -56,29 +102,23 @@ def check_configuration(q, dof):
 
 
 @njit(cache=True)
-def pose_of(X):
-    """The Pose tuple of a 4x4 array."""
-    return (X[0, 0], X[0, 1], X[0, 2], X[0, 3], X[1, 0], X[1, 1], X[1, 2], X[1, 3],
-            X[2, 0], X[2, 1], X[2, 2], X[2, 3])
+def _constant(chain, i):
+    """The Pose of K_i."""
+    return (chain[i, 0], chain[i, 1], chain[i, 2], chain[i, 3], chain[i, 4], chain[i, 5], chain[i, 6], chain[i, 7],
+            chain[i, 8], chain[i, 9], chain[i, 10], chain[i, 11])
 
 
 @njit(cache=True)
-def _link(chain, i, value):
-    """The Pose of M_i K_i at the joint value [rad or m] (i from 0)."""
-    c, s = math.cos(value), math.sin(value)
-    L = chain[i + 1]
-    return (L[0, 0, 0] + c * L[1, 0, 0] + s * L[2, 0, 0] + value * L[3, 0, 0],
-            L[0, 0, 1] + c * L[1, 0, 1] + s * L[2, 0, 1] + value * L[3, 0, 1],
-            L[0, 0, 2] + c * L[1, 0, 2] + s * L[2, 0, 2] + value * L[3, 0, 2],
-            L[0, 0, 3] + c * L[1, 0, 3] + s * L[2, 0, 3] + value * L[3, 0, 3],
-            L[0, 1, 0] + c * L[1, 1, 0] + s * L[2, 1, 0] + value * L[3, 1, 0],
-            L[0, 1, 1] + c * L[1, 1, 1] + s * L[2, 1, 1] + value * L[3, 1, 1],
-            L[0, 1, 2] + c * L[1, 1, 2] + s * L[2, 1, 2] + value * L[3, 1, 2],
-            L[0, 1, 3] + c * L[1, 1, 3] + s * L[2, 1, 3] + value * L[3, 1, 3],
-            L[0, 2, 0] + c * L[1, 2, 0] + s * L[2, 2, 0] + value * L[3, 2, 0],
-            L[0, 2, 1] + c * L[1, 2, 1] + s * L[2, 2, 1] + value * L[3, 2, 1],
-            L[0, 2, 2] + c * L[1, 2, 2] + s * L[2, 2, 2] + value * L[3, 2, 2],
-            L[0, 2, 3] + c * L[1, 2, 3] + s * L[2, 2, 3] + value * L[3, 2, 3])
+def _moved(chain, i, x, value):
+    """The Pose x M_i K_i (i from 1) at joint i's value [rad or m]."""
+    v = chain[i, SIGN] * value
+    if chain[i, REVOLUTE] > 0.5:                                  # x Rz(v): columns 0 and 1 turn
+        s, c = sincos(v)
+        x = (c * x[0] + s * x[1], c * x[1] - s * x[0], x[2], x[3], c * x[4] + s * x[5], c * x[5] - s * x[4], x[6], x[7],
+             c * x[8] + s * x[9], c * x[9] - s * x[8], x[10], x[11])
+    else:                                                         # x Tz(v): along column 2
+        x = (x[0], x[1], x[2], x[3] + v * x[2], x[4], x[5], x[6], x[7] + v * x[6], x[8], x[9], x[10], x[11] + v * x[10])
+    return compose(x, _constant(chain, i))
 
 
 @njit(cache=True)
@@ -95,9 +135,9 @@ def compose(x, a):
 @njit(cache=True)
 def end_pose(chain, q):
     """The Pose X_BE(q) [m]; q already checked."""
-    x = pose_of(chain[0, 0])
+    x = _constant(chain, 0)
     for i in range(q.shape[0]):
-        x = compose(x, _link(chain, i, q[i]))
+        x = _moved(chain, i + 1, x, q[i])
     return x
 
 
@@ -110,17 +150,18 @@ def _write_pose(x, X):
 
 
 @njit(cache=True)
-def pose_and_jacobian(chain, axes, q, J):
+def pose_and_jacobian(chain, q, J):
     """The Pose X_BE(q) [m], with J (6, dof) set to its geometric Jacobian, rows [v; w], base frame, at
     E's origin; q already checked."""
-    x = pose_of(chain[0, 0])
+    x = _constant(chain, 0)
     for i in range(q.shape[0]):                        # J[:3] holds joint origins until the end is known
-        J[3, i], J[4, i], J[5, i] = x[2] * axes[i, 0], x[6] * axes[i, 0], x[10] * axes[i, 0]
+        sign = chain[i + 1, SIGN]
+        J[3, i], J[4, i], J[5, i] = x[2] * sign, x[6] * sign, x[10] * sign
         J[0, i], J[1, i], J[2, i] = x[3], x[7], x[11]
-        x = compose(x, _link(chain, i, q[i]))
+        x = _moved(chain, i + 1, x, q[i])
     for i in range(q.shape[0]):
         ax, ay, az = J[3, i], J[4, i], J[5, i]
-        if axes[i, 1] > 0.5:
+        if chain[i + 1, REVOLUTE] > 0.5:
             lx, ly, lz = x[3] - J[0, i], x[7] - J[1, i], x[11] - J[2, i]
             J[0, i], J[1, i], J[2, i] = ay * lz - az * ly, az * lx - ax * lz, ax * ly - ay * lx
         else:
@@ -134,6 +175,12 @@ POSE, POSITION_AND_AXIS, POSITION = 0, 1, 2
 
 
 @njit(cache=True)
+def _relative(x, X_target, i, j):
+    """Entry (i, j) of R^T R_target, R the rotation of the Pose x and R_target that of X_target (4, 4)."""
+    return x[i] * X_target[0, j] + x[4 + i] * X_target[1, j] + x[8 + i] * X_target[2, j]
+
+
+@njit(cache=True)
 def pose_errors(x, X_target, kind):
     """(position error [m], rotation error [rad]) of the Pose x against X_target (4, 4) for the target
     kind: the rotation angle between them (POSE), the angle between their z axes (POSITION_AND_AXIS),
@@ -141,13 +188,11 @@ def pose_errors(x, X_target, kind):
     dx, dy, dz = x[3] - X_target[0, 3], x[7] - X_target[1, 3], x[11] - X_target[2, 3]
     position_error = math.sqrt(dx * dx + dy * dy + dz * dz)
     if kind == POSE:                                   # E = R^T R_target: its angle, accurate near 0
-        E = np.empty((3, 3))
-        for i in range(3):
-            for j in range(3):
-                E[i, j] = x[i] * X_target[0, j] + x[4 + i] * X_target[1, j] + x[8 + i] * X_target[2, j]
-        sx, sy, sz = E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]
-        return position_error, math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz),
-                                          0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0))
+        sx = _relative(x, X_target, 2, 1) - _relative(x, X_target, 1, 2)
+        sy = _relative(x, X_target, 0, 2) - _relative(x, X_target, 2, 0)
+        sz = _relative(x, X_target, 1, 0) - _relative(x, X_target, 0, 1)
+        trace = _relative(x, X_target, 0, 0) + _relative(x, X_target, 1, 1) + _relative(x, X_target, 2, 2)
+        return position_error, math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (trace - 1.0))
     if kind == POSITION_AND_AXIS:
         z, z_target = (x[2], x[6], x[10]), (X_target[0, 2], X_target[1, 2], X_target[2, 2])
         n = cross(z, z_target)
@@ -156,14 +201,14 @@ def pose_errors(x, X_target, kind):
     return position_error, 0.0
 
 
-@njit(f"void({_C}, {_V}, {_M})", cache=True)
+@njit(f"void({_M}, {_V}, {_M})", cache=True)
 def fk_into(chain, q, X):
     """X (4, 4) = X_BE [m] at one configuration q (dof,)."""
     check_configuration(q, chain.shape[0] - 1)
     _write_pose(end_pose(chain, q), X)
 
 
-@njit(f"void({_C}, {_M}, {_T})", cache=True)
+@njit(f"void({_M}, {_M}, {_T})", cache=True)
 def fk_batch_into(chain, Q, out):
     """out (N, 4, 4) = X_BE [m] for configurations Q (N, dof)."""
     for n in range(Q.shape[0]):
@@ -171,26 +216,26 @@ def fk_batch_into(chain, Q, out):
         _write_pose(end_pose(chain, Q[n]), out[n])
 
 
-@njit(f"void({_C}, {_M}, {_V}, {_M})", cache=True)
-def jacobian_into(chain, axes, q, J):
+@njit(f"void({_M}, {_V}, {_M})", cache=True)
+def jacobian_into(chain, q, J):
     """J (6, dof) = the geometric Jacobian at one configuration q (dof,)."""
     check_configuration(q, chain.shape[0] - 1)
-    pose_and_jacobian(chain, axes, q, J)
+    pose_and_jacobian(chain, q, J)
 
 
-@njit(f"void({_C}, {_M}, {_V}, {_M}, {_M})", cache=True)
-def fk_and_jacobian_into(chain, axes, q, X, J):
+@njit(f"void({_M}, {_V}, {_M}, {_M})", cache=True)
+def fk_and_jacobian_into(chain, q, X, J):
     """X (4, 4) = X_BE [m] and J (6, dof) its Jacobian, from one pass along the chain."""
     check_configuration(q, chain.shape[0] - 1)
-    _write_pose(pose_and_jacobian(chain, axes, q, J), X)
+    _write_pose(pose_and_jacobian(chain, q, J), X)
 
 
-@njit(f"void({_C}, {_M}, {_M}, {_T})", cache=True)
-def jacobian_batch_into(chain, axes, Q, out):
+@njit(f"void({_M}, {_M}, {_T})", cache=True)
+def jacobian_batch_into(chain, Q, out):
     """out (N, 6, dof) = the geometric Jacobians at configurations Q (N, dof)."""
     for n in range(Q.shape[0]):
         check_configuration(Q[n], chain.shape[0] - 1)
-        pose_and_jacobian(chain, axes, Q[n], out[n])
+        pose_and_jacobian(chain, Q[n], out[n])
 
 
 @njit(cache=True)

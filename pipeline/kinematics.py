@@ -72,7 +72,7 @@ class DhKinematics:
         left = [L for L, _ in factors] + [spec.X_DnE]
         right = [spec.X_BaseD0] + [R for _, R in factors]
         K = np.array([R @ L for R, L in zip(right, left)])     # (dof + 1, 4, 4)
-        self._K0 = K[0]
+        self._K, self._K0 = K, K[0]
         self._R = np.array([R for _, R in factors])             # DH frame i = joint frame i @ M_i @ R_i
         self._sign = np.array([j.sign for j in spec.joints])
         self._revolute = np.array([j.is_revolute for j in spec.joints])

@@ -24,10 +24,12 @@ class Robot(DhKinematics):
     def __init__(self, spec: RobotSpec):
         super().__init__(spec)
         self.name = spec.name
-        self._chain, self._axes = compiled.pack_chain(self._P, self._C, self._S, self._V, self._K0, self._sign,
-                                                      self._revolute)
+        self._chain = compiled.pack_chain(self._K, self._sign, self._revolute)
+        self._jacobian_shape = (6, self.dof)
         #: q_min and q_max (2, dof) [rad or m] as the closed-form kernels take them.
         self._limit_rows = np.ascontiguousarray(np.vstack([spec.limits.q_min, spec.limits.q_max]))
+        #: The default IK seed, the middle of the joint ranges, as the kernels take it (never written).
+        self._q_middle = spec.limits.q_middle
 
     # -- the compiled core: C-contiguous float64 arrays go straight in; anything else (the kernel's
     # -- TypeError or ValueError) is checked by DhKinematics for the typed error, or converted --------
@@ -65,29 +67,29 @@ class Robot(DhKinematics):
         return out
 
     def jacobian(self, q) -> np.ndarray:
-        J = np.empty((6, self.dof))
+        J = np.empty(self._jacobian_shape)
         try:
-            compiled.jacobian_into(self._chain, self._axes, q, J)
+            compiled.jacobian_into(self._chain, q, J)
         except (TypeError, ValueError):
-            compiled.jacobian_into(self._chain, self._axes, self._checked(q), J)
+            compiled.jacobian_into(self._chain, self._checked(q), J)
         return J
 
     def jacobian_batch(self, Q) -> np.ndarray:
         try:
-            out = np.empty((len(Q), 6, self.dof))
-            compiled.jacobian_batch_into(self._chain, self._axes, Q, out)
+            out = np.empty((len(Q), *self._jacobian_shape))
+            compiled.jacobian_batch_into(self._chain, Q, out)
         except (TypeError, ValueError):
             Q = self._checked(Q, batch=True)
-            out = np.empty((len(Q), 6, self.dof))
-            compiled.jacobian_batch_into(self._chain, self._axes, Q, out)
+            out = np.empty((len(Q), *self._jacobian_shape))
+            compiled.jacobian_batch_into(self._chain, Q, out)
         return out
 
     def fk_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
-        X, J = np.empty((4, 4)), np.empty((6, self.dof))
+        X, J = np.empty((4, 4)), np.empty(self._jacobian_shape)
         try:
-            compiled.fk_and_jacobian_into(self._chain, self._axes, q, X, J)
+            compiled.fk_and_jacobian_into(self._chain, q, X, J)
         except (TypeError, ValueError):
-            compiled.fk_and_jacobian_into(self._chain, self._axes, self._checked(q), X, J)
+            compiled.fk_and_jacobian_into(self._chain, self._checked(q), X, J)
         return X, J
 
     @property

@@ -15,10 +15,14 @@ import numpy as np
 from ..choices import IK_METHODS
 from ..errors import ConfigurationError
 from ..progress import Progress
+from .analytic import analytic_solver_for, solve_analytic, solve_analytic_batch, solve_analytic_unchecked
+from .jacobian import solve_jacobian
 from .result import (FULL_POSE, MATCHED_COMPONENTS, POSITION_AND_AXIS, POSITION_ONLY, IkResult, IkTarget, Solution,
                      check_targets, make_target)
 
 METHODS = IK_METHODS
+#: The methods that try the closed form first.
+CLOSED_FORM_FIRST = ("auto", "analytic")
 #: The options each method takes (``solve_jacobian``, ``solve_drake``); a call may give any of them.
 OPTIONS = {"analytic": (), "jacobian": ("rng", "max_restarts", "max_iterations", "time_budget"),
            "drake": ("rng", "max_restarts", "time_budget", "solver", "drake")}
@@ -33,6 +37,10 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     ``max_iterations``, ``time_budget`` [s]; for ``drake``, ``solver`` and ``drake`` (the robot's
     DrakeRobot, to reuse one over many calls).
     """
+    if method in CLOSED_FORM_FIRST and target_kind == FULL_POSE and not options:
+        result = solve_analytic_unchecked(robot, X_target, q_seed)      # the fast path of single calls
+        if result is not None and (result.success or method == "analytic"):
+            return result
     target = make_target(X_target, target_kind)
     seed = _seed(robot, q_seed)
     if options:
@@ -52,13 +60,9 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
 def _solve(robot, target: IkTarget, seed: np.ndarray, method: str, options: dict) -> IkResult:
     """One method on a checked target and seed."""
     if method == "analytic":
-        from .analytic import solve_analytic
-
         return solve_analytic(robot, target, seed)
     options = {name: value for name, value in options.items() if name in OPTIONS[method]}
     if method == "jacobian":
-        from .jacobian import solve_jacobian
-
         return solve_jacobian(robot, target, seed, **options)
     from .drake_ik import solve_drake
 
@@ -111,8 +115,6 @@ def _resolve_method(robot, method: str, kind: str) -> str:
 
 def has_closed_form(robot) -> bool:
     """Whether the closed form (``analytic``: our spherical-wrist solver, else EAIK's) solves this arm."""
-    from .analytic import analytic_solver_for
-
     if analytic_solver_for(robot).applicable:
         return True
     from .subproblem import subproblem_solver_for
@@ -134,8 +136,6 @@ def solve_ik_batch(robot, X_targets, q_seeds=None, method: str = "auto", target_
         _check_options(options)
     resolved = _resolve_method(robot, method, target_kind)
     if resolved == "analytic":
-        from .analytic import solve_analytic_batch
-
         results = solve_analytic_batch(robot, X_targets, seeds, target_kind)
         if method != "auto":
             return results

@@ -136,7 +136,24 @@ def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
     solver = analytic_solver_for(robot)
     if not solver.applicable or target.kind != FULL_POSE:
         return solve_analytic_batch(robot, target.X_BE[None], q_seed[None], target.kind)[0]
-    X, seed = _for_kernel(target.X_BE), _for_kernel(q_seed)
+    return _solve_one(robot, solver, _for_kernel(target.X_BE), _for_kernel(q_seed))
+
+
+def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
+    """``solve_analytic`` of a full pose straight from the caller's arrays, which the kernel checks
+    itself: the fast path of single calls. None when the closed form does not fit the arm, or when
+    the pose or seed is not one the kernel takes (not a C-contiguous float64 array, or refused): the
+    caller then checks them and words the error."""
+    solver = analytic_solver_for(robot)
+    if not solver.applicable:
+        return None
+    try:
+        return _solve_one(robot, solver, X_target, robot._q_middle if q_seed is None else q_seed)
+    except (TypeError, ValueError):
+        return None
+
+
+def _solve_one(robot, solver: AnalyticSolver, X: np.ndarray, seed: np.ndarray) -> IkResult:
     out, info = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS)), np.empty(closed_form.INFO)
     closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out, info)
     if info[closed_form.COUNT] > SINGLE_CAPACITY:
@@ -183,20 +200,21 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
 
 
 def _result(robot, out: np.ndarray, info: np.ndarray, X_target: np.ndarray) -> IkResult:
-    """An IkResult from a closed-form kernel's ``out`` and ``info`` of one target."""
+    """An IkResult from a closed-form kernel's ``out`` and ``info`` of one target (out is the caller's
+    own buffer: the result keeps views of it)."""
     count = int(info[closed_form.COUNT])
-    details = {"branches_reachable": int(info[closed_form.REACHABLE])}
     if count == 0:
         q = out[0, :6].copy()
         position_error, rotation_error = pose_errors(robot.fk(q), IkTarget(X_target))
         return IkResult(False, q, position_error, rotation_error, 1, "analytic", _failure_reason(robot, info), (),
-                        details=details)
-    rows = out[:count, :closed_form.VARIANTS].copy()
+                        details={"branches_reachable": int(info[closed_form.REACHABLE])})
     variants = out[:count, closed_form.VARIANTS].tolist()
-    details.update(branch=LABELS[int(rows[0, closed_form.CODE])],
-                   variants=[None if math.isinf(v) else v for v in variants])
-    return IkResult(True, rows[0, :6], rows[0, closed_form.POSITION_ERROR], rows[0, closed_form.ROTATION_ERROR], 1,
-                    "analytic", "", Solutions(rows, LABELS), details=details)
+    if math.inf in variants:
+        variants = [None if v == math.inf else v for v in variants]
+    best = out[0, 6:closed_form.VARIANTS].tolist()
+    return IkResult(True, out[0, :6], best[0], best[1], 1, "analytic", "", Solutions(out[:count, :closed_form.VARIANTS], LABELS),
+                    details={"branches_reachable": int(info[closed_form.REACHABLE]), "branch": LABELS[int(best[2])],
+                             "variants": variants})
 
 
 def _failure_reason(robot, info: np.ndarray) -> str:

@@ -35,8 +35,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import POSE, cross, end_pose, pose_errors
-from .result import POSITION_TOLERANCE, ROTATION_TOLERANCE
+from ..compiled import POSE, check_configuration, cross, end_pose, is_pose, pose_errors, sincos
+from ..poses import ROTATION_TOLERANCE as POSE_TOLERANCE
+from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
 SINGULAR_TOLERANCE = 1e-9
@@ -66,9 +67,9 @@ COUNT, REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION = range(5)
 INFO = 5
 TWO_PI = 2.0 * math.pi
 
-_SOLVE_SIGNATURE = "void(float64[:, ::1], float64[:, :, :, ::1], float64[:, ::1], float64[:, ::1], float64[::1], " \
+_SOLVE_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], " \
                    "float64[:, ::1], float64[::1])"
-_BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, :, :, ::1], float64[:, ::1], float64[:, :, ::1], " \
+_BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
                    "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
 
 
@@ -102,13 +103,14 @@ def _dot(a, b):
 def _rotate(w, angle, v):
     """Rodrigues: v rotated about the unit axis w by angle [rad]."""
     wv = cross(w, v)
-    return _add(_add(v, _scale(math.sin(angle), wv)), _scale(1.0 - math.cos(angle), cross(w, wv)))
+    s, c = sincos(angle)
+    return _add(_add(v, _scale(s, wv)), _scale(1.0 - c, cross(w, wv)))
 
 
 @njit(cache=True)
 def _matrix(w, angle):
     """The rotation about the unit axis w by angle [rad]."""
-    c, s = math.cos(angle), math.sin(angle)
+    s, c = sincos(angle)
     t = 1.0 - c
     return (c + t * w[0] * w[0], t * w[0] * w[1] - s * w[2], t * w[0] * w[2] + s * w[1],
             t * w[0] * w[1] + s * w[2], c + t * w[1] * w[1], t * w[1] * w[2] - s * w[0],
@@ -415,37 +417,59 @@ def _solve(geometry, chain, limits, X, seed, out, info):
 
 
 @njit(cache=True)
+def _seed_distance(out, i, seed):
+    """Distance of row i of out from the seed [rad or m]."""
+    total = 0.0
+    for j in range(6):
+        total += (out[i, j] - seed[j]) ** 2
+    return math.sqrt(total)
+
+
+@njit(cache=True)
+def _is_duplicate(out, i, k):
+    """Whether rows i and k of out are one solution (largest joint difference <= DUPLICATE_TOLERANCE)."""
+    for j in range(6):
+        if abs(out[i, j] - out[k, j]) > DUPLICATE_TOLERANCE:
+            return False
+    return True
+
+
+@njit(cache=True)
 def _sort_distinct(out, m, seed):
-    """Sort the first m rows of out by distance to the seed and drop duplicates (largest joint
-    difference <= DUPLICATE_TOLERANCE); returns how many rows are left."""
-    distance = np.empty(m)
-    for i in range(m):
-        total = 0.0
-        for j in range(6):
-            total += (out[i, j] - seed[j]) ** 2
-        distance[i] = math.sqrt(total)
-    order = np.argsort(distance, kind="mergesort")
-    rows = out[:m].copy()
-    kept_distance = np.empty(m)
+    """Sort the first m rows of out by distance to the seed (stable, in place) and drop duplicates;
+    returns how many rows are left."""
+    for i in range(1, m):                                    # insertion sort: m is small
+        distance = _seed_distance(out, i, seed)
+        k = i
+        while k > 0 and _seed_distance(out, k - 1, seed) > distance:
+            for j in range(out.shape[1]):
+                out[k - 1, j], out[k, j] = out[k, j], out[k - 1, j]
+            k -= 1
     n = 0
-    for i in order:
+    for i in range(m):
         duplicate = False
-        for k in range(n - 1, -1, -1):     # a duplicate's distance differs by at most sqrt(6) DUPLICATE_TOLERANCE
-            if distance[i] - kept_distance[k] > 3.0 * DUPLICATE_TOLERANCE:
+        for k in range(n - 1, -1, -1):      # a duplicate's distance differs by at most sqrt(6) DUPLICATE_TOLERANCE
+            if _seed_distance(out, i, seed) - _seed_distance(out, k, seed) > 3.0 * DUPLICATE_TOLERANCE:
                 break
-            if np.abs(rows[i, :6] - out[k, :6]).max() <= DUPLICATE_TOLERANCE:
+            if _is_duplicate(out, i, k):
                 duplicate = True
                 break
         if not duplicate:
-            out[n] = rows[i]
-            kept_distance[n] = distance[i]
+            if n != i:
+                out[n] = out[i]
             n += 1
     return n
 
 
 @njit(_SOLVE_SIGNATURE, cache=True)
 def solve_one(geometry, chain, limits, X, seed, out, info):
-    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out and info."""
+    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out and info.
+
+    X and the seed come unchecked: ValueError unless X is a pose (``pipeline.poses.check_pose``, within
+    MAX_TARGET_COORDINATE_M) and the seed 6 finite joint values (the caller then words the error)."""
+    if X.shape[0] != 4 or X.shape[1] != 4 or not is_pose(X, POSE_TOLERANCE, MAX_TARGET_COORDINATE_M):
+        raise ValueError("not a pose")
+    check_configuration(seed, 6)
     _solve(geometry, chain, limits, X, seed, out, info)
 
 

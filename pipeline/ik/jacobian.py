@@ -25,7 +25,7 @@ def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int):
     """One damped least-squares descent from q: (q, iterations, position error [m], rotation error
     [rad], strict)."""
     limits = robot.limits
-    return descent.descend(robot._chain, robot._axes, limits.q_min, limits.q_max, target.X_BE,
+    return descent.descend(robot._chain, limits.q_min, limits.q_max, target.X_BE,
                            KIND_CODES[target.kind], q, max_iterations)
 
 
@@ -40,7 +40,7 @@ def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.G
     limits = robot.limits
     rng = np.random.default_rng(0) if rng is None else rng
     deadline = time.perf_counter() + time_budget
-    start = descent.into_limits(q_seed, q_seed, robot._axes[:, 1], limits.q_min, limits.q_max)
+    start = descent.into_limits(q_seed, q_seed, robot.revolute_mask, limits.q_min, limits.q_max)
     best = None
     total_iterations = 0
     for attempt in range(max_restarts + 1):

@@ -123,7 +123,7 @@ class Solutions(Sequence):
         return repr(self._solutions())
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False)
 class IkResult:
     """What an IK solve returns, whether it succeeded or not (never None).
 
