@@ -135,8 +135,20 @@ def compose(x, a):
 @njit(cache=True)
 def end_pose(chain, q):
     """The Pose X_BE(q) [m]; q already checked."""
-    x = _constant(chain, 0)
-    for i in range(q.shape[0]):
+    return moved_pose(chain, base_pose(chain), q, 0, q.shape[0])
+
+
+@njit(cache=True)
+def base_pose(chain):
+    """The Pose K_0: where the chain starts."""
+    return _constant(chain, 0)
+
+
+@njit(cache=True)
+def moved_pose(chain, x, q, first, stop):
+    """The Pose x carried through joints first to stop - 1 (counted from 0) at their values in q (an
+    array or tuple): the end pose from a pose part way along the chain."""
+    for i in range(first, stop):
         x = _moved(chain, i + 1, x, q[i])
     return x
 

@@ -70,9 +70,10 @@ _SOLVERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 def analytic_solver_for(robot) -> AnalyticSolver:
     """The (cached) closed-form solver of a robot, derived from its DH table."""
-    if robot not in _SOLVERS:
-        _SOLVERS[robot] = _derive_solver(robot)
-    return _SOLVERS[robot]
+    solver = _SOLVERS.get(robot)
+    if solver is None:
+        solver = _SOLVERS[robot] = _derive_solver(robot)
+    return solver
 
 
 def _derive_solver(robot) -> AnalyticSolver:
@@ -154,12 +155,12 @@ def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
 
 
 def _solve_one(robot, solver: AnalyticSolver, X: np.ndarray, seed: np.ndarray) -> IkResult:
-    out, info = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS)), np.empty(closed_form.INFO)
-    closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out, info)
-    if info[closed_form.COUNT] > SINGLE_CAPACITY:
-        out = np.empty((int(info[closed_form.COUNT]), closed_form.SOLUTION_COLUMNS))
-        closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out, info)
-    return _result(robot, out, info, X)
+    out = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS))
+    numbers = closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
+    if numbers[closed_form.COUNT] > SINGLE_CAPACITY:
+        out = np.empty((int(numbers[closed_form.COUNT]), closed_form.SOLUTION_COLUMNS))
+        numbers = closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
+    return _result(robot, out, numbers, X)
 
 
 def _for_kernel(array: np.ndarray) -> np.ndarray:
@@ -195,29 +196,29 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
         if info[n, closed_form.COUNT] > BATCH_CAPACITY:
             results.append(solve_analytic(robot, IkTarget(X), seeds[n]))
         else:
-            results.append(_result(robot, out[n], info[n], X))
+            results.append(_result(robot, out[n], info[n].tolist(), X))
     return results
 
 
-def _result(robot, out: np.ndarray, info: np.ndarray, X_target: np.ndarray) -> IkResult:
-    """An IkResult from a closed-form kernel's ``out`` and ``info`` of one target (out is the caller's
-    own buffer: the result keeps views of it)."""
-    count = int(info[closed_form.COUNT])
+def _result(robot, out: np.ndarray, numbers, X_target: np.ndarray) -> IkResult:
+    """An IkResult from a closed-form kernel's ``out`` and ``info`` entries (``numbers``, a sequence) of
+    one target (out is the caller's own buffer: the result keeps views of it)."""
+    count, reachable = int(numbers[closed_form.COUNT]), int(numbers[closed_form.REACHABLE])
     if count == 0:
         q = out[0, :6].copy()
         position_error, rotation_error = pose_errors(robot.fk(q), IkTarget(X_target))
-        return IkResult(False, q, position_error, rotation_error, 1, "analytic", _failure_reason(robot, info), (),
-                        details={"branches_reachable": int(info[closed_form.REACHABLE])})
+        return IkResult(False, q, position_error, rotation_error, 1, "analytic", _failure_reason(robot, numbers), (),
+                        details={"branches_reachable": reachable})
     variants = out[:count, closed_form.VARIANTS].tolist()
     if math.inf in variants:
         variants = [None if v == math.inf else v for v in variants]
-    best = out[0, 6:closed_form.VARIANTS].tolist()
-    return IkResult(True, out[0, :6], best[0], best[1], 1, "analytic", "", Solutions(out[:count, :closed_form.VARIANTS], LABELS),
-                    details={"branches_reachable": int(info[closed_form.REACHABLE]), "branch": LABELS[int(best[2])],
+    return IkResult(True, out[0, :6], numbers[closed_form.FIRST_POSITION_ERROR], numbers[closed_form.FIRST_ROTATION_ERROR],
+                    1, "analytic", "", Solutions(out[:count, :closed_form.VARIANTS], LABELS),
+                    details={"branches_reachable": reachable, "branch": LABELS[int(numbers[closed_form.FIRST_CODE])],
                              "variants": variants})
 
 
-def _failure_reason(robot, info: np.ndarray) -> str:
+def _failure_reason(robot, info) -> str:
     """Why no branch is left: out of reach, not verified by FK, or only outside the limits (the joint
     and the true amount of the smallest violation of any exact branch and its 2 pi shifts)."""
     if info[closed_form.REACHABLE] == 0:

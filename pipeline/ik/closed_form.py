@@ -35,7 +35,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import POSE, check_configuration, cross, end_pose, is_pose, pose_errors, sincos
+from ..compiled import POSE, base_pose, check_configuration, cross, end_pose, is_pose, moved_pose, pose_errors, sincos
 from ..poses import ROTATION_TOLERANCE as POSE_TOLERANCE
 from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERANCE
 
@@ -61,14 +61,15 @@ Q_COLUMNS, POSITION_ERROR, ROTATION_ERROR, CODE, VARIANTS = slice(0, 6), 6, 7, 8
 SOLUTION_COLUMNS = 10
 #: Entries of ``info``: solutions written (more than ``out`` holds: call again with this capacity),
 #: branches that reach the wrist centre, branches verified by FK, the joint and amount [rad] of the
-#: smallest limit violation of a verified branch (-1, 0 when none). With no solution, ``out[0, :6]``
-#: holds the branch nearest to the target (by FK error), to report on.
-COUNT, REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION = range(5)
-INFO = 5
+#: smallest limit violation of a verified branch (-1, 0 when none), and the first solution's errors
+#: [m, rad] and label code (0 when there is none). With no solution, ``out[0, :6]`` holds the branch
+#: nearest to the target (by FK error), to report on.
+COUNT, REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION, FIRST_POSITION_ERROR, FIRST_ROTATION_ERROR, FIRST_CODE = range(8)
+INFO = 8
 TWO_PI = 2.0 * math.pi
 
-_SOLVE_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], " \
-                   "float64[:, ::1], float64[::1])"
+_SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})(float64[:, ::1], float64[:, ::1], float64[:, ::1], " \
+                   "float64[:, ::1], float64[::1], float64[:, ::1])"
 _BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
                    "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
 
@@ -105,16 +106,6 @@ def _rotate(w, angle, v):
     wv = cross(w, v)
     s, c = sincos(angle)
     return _add(_add(v, _scale(s, wv)), _scale(1.0 - c, cross(w, wv)))
-
-
-@njit(cache=True)
-def _matrix(w, angle):
-    """The rotation about the unit axis w by angle [rad]."""
-    s, c = sincos(angle)
-    t = 1.0 - c
-    return (c + t * w[0] * w[0], t * w[0] * w[1] - s * w[2], t * w[0] * w[2] + s * w[1],
-            t * w[0] * w[1] + s * w[2], c + t * w[1] * w[1], t * w[1] * w[2] - s * w[0],
-            t * w[0] * w[2] - s * w[1], t * w[1] * w[2] + s * w[0], c + t * w[2] * w[2])
 
 
 @njit(cache=True)
@@ -229,59 +220,74 @@ def _q1_value(i, phi, spread, seed1, q1_min, q1_max):
 
 
 @njit(cache=True)
-def _arm_branches(geometry, R_target, p_wrist, q1, seed):
+def _wrist_reference(geometry):
+    """n6: a unit vector normal to axis 6 at q = 0, whose turn about it gives q6."""
+    w6 = _row(geometry, AXES + 5)
+    n6 = cross(w6, (1.0, 0.0, 0.0) if abs(w6[0]) < 0.9 else (0.0, 1.0, 0.0))
+    return _scale(1.0 / math.sqrt(_dot(n6, n6)), n6)
+
+
+@njit(cache=True)
+def _goal_axes(geometry, X):
+    """Where the joints must turn axis 6 and n6 (``_wrist_reference``) for target X (4, 4): R_goal w6
+    and R_goal n6, with R_goal = R_target R0^T the rotation of all six joints together."""
+    R_goal = _mm(_rotation_of(X), _t(_home_rotation(geometry)))
+    return _mv(R_goal, _row(geometry, AXES + 5)), _mv(R_goal, _wrist_reference(geometry))
+
+
+@njit(cache=True)
+def _arm_branches(geometry, goal_axes, p_wrist, q1, seed):
     """The four branches (elbow e, wrist f: index 2 e + f) of one q1: their q as 6-tuples wrapped into
-    (-pi, pi], and whether the elbow reaches."""
-    w3, c = _row(geometry, AXES + 2), _row(geometry, CENTRE)
+    (-pi, pi], and whether the elbow reaches. ``goal_axes``: of ``_goal_axes``."""
+    w1, w3, c = _row(geometry, AXES), _row(geometry, AXES + 2), _row(geometry, CENTRE)
     r1, r2, r3 = _row(geometry, POINTS), _row(geometry, POINTS + 1), _row(geometry, POINTS + 2)
     u, vv = _sub(c, r3), _sub(r2, r3)
     u_p, v_p = _sub(u, _scale(_dot(w3, u), w3)), _sub(vv, _scale(_dot(w3, vv), w3))
     theta0 = math.atan2(_dot(w3, cross(u_p, v_p)), _dot(u_p, v_p))
-    p_prime = _add(r1, _rotate(_row(geometry, AXES), -q1, _sub(p_wrist, r1)))
+    p_prime = _add(r1, _rotate(w1, -q1, _sub(p_wrist, r1)))
     delta_sq = _dot(_sub(p_prime, r2), _sub(p_prime, r2)) - _dot(w3, _sub(c, r2)) ** 2
     kappa = (_dot(u_p, u_p) + _dot(v_p, v_p) - delta_sq) / (2.0 * math.sqrt(_dot(u_p, u_p) * _dot(v_p, v_p)))
     spread3 = math.acos(min(max(kappa, -1.0), 1.0))
-    down = _wrist_branches(geometry, R_target, p_prime, q1, theta0 - spread3, seed)
-    up = _wrist_branches(geometry, R_target, p_prime, q1, theta0 + spread3, seed)
+    after1 = (_rotate(w1, -q1, goal_axes[0]), _rotate(w1, -q1, goal_axes[1]))     # R1^T R_goal w6, R1^T R_goal n6
+    down = _wrist_branches(geometry, after1, p_prime, q1, theta0 - spread3, seed)
+    up = _wrist_branches(geometry, after1, p_prime, q1, theta0 + spread3, seed)
     return (down[0], down[1], up[0], up[1]), abs(kappa) <= 1.0 + REACH_SLACK
 
 
 @njit(cache=True)
-def _wrist_branches(geometry, R_target, p_prime, q1, q3, seed):
-    """The two wrist branches (noflip, flip) of one q1 and q3: q as 6-tuples wrapped into (-pi, pi]."""
-    w1, w2, w3 = _row(geometry, AXES), _row(geometry, AXES + 1), _row(geometry, AXES + 2)
+def _wrist_branches(geometry, after1, p_prime, q1, q3, seed):
+    """The two wrist branches (noflip, flip) of one q1 and q3: q as 6-tuples wrapped into (-pi, pi].
+    ``after1``: R1^T R_goal w6 and R1^T R_goal n6."""
+    w2, w3 = _row(geometry, AXES + 1), _row(geometry, AXES + 2)
     w4, w5, w6 = _row(geometry, AXES + 3), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
     r2, r3, c = _row(geometry, POINTS + 1), _row(geometry, POINTS + 2), _row(geometry, CENTRE)
     c45 = _dot(w4, w5)
     n45 = cross(w4, w5)
-    n6 = cross(w6, (1.0, 0.0, 0.0) if abs(w6[0]) < 0.9 else (0.0, 1.0, 0.0))
-    n6 = _scale(1.0 / math.sqrt(_dot(n6, n6)), n6)
     p3 = _add(r3, _rotate(w3, q3, _sub(c, r3)))
     q2 = _angle(w2, _sub(p3, r2), _sub(p_prime, r2))
-    R_arm = _mm(_mm(_matrix(w1, q1), _matrix(w2, q2)), _matrix(w3, q3))
-    R_wrist = _mm(_mm(_t(R_arm), R_target), _t(_home_rotation(geometry)))
-    d = _mv(R_wrist, w6)
+    d = _rotate(w3, -q3, _rotate(w2, -q2, after1[0]))            # R_wrist w6, R_wrist = R_arm^T R_goal
+    m = _rotate(w3, -q3, _rotate(w2, -q2, after1[1]))            # R_wrist n6
     alpha = (c45 * _dot(w5, w6) - _dot(d, w4)) / (c45 ** 2 - 1.0)
     beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
     gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / _dot(n45, n45), 0.0))
     w4d = cross(w4, d)
     singular = math.sqrt(_dot(w4d, w4d)) < SINGULAR_TOLERANCE
     arm = (_wrap(q1), _wrap(q2), _wrap(q3))
-    return (_wrist_branch(geometry, arm, R_wrist, d, _add(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
+    n6 = _wrist_reference(geometry)
+    return (_wrist_branch(geometry, arm, d, m, _add(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
                           singular, n6, seed),
-            _wrist_branch(geometry, arm, R_wrist, d, _sub(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
+            _wrist_branch(geometry, arm, d, m, _sub(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
                           singular, n6, seed))
 
 
 @njit(cache=True)
-def _wrist_branch(geometry, arm, R_wrist, d, z, singular, n6, seed):
+def _wrist_branch(geometry, arm, d, m, z, singular, n6, seed):
     """One branch: the arm's (q1, q2, q3) and the wrist's q4, q5, q6 that put axis 6 along d with axis
-    5 along z; at a wrist singularity, the split of q4 +- q6 nearest the seed."""
+    5 along z (m: where n6 must go); at a wrist singularity, the split of q4 +- q6 nearest the seed."""
     w4, w5, w6 = _row(geometry, AXES + 3), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
     q4 = seed[3] if singular else _angle(w4, z, d)
     q5 = _angle(w5, w6, _rotate(w4, -q4, d)) if singular else _angle(w5, w6, z)
-    R45 = _mm(_matrix(w4, q4), _matrix(w5, q5))
-    q6 = _angle(w6, n6, _mv(_mm(_t(R45), R_wrist), n6))
+    q6 = _angle(w6, n6, _rotate(w5, -q5, _rotate(w4, -q4, m)))       # (R4 R5)^T R_wrist n6
     if singular:                         # only q4 + sigma q6 is fixed: split the change nearest the seed
         sigma = 1.0 if _dot(_rotate(w5, q5, w6), w4) >= 0.0 else -1.0
         step = _wrap(sigma * (q6 - seed[5]))
@@ -300,7 +306,7 @@ def raw_branches(geometry, X, seed, q1_min, q1_max):
     reachable = np.zeros(4 * count, dtype=np.bool_)
     for i in range(count):
         q1 = _q1_value(i, phi, spread, seed[0], q1_min, q1_max)
-        branches, reach3 = _arm_branches(geometry, _rotation_of(X), p_wrist, q1, seed)
+        branches, reach3 = _arm_branches(geometry, _goal_axes(geometry, X), p_wrist, q1, seed)
         for k in range(4):
             for j in range(6):
                 Q[4 * i + k, j] = branches[k][j]
@@ -363,20 +369,24 @@ def _solve(geometry, chain, limits, X, seed, out, info):
     q = np.empty(6)
     best = np.zeros(6)
     best_error, best_violation = np.inf, np.inf
-    R_target = _rotation_of(X)
+    goal_axes = _goal_axes(geometry, X)
     p_wrist = wrist_centre(geometry, X)
     phi, spread, reach1 = _shoulder(geometry, p_wrist)
     m = 0
     for i in range(_q1_count(spread)):
         q1 = _q1_value(i, phi, spread, seed[0], limits[0, 0], limits[1, 0])
-        branches, reach3 = _arm_branches(geometry, R_target, p_wrist, q1, seed)
+        branches, reach3 = _arm_branches(geometry, goal_axes, p_wrist, q1, seed)
         if not (reach1 and reach3):
             continue
-        for raw in branches:
+        arm_pose, arm_code = base_pose(chain), -1
+        for k in range(4):
+            raw = branches[k]
             info[REACHABLE] += 1
             for j in range(6):
                 q[j] = raw[j]
-            e_p, e_r = _pose_error(chain, q, X)
+            if k % 2 == 0:                     # the two wrist branches of an elbow share q1, q2 and q3
+                arm_pose, arm_code = moved_pose(chain, base_pose(chain), raw, 0, 3), -1
+            e_p, e_r = pose_errors(moved_pose(chain, arm_pose, raw, 3, 6), X, POSE)
             if e_p + e_r < best_error:
                 best[:], best_error = q, e_p + e_r
             if e_p > POSITION_TOLERANCE or e_r > ROTATION_TOLERANCE:
@@ -394,7 +404,9 @@ def _solve(geometry, chain, limits, X, seed, out, info):
                     best_violation = worst
                     info[VIOLATING_JOINT], info[VIOLATION] = worst_joint, worst
                 continue
-            code, variants = label_code(geometry, p_wrist, raw), _variant_count(raw, limits)
+            if arm_code < 0:                   # shoulder and elbow bits: the same for both wrists
+                arm_code = label_code(geometry, p_wrist, raw) & (FRONT | UP)
+            code, variants = arm_code | (FLIP if raw[4] < 0.0 else 0), _variant_count(raw, limits)
             for combo in range(total):
                 rest, on_limit = combo, False
                 for j in range(6):
@@ -414,15 +426,8 @@ def _solve(geometry, chain, limits, X, seed, out, info):
         out[0, :6] = best
     elif m <= capacity:
         info[COUNT] = _sort_distinct(out, m, seed)
-
-
-@njit(cache=True)
-def _seed_distance(out, i, seed):
-    """Distance of row i of out from the seed [rad or m]."""
-    total = 0.0
-    for j in range(6):
-        total += (out[i, j] - seed[j]) ** 2
-    return math.sqrt(total)
+        info[FIRST_POSITION_ERROR], info[FIRST_ROTATION_ERROR] = out[0, POSITION_ERROR], out[0, ROTATION_ERROR]
+        info[FIRST_CODE] = out[0, CODE]
 
 
 @njit(cache=True)
@@ -438,10 +443,16 @@ def _is_duplicate(out, i, k):
 def _sort_distinct(out, m, seed):
     """Sort the first m rows of out by distance to the seed (stable, in place) and drop duplicates;
     returns how many rows are left."""
+    distance = np.empty(m)
+    for i in range(m):
+        total = 0.0
+        for j in range(6):
+            total += (out[i, j] - seed[j]) ** 2
+        distance[i] = math.sqrt(total)
     for i in range(1, m):                                    # insertion sort: m is small
-        distance = _seed_distance(out, i, seed)
         k = i
-        while k > 0 and _seed_distance(out, k - 1, seed) > distance:
+        while k > 0 and distance[k - 1] > distance[k]:
+            distance[k - 1], distance[k] = distance[k], distance[k - 1]
             for j in range(out.shape[1]):
                 out[k - 1, j], out[k, j] = out[k, j], out[k - 1, j]
             k -= 1
@@ -449,28 +460,31 @@ def _sort_distinct(out, m, seed):
     for i in range(m):
         duplicate = False
         for k in range(n - 1, -1, -1):      # a duplicate's distance differs by at most sqrt(6) DUPLICATE_TOLERANCE
-            if _seed_distance(out, i, seed) - _seed_distance(out, k, seed) > 3.0 * DUPLICATE_TOLERANCE:
+            if distance[i] - distance[k] > 3.0 * DUPLICATE_TOLERANCE:
                 break
             if _is_duplicate(out, i, k):
                 duplicate = True
                 break
         if not duplicate:
             if n != i:
-                out[n] = out[i]
+                out[n], distance[n] = out[i], distance[i]
             n += 1
     return n
 
 
 @njit(_SOLVE_SIGNATURE, cache=True)
-def solve_one(geometry, chain, limits, X, seed, out, info):
-    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out and info.
+def solve_one(geometry, chain, limits, X, seed, out):
+    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
+    returns the target's ``info`` entries (a tuple: no array to unpack).
 
     X and the seed come unchecked: ValueError unless X is a pose (``pipeline.poses.check_pose``, within
     MAX_TARGET_COORDINATE_M) and the seed 6 finite joint values (the caller then words the error)."""
     if X.shape[0] != 4 or X.shape[1] != 4 or not is_pose(X, POSE_TOLERANCE, MAX_TARGET_COORDINATE_M):
         raise ValueError("not a pose")
     check_configuration(seed, 6)
+    info = np.zeros(INFO)
     _solve(geometry, chain, limits, X, seed, out, info)
+    return (info[0], info[1], info[2], info[3], info[4], info[5], info[6], info[7])
 
 
 @njit(_BATCH_SIGNATURE, cache=True)
