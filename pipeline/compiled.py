@@ -29,6 +29,8 @@ from .arrays import MAX_MAGNITUDE
 
 #: Types of the kernels Python calls: 1-, 2- and 3-d C-contiguous float64 arrays.
 _V, _M, _T = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
+#: The chain's products and sums may fuse into FMA instructions (as exact or more; never reordered).
+_FUSED = {"contract"}
 #: Columns of a chain row: K_i (12), then joint i's sign and kind.
 SIGN, REVOLUTE = 12, 13
 CHAIN_COLUMNS = 14
@@ -108,7 +110,7 @@ def _constant(chain, i):
             chain[i, 8], chain[i, 9], chain[i, 10], chain[i, 11])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FUSED)
 def _moved(chain, i, x, value):
     """The Pose x M_i K_i (i from 1) at joint i's value [rad or m]."""
     v = chain[i, SIGN] * value
@@ -121,7 +123,7 @@ def _moved(chain, i, x, value):
     return compose(x, _constant(chain, i))
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FUSED)
 def compose(x, a):
     """The Pose x a."""
     return (x[0] * a[0] + x[1] * a[4] + x[2] * a[8], x[0] * a[1] + x[1] * a[5] + x[2] * a[9],
@@ -161,7 +163,7 @@ def _write_pose(x, X):
     X[3, 0], X[3, 1], X[3, 2], X[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FUSED)
 def pose_and_jacobian(chain, q, J):
     """The Pose X_BE(q) [m], with J (6, dof) set to its geometric Jacobian, rows [v; w], base frame, at
     E's origin; q already checked."""

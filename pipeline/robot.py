@@ -11,6 +11,10 @@ from . import compiled
 from .kinematics import DhKinematics
 from .robot_spec import Limits, RobotSpec, load_robot_spec
 
+#: The single-call path looked up once: a module attribute costs as much as a tenth of an FK call.
+_empty, _fk_into, _jacobian_into = np.empty, compiled.fk_into, compiled.jacobian_into
+_POSE_SHAPE = (4, 4)
+
 
 class Robot(DhKinematics):
     """A serial robot from a DH table: ``fk``, ``fk_all``, ``fk_batch``, ``jacobian`` in SI units.
@@ -30,6 +34,9 @@ class Robot(DhKinematics):
         self._limit_rows = np.ascontiguousarray(np.vstack([spec.limits.q_min, spec.limits.q_max]))
         #: The default IK seed, the middle of the joint ranges, as the kernels take it (never written).
         self._q_middle = spec.limits.q_middle
+        #: Where ``random_configurations`` draws each joint [rad or m]: its limits, [-pi, pi] if continuous.
+        continuous = spec.limits.continuous
+        self._sampled_ranges = (np.where(continuous, -np.pi, spec.limits.q_min), np.where(continuous, np.pi, spec.limits.q_max))
 
     # -- the compiled core: C-contiguous float64 arrays go straight in; anything else (the kernel's
     # -- TypeError or ValueError) is checked by DhKinematics for the typed error, or converted --------
@@ -49,11 +56,11 @@ class Robot(DhKinematics):
         return np.array(self.as_batch(q) if batch else self.as_configuration(q), dtype=np.float64, order="C")
 
     def fk(self, q) -> np.ndarray:
-        X = np.empty((4, 4))
+        X = _empty(_POSE_SHAPE)
         try:
-            compiled.fk_into(self._chain, q, X)
+            _fk_into(self._chain, q, X)
         except (TypeError, ValueError):
-            compiled.fk_into(self._chain, self._checked(q), X)
+            _fk_into(self._chain, self._checked(q), X)
         return X
 
     def fk_batch(self, Q) -> np.ndarray:
@@ -67,11 +74,11 @@ class Robot(DhKinematics):
         return out
 
     def jacobian(self, q) -> np.ndarray:
-        J = np.empty(self._jacobian_shape)
+        J = _empty(self._jacobian_shape)
         try:
-            compiled.jacobian_into(self._chain, q, J)
+            _jacobian_into(self._chain, q, J)
         except (TypeError, ValueError):
-            compiled.jacobian_into(self._chain, self._checked(q), J)
+            _jacobian_into(self._chain, self._checked(q), J)
         return J
 
     def jacobian_batch(self, Q) -> np.ndarray:
@@ -105,11 +112,11 @@ class Robot(DhKinematics):
         """Uniform random configurations (count, dof) inside the limits shrunk by ``margin`` of each range;
         a continuous joint (no limits) draws uniformly in [-pi, pi] [rad], whatever the margin (it has no
         limit to keep away from, and every angle it can take is there once)."""
-        continuous = self.limits.continuous
-        lo = np.where(continuous, -np.pi, self.limits.q_min)
-        hi = np.where(continuous, np.pi, self.limits.q_max)
-        inset = np.where(continuous, 0.0, margin * (hi - lo))
-        return rng.uniform(lo + inset, hi - inset, size=(count, self.dof))
+        lo, hi = self._sampled_ranges
+        if margin:
+            inset = np.where(self.limits.continuous, 0.0, margin * (hi - lo))
+            lo, hi = lo + inset, hi - inset
+        return lo + (hi - lo) * rng.random((count, self.dof))       # rng.uniform's draws, without its overhead
 
     # -- inverse kinematics (pipeline.ik) ------------------------------------------------------
     def ik(self, X_target, q_seed=None, method: str = "auto", target_kind: str = "pose", **options):

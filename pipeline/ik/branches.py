@@ -22,13 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..configurations import matches
+from .analytic import analytic_solver_for, closest_limit_violation, configuration_labels_of, solve_branches
 from .result import IkResult, wrap_into_limits
 
 def configuration_labels(robot, Q) -> list[str]:
     """The configuration label of each joint vector Q (N, dof) ("" for arms without named
     configurations: no spherical wrist)."""
-    from .analytic import analytic_solver_for, configuration_labels_of
-
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     solver = analytic_solver_for(robot)
     return configuration_labels_of(robot, solver, Q) if solver.applicable else [""] * len(Q)
@@ -90,8 +89,6 @@ def branch_change_reason(robot, choice: BranchChoice, X_target: np.ndarray, prev
 def why_not_on_branch(robot, X_target: np.ndarray, branch: str, seed: np.ndarray) -> str:
     """Why the pose X_target has no in-limit solution on ``branch``: the joint whose limit rules the
     branch's exact solution out (name, value, limits), or that the branch does not reach the pose."""
-    from .analytic import analytic_solver_for, closest_limit_violation, solve_branches
-
     solver = analytic_solver_for(robot)
     if not solver.applicable or not branch:
         return "no in-limit solution on that branch was found"

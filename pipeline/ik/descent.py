@@ -148,15 +148,6 @@ def _wrap_and_clamp(q, reference, revolute, q_min, q_max, out):
 
 
 @njit(cache=True)
-def into_limits(q, reference, revolute, q_min, q_max):
-    """q with each revolute joint shifted by 2 pi to the in-limit representative nearest ``reference``
-    (the one nearest it when none fits), then every joint clamped to its limits (a new array)."""
-    out = np.empty_like(q)
-    _wrap_and_clamp(q, reference, revolute, q_min, q_max, out)
-    return out
-
-
-@njit(cache=True)
 def _squared_norm(e, rows):
     total = 0.0
     for r in range(rows):
@@ -174,11 +165,13 @@ def _largest(e, rows):
 
 @njit(cache=True)
 def descend(chain, q_min, q_max, X_target, kind, q, max_iterations):
-    """One damped least-squares descent from q: (q, iterations, position error [m], rotation error
-    [rad] by the compiled FK, strict: both within the IK tolerances and every joint in its limits)."""
+    """One damped least-squares descent from q (first wrapped and clamped into the limits): (q,
+    iterations, position error [m], rotation error [rad] by the compiled FK, strict: both within the
+    IK tolerances and every joint in its limits)."""
     dof = q.shape[0]
     revolute = chain[1:, REVOLUTE]
     q, q_new, step = q.copy(), np.empty(dof), np.empty(dof)
+    _wrap_and_clamp(q, q, revolute, q_min, q_max, q)
     J, L = np.empty((6, dof)), np.empty((dof, dof))
     e, A = np.empty(6), np.empty((6, dof))
     e_new, A_new = np.empty(6), np.empty((6, dof))

@@ -37,16 +37,15 @@ def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.G
     for the whole solve. The answer is judged by our FK: strict errors and every joint in limits.
     """
     check_search_budget(max_restarts, time_budget, max_iterations)
-    limits = robot.limits
-    rng = np.random.default_rng(0) if rng is None else rng
     deadline = time.perf_counter() + time_budget
-    start = descent.into_limits(q_seed, q_seed, robot.revolute_mask, limits.q_min, limits.q_max)
+    start = q_seed                                   # the descent wraps and clamps it into the limits
     best = None
     total_iterations = 0
     for attempt in range(max_restarts + 1):
         if attempt > 0:
             if time.perf_counter() > deadline:
                 break
+            rng = np.random.default_rng(0) if rng is None else rng      # made only when a restart needs it
             start = robot.random_configurations(rng, 1)[0]
         q, iterations, position_error, rotation_error, strict = _descend(robot, target, start, max_iterations)
         total_iterations += iterations

@@ -47,6 +47,9 @@ MAX_TARGET_COORDINATE_M = 1e6
 def check_search_budget(max_restarts, time_budget, max_iterations=1) -> None:
     """ConfigurationError unless ``max_restarts`` >= 0 and ``max_iterations`` >= 1 are integers and
     ``time_budget`` [s] is a finite number >= 0 (0: the first attempt only)."""
+    if type(max_restarts) is int and type(max_iterations) is int and type(time_budget) is float and \
+            max_restarts >= 0 and max_iterations >= 1 and 0.0 <= time_budget < math.inf:
+        return                                      # the common case, without the checks that word errors
     for name, value, low in (("max_restarts", max_restarts, 0), ("max_iterations", max_iterations, 1)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
             raise ConfigurationError(f"{name} must be an integer >= {low}, got {value!r}")
