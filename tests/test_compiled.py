@@ -202,3 +202,44 @@ def test_ik_without_a_seed_works_with_continuous_joints():
         result = endless.ik(X, method=method)
         assert result.success, (method, result.reason)
         assert np.all(np.isfinite(result.q))
+
+
+def _sincos_errors(angles: np.ndarray) -> tuple[float, float]:
+    from numba import njit
+
+    from pipeline.compiled import sincos
+
+    @njit
+    def errors(angles):
+        worst_sin = worst_cos = 0.0
+        for angle in angles:
+            s, c = sincos(angle)
+            worst_sin = max(worst_sin, abs(s - np.sin(angle)))
+            worst_cos = max(worst_cos, abs(c - np.cos(angle)))
+        return worst_sin, worst_cos
+
+    return errors(angles)
+
+
+@pytest.mark.parametrize("scale", [1.0, 4.0, 100.0, 1e5, 1e6, 1e9])
+def test_sincos_is_within_one_ulp_of_the_c_library(scale):
+    """Our fdlibm sincos against math.sin / math.cos: random angles, exact multiples of pi/4 (where the
+    reduction cancels most) and their neighbours, beyond SINCOS_RANGE too (the C library takes over)."""
+    rng = np.random.default_rng(11)
+    quarter_turns = np.arange(-4000, 4001) * np.pi / 4 * (scale / 1e3)
+    angles = np.concatenate([rng.uniform(-scale, scale, 200_000), quarter_turns, np.nextafter(quarter_turns, np.inf),
+                             [0.0, -0.0, 5e-324, np.pi / 4, -np.pi / 4]])
+    assert max(_sincos_errors(angles)) <= np.finfo(float).eps / 2
+
+
+def test_sincos_of_nan_and_infinity_is_nan():
+    from numba import njit
+
+    from pipeline.compiled import sincos
+
+    @njit
+    def of(angle):
+        return sincos(angle)
+
+    for angle in (np.nan, np.inf, -np.inf):
+        assert all(np.isnan(value) for value in of(angle))
