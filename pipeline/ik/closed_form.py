@@ -236,9 +236,10 @@ def _goal_axes(geometry, X):
 
 
 @njit(cache=True)
-def _arm_branches(geometry, goal_axes, p_wrist, q1, seed):
-    """The four branches (elbow e, wrist f: index 2 e + f) of one q1: their q as 6-tuples wrapped into
-    (-pi, pi], and whether the elbow reaches. ``goal_axes``: of ``_goal_axes``."""
+def _elbow(geometry, goal_axes, p_wrist, q1):
+    """What one q1 leaves to the elbow: (theta0, spread3: q3 = theta0 -+ spread3 for elbow down/up,
+    whether the elbow reaches, p' (the wrist centre turned back by q1), R1^T R_goal w6 and
+    R1^T R_goal n6 (of ``_goal_axes``))."""
     w1, w3, c = _row(geometry, AXES), _row(geometry, AXES + 2), _row(geometry, CENTRE)
     r1, r2, r3 = _row(geometry, POINTS), _row(geometry, POINTS + 1), _row(geometry, POINTS + 2)
     u, vv = _sub(c, r3), _sub(r2, r3)
@@ -248,16 +249,15 @@ def _arm_branches(geometry, goal_axes, p_wrist, q1, seed):
     delta_sq = _dot(_sub(p_prime, r2), _sub(p_prime, r2)) - _dot(w3, _sub(c, r2)) ** 2
     kappa = (_dot(u_p, u_p) + _dot(v_p, v_p) - delta_sq) / (2.0 * math.sqrt(_dot(u_p, u_p) * _dot(v_p, v_p)))
     spread3 = math.acos(min(max(kappa, -1.0), 1.0))
-    after1 = (_rotate(w1, -q1, goal_axes[0]), _rotate(w1, -q1, goal_axes[1]))     # R1^T R_goal w6, R1^T R_goal n6
-    down = _wrist_branches(geometry, after1, p_prime, q1, theta0 - spread3, seed)
-    up = _wrist_branches(geometry, after1, p_prime, q1, theta0 + spread3, seed)
-    return (down[0], down[1], up[0], up[1]), abs(kappa) <= 1.0 + REACH_SLACK
+    after1 = (_rotate(w1, -q1, goal_axes[0]), _rotate(w1, -q1, goal_axes[1]))
+    return theta0, spread3, abs(kappa) <= 1.0 + REACH_SLACK, p_prime, after1
 
 
 @njit(cache=True)
-def _wrist_branches(geometry, after1, p_prime, q1, q3, seed):
-    """The two wrist branches (noflip, flip) of one q1 and q3: q as 6-tuples wrapped into (-pi, pi].
-    ``after1``: R1^T R_goal w6 and R1^T R_goal n6."""
+def _arm(geometry, after1, p_prime, q1, q3):
+    """The arm (q1, q2, q3) wrapped into (-pi, pi] for one q1 and q3, and what the wrist must do: d and
+    m (where axis 6 and n6 must go, R_wrist w6 and R_wrist n6 with R_wrist = R_arm^T R_goal), axis 5's
+    two solutions centre +- offset, and whether the wrist is singular (axes 4 and 6 aligned)."""
     w2, w3 = _row(geometry, AXES + 1), _row(geometry, AXES + 2)
     w4, w5, w6 = _row(geometry, AXES + 3), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
     r2, r3, c = _row(geometry, POINTS + 1), _row(geometry, POINTS + 2), _row(geometry, CENTRE)
@@ -265,19 +265,22 @@ def _wrist_branches(geometry, after1, p_prime, q1, q3, seed):
     n45 = cross(w4, w5)
     p3 = _add(r3, _rotate(w3, q3, _sub(c, r3)))
     q2 = _angle(w2, _sub(p3, r2), _sub(p_prime, r2))
-    d = _rotate(w3, -q3, _rotate(w2, -q2, after1[0]))            # R_wrist w6, R_wrist = R_arm^T R_goal
-    m = _rotate(w3, -q3, _rotate(w2, -q2, after1[1]))            # R_wrist n6
+    d = _rotate(w3, -q3, _rotate(w2, -q2, after1[0]))
+    m = _rotate(w3, -q3, _rotate(w2, -q2, after1[1]))
     alpha = (c45 * _dot(w5, w6) - _dot(d, w4)) / (c45 ** 2 - 1.0)
     beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
     gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / _dot(n45, n45), 0.0))
     w4d = cross(w4, d)
     singular = math.sqrt(_dot(w4d, w4d)) < SINGULAR_TOLERANCE
-    arm = (_wrap(q1), _wrap(q2), _wrap(q3))
-    n6 = _wrist_reference(geometry)
-    return (_wrist_branch(geometry, arm, d, m, _add(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
-                          singular, n6, seed),
-            _wrist_branch(geometry, arm, d, m, _sub(_add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45)),
-                          singular, n6, seed))
+    return ((_wrap(q1), _wrap(q2), _wrap(q3)), d, m, _add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45),
+            singular)
+
+
+@njit(cache=True)
+def _branch(geometry, arm, d, m, z_centre, z_offset, singular, flip, seed):
+    """The branch (noflip: flip 0, flip: 1) of one arm, of ``_arm``: q as a 6-tuple in (-pi, pi]."""
+    z = _add(z_centre, z_offset) if flip == 0 else _sub(z_centre, z_offset)
+    return _wrist_branch(geometry, arm, d, m, z, singular, _wrist_reference(geometry), seed)
 
 
 @njit(cache=True)
@@ -298,7 +301,8 @@ def _wrist_branch(geometry, arm, d, m, z, singular, n6, seed):
 @njit(cache=True)
 def raw_branches(geometry, X, seed, q1_min, q1_max):
     """Every closed-form branch of target X (4, 4): (Q (B, 6) wrapped into (-pi, pi], reachable (B,)),
-    B = 4 per q1 value (8 away from a shoulder singularity)."""
+    B = 4 per q1 value (8 away from a shoulder singularity), in the order elbow down, up, each noflip, flip."""
+    goal_axes = _goal_axes(geometry, X)
     p_wrist = wrist_centre(geometry, X)
     phi, spread, reach1 = _shoulder(geometry, p_wrist)
     count = _q1_count(spread)
@@ -306,10 +310,13 @@ def raw_branches(geometry, X, seed, q1_min, q1_max):
     reachable = np.zeros(4 * count, dtype=np.bool_)
     for i in range(count):
         q1 = _q1_value(i, phi, spread, seed[0], q1_min, q1_max)
-        branches, reach3 = _arm_branches(geometry, _goal_axes(geometry, X), p_wrist, q1, seed)
+        theta0, spread3, reach3, p_prime, after1 = _elbow(geometry, goal_axes, p_wrist, q1)
         for k in range(4):
+            arm, d, m, z_centre, z_offset, singular = _arm(geometry, after1, p_prime, q1,
+                                                           theta0 + (spread3 if k >= 2 else -spread3))
+            branch = _branch(geometry, arm, d, m, z_centre, z_offset, singular, k % 2, seed)
             for j in range(6):
-                Q[4 * i + k, j] = branches[k][j]
+                Q[4 * i + k, j] = branch[j]
             reachable[4 * i + k] = reach1 and reach3
     return Q, reachable
 
@@ -375,17 +382,18 @@ def _solve(geometry, chain, limits, X, seed, out, info):
     m = 0
     for i in range(_q1_count(spread)):
         q1 = _q1_value(i, phi, spread, seed[0], limits[0, 0], limits[1, 0])
-        branches, reach3 = _arm_branches(geometry, goal_axes, p_wrist, q1, seed)
+        theta0, spread3, reach3, p_prime, after1 = _elbow(geometry, goal_axes, p_wrist, q1)
         if not (reach1 and reach3):
             continue
-        arm_pose, arm_code = base_pose(chain), -1
-        for k in range(4):
-            raw = branches[k]
+        for k in range(4):                     # elbow down, up (k // 2), each wrist noflip, flip (k % 2)
+            if k % 2 == 0:                     # the two wrist branches of an elbow share q1, q2 and q3
+                arm, d, m6, z_centre, z_offset, singular = _arm(geometry, after1, p_prime, q1,
+                                                                theta0 + (spread3 if k >= 2 else -spread3))
+                arm_pose, arm_code = moved_pose(chain, base_pose(chain), arm, 0, 3), -1
+            raw = _branch(geometry, arm, d, m6, z_centre, z_offset, singular, k % 2, seed)
             info[REACHABLE] += 1
             for j in range(6):
                 q[j] = raw[j]
-            if k % 2 == 0:                     # the two wrist branches of an elbow share q1, q2 and q3
-                arm_pose, arm_code = moved_pose(chain, base_pose(chain), raw, 0, 3), -1
             e_p, e_r = pose_errors(moved_pose(chain, arm_pose, raw, 3, 6), X, POSE)
             if e_p + e_r < best_error:
                 best[:], best_error = q, e_p + e_r
