@@ -36,7 +36,8 @@ class Robot(DhKinematics):
         self._q_middle = spec.limits.q_middle
         #: Where ``random_configurations`` draws each joint [rad or m]: its limits, [-pi, pi] if continuous.
         continuous = spec.limits.continuous
-        self._sampled_ranges = (np.where(continuous, -np.pi, spec.limits.q_min), np.where(continuous, np.pi, spec.limits.q_max))
+        self._sampled_ranges = (np.where(continuous, -np.pi, spec.limits.q_min),
+                                np.where(continuous, np.pi, spec.limits.q_max))
 
     # -- the compiled core: C-contiguous float64 arrays go straight in; anything else (the kernel's
     # -- TypeError or ValueError) is checked by DhKinematics for the typed error, or converted --------

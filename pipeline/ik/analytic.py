@@ -212,8 +212,9 @@ def _result(robot, out: np.ndarray, numbers, X_target: np.ndarray) -> IkResult:
     variants = out[:count, closed_form.VARIANTS].tolist()
     if math.inf in variants:
         variants = [None if v == math.inf else v for v in variants]
-    return IkResult(True, out[0, :6], numbers[closed_form.FIRST_POSITION_ERROR], numbers[closed_form.FIRST_ROTATION_ERROR],
-                    1, "analytic", "", Solutions(out[:count, :closed_form.VARIANTS], LABELS),
+    return IkResult(True, out[0, :6], numbers[closed_form.FIRST_POSITION_ERROR],
+                    numbers[closed_form.FIRST_ROTATION_ERROR], 1, "analytic", "",
+                    Solutions(out[:count, :closed_form.VARIANTS], LABELS),
                     details={"branches_reachable": reachable, "branch": LABELS[int(numbers[closed_form.FIRST_CODE])],
                              "variants": variants})
 

@@ -64,7 +64,8 @@ SOLUTION_COLUMNS = 10
 #: smallest limit violation of a verified branch (-1, 0 when none), and the first solution's errors
 #: [m, rad] and label code (0 when there is none). With no solution, ``out[0, :6]`` holds the branch
 #: nearest to the target (by FK error), to report on.
-COUNT, REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION, FIRST_POSITION_ERROR, FIRST_ROTATION_ERROR, FIRST_CODE = range(8)
+COUNT, REACHABLE, VERIFIED, VIOLATING_JOINT, VIOLATION = range(5)
+FIRST_POSITION_ERROR, FIRST_ROTATION_ERROR, FIRST_CODE = range(5, 8)
 INFO = 8
 TWO_PI = 2.0 * math.pi
 
