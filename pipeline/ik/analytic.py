@@ -97,8 +97,7 @@ def _derive_solver(robot) -> AnalyticSolver:
         return AnalyticSolver(False, f"{spec.name}: axes 2 and 3 are not parallel")
     if np.linalg.norm(_cross(axes[0], axes[1])) < GEOMETRY_TOLERANCE:
         return AnalyticSolver(False, f"{spec.name}: axes 1 and 2 are parallel")
-    geometry = np.vstack([axes, points, centre, X_BE0[:3, :3], X_BE0[:3, 3]])
-    return AnalyticSolver(True, "", axes, points, centre, X_BE0, np.ascontiguousarray(geometry))
+    return AnalyticSolver(True, "", axes, points, centre, X_BE0, closed_form.pack_geometry(axes, points, centre, X_BE0))
 
 
 #: Branch names by label code (closed_form's FRONT | UP | FLIP bits).

@@ -20,8 +20,9 @@ spans more than WIDE_RANGE, four turns (or is continuous), gets one 2 pi variant
 seed, and the number of variants it has is counted rather than enumerated; narrower joints get every
 variant.
 
-Layouts: ``geometry`` (GEOMETRY_ROWS, 3) holds w (rows AXES), r (rows POINTS), c (row CENTRE) and X0
-(its rotation in rows R0, its position in row P0); ``limits`` (2, 6) holds q_min and q_max [rad]. The
+Layouts: ``geometry`` (GEOMETRY_ROWS, 3, of ``pack_geometry``) holds w (rows AXES), r (rows POINTS), c
+(row CENTRE) and X0 (its rotation in rows R0, its position in row P0), then what follows from them
+alone (rows N6 to WRIST: computed once per robot, not per target); ``limits`` (2, 6) holds q_min and q_max [rad]. The
 solvers write each target's solutions into ``out`` (capacity, SOLUTION_COLUMNS): q (6), position and
 rotation errors [m, rad], label code, number of 2 pi variants (inf: continuous joint); and its numbers
 into ``info`` (INFO,). Vectors and rotations are tuples inside the kernels: nothing is allocated per
@@ -53,9 +54,10 @@ SHOULDER_SAMPLES = 12
 DUPLICATE_TOLERANCE = 1e-6
 #: Label bits of a branch: shoulder front, elbow up, wrist flip.
 FRONT, UP, FLIP = 1, 2, 4
-#: Rows of ``geometry``.
+#: Rows of ``geometry``: the screws at q = 0, then constants derived from them (``_derived_rows``).
 AXES, POINTS, CENTRE, R0, P0 = 0, 6, 12, 13, 16
-GEOMETRY_ROWS = 17
+N6, N45, ELBOW, WRIST = 17, 18, 19, 20
+GEOMETRY_ROWS = 21
 #: Columns of ``out``: joint values, errors, label code, variant count.
 Q_COLUMNS, POSITION_ERROR, ROTATION_ERROR, CODE, VARIANTS = slice(0, 6), 6, 7, 8, 9
 SOLUTION_COLUMNS = 10
@@ -220,12 +222,34 @@ def _q1_value(i, phi, spread, seed1, q1_min, q1_max):
     return low + (high - low) * (i - 1) / (SHOULDER_SAMPLES - 1)
 
 
+def pack_geometry(axes: np.ndarray, points: np.ndarray, centre: np.ndarray, X_BE0: np.ndarray) -> np.ndarray:
+    """The ``geometry`` array of an arm: unit joint axes (6, 3) and points on them (6, 3) at q = 0
+    [m], the wrist centre (3,) and the end pose X_BE0 (4, 4) at q = 0, then the derived rows."""
+    geometry = np.zeros((GEOMETRY_ROWS, 3))
+    geometry[:P0 + 1] = np.vstack([axes, points, centre, X_BE0[:3, :3], X_BE0[:3, 3]])
+    _derived_rows(geometry)
+    return geometry
+
+
 @njit(cache=True)
-def _wrist_reference(geometry):
-    """n6: a unit vector normal to axis 6 at q = 0, whose turn about it gives q6."""
-    w6 = _row(geometry, AXES + 5)
+def _derived_rows(geometry):
+    """Rows N6 (a unit vector normal to axis 6, whose turn about it gives q6), N45 (w4 x w5), ELBOW
+    (theta0, |u_p|^2 + |v_p|^2, 2 |u_p| |v_p| of subproblem 3 for q3) and WRIST (w4 . w5, |w4 x w5|^2,
+    (w3 . (c - r2))^2)."""
+    w3, w4 = _row(geometry, AXES + 2), _row(geometry, AXES + 3)
+    w5, w6 = _row(geometry, AXES + 4), _row(geometry, AXES + 5)
+    r2, r3, c = _row(geometry, POINTS + 1), _row(geometry, POINTS + 2), _row(geometry, CENTRE)
     n6 = cross(w6, (1.0, 0.0, 0.0) if abs(w6[0]) < 0.9 else (0.0, 1.0, 0.0))
-    return _scale(1.0 / math.sqrt(_dot(n6, n6)), n6)
+    n45 = cross(w4, w5)
+    u, vv = _sub(c, r3), _sub(r2, r3)
+    u_p, v_p = _sub(u, _scale(_dot(w3, u), w3)), _sub(vv, _scale(_dot(w3, vv), w3))
+    rows = (_scale(1.0 / math.sqrt(_dot(n6, n6)), n6), n45,
+            (math.atan2(_dot(w3, cross(u_p, v_p)), _dot(u_p, v_p)), _dot(u_p, u_p) + _dot(v_p, v_p),
+             2.0 * math.sqrt(_dot(u_p, u_p) * _dot(v_p, v_p))),
+            (_dot(w4, w5), _dot(n45, n45), _dot(w3, _sub(c, r2)) ** 2))
+    for k in range(4):
+        for j in range(3):
+            geometry[N6 + k, j] = rows[k][j]
 
 
 @njit(cache=True)
@@ -233,7 +257,7 @@ def _goal_axes(geometry, X):
     """Where the joints must turn axis 6 and n6 (``_wrist_reference``) for target X (4, 4): R_goal w6
     and R_goal n6, with R_goal = R_target R0^T the rotation of all six joints together."""
     R_goal = _mm(_rotation_of(X), _t(_home_rotation(geometry)))
-    return _mv(R_goal, _row(geometry, AXES + 5)), _mv(R_goal, _wrist_reference(geometry))
+    return _mv(R_goal, _row(geometry, AXES + 5)), _mv(R_goal, _row(geometry, N6))
 
 
 @njit(cache=True)
@@ -241,14 +265,11 @@ def _elbow(geometry, goal_axes, p_wrist, q1):
     """What one q1 leaves to the elbow: (theta0, spread3: q3 = theta0 -+ spread3 for elbow down/up,
     whether the elbow reaches, p' (the wrist centre turned back by q1), R1^T R_goal w6 and
     R1^T R_goal n6 (of ``_goal_axes``))."""
-    w1, w3, c = _row(geometry, AXES), _row(geometry, AXES + 2), _row(geometry, CENTRE)
-    r1, r2, r3 = _row(geometry, POINTS), _row(geometry, POINTS + 1), _row(geometry, POINTS + 2)
-    u, vv = _sub(c, r3), _sub(r2, r3)
-    u_p, v_p = _sub(u, _scale(_dot(w3, u), w3)), _sub(vv, _scale(_dot(w3, vv), w3))
-    theta0 = math.atan2(_dot(w3, cross(u_p, v_p)), _dot(u_p, v_p))
+    w1, r1, r2 = _row(geometry, AXES), _row(geometry, POINTS), _row(geometry, POINTS + 1)
+    theta0, squares, twice_product = _row(geometry, ELBOW)
     p_prime = _add(r1, _rotate(w1, -q1, _sub(p_wrist, r1)))
-    delta_sq = _dot(_sub(p_prime, r2), _sub(p_prime, r2)) - _dot(w3, _sub(c, r2)) ** 2
-    kappa = (_dot(u_p, u_p) + _dot(v_p, v_p) - delta_sq) / (2.0 * math.sqrt(_dot(u_p, u_p) * _dot(v_p, v_p)))
+    delta_sq = _dot(_sub(p_prime, r2), _sub(p_prime, r2)) - geometry[WRIST, 2]
+    kappa = (squares - delta_sq) / twice_product
     spread3 = math.acos(min(max(kappa, -1.0), 1.0))
     after1 = (_rotate(w1, -q1, goal_axes[0]), _rotate(w1, -q1, goal_axes[1]))
     return theta0, spread3, abs(kappa) <= 1.0 + REACH_SLACK, p_prime, after1
@@ -262,15 +283,14 @@ def _arm(geometry, after1, p_prime, q1, q3):
     w2, w3 = _row(geometry, AXES + 1), _row(geometry, AXES + 2)
     w4, w5, w6 = _row(geometry, AXES + 3), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
     r2, r3, c = _row(geometry, POINTS + 1), _row(geometry, POINTS + 2), _row(geometry, CENTRE)
-    c45 = _dot(w4, w5)
-    n45 = cross(w4, w5)
+    c45, n45_squared, n45 = geometry[WRIST, 0], geometry[WRIST, 1], _row(geometry, N45)
     p3 = _add(r3, _rotate(w3, q3, _sub(c, r3)))
     q2 = _angle(w2, _sub(p3, r2), _sub(p_prime, r2))
     d = _rotate(w3, -q3, _rotate(w2, -q2, after1[0]))
     m = _rotate(w3, -q3, _rotate(w2, -q2, after1[1]))
     alpha = (c45 * _dot(w5, w6) - _dot(d, w4)) / (c45 ** 2 - 1.0)
     beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
-    gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / _dot(n45, n45), 0.0))
+    gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / n45_squared, 0.0))
     w4d = cross(w4, d)
     singular = math.sqrt(_dot(w4d, w4d)) < SINGULAR_TOLERANCE
     return ((_wrap(q1), _wrap(q2), _wrap(q3)), d, m, _add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45),
@@ -281,7 +301,7 @@ def _arm(geometry, after1, p_prime, q1, q3):
 def _branch(geometry, arm, d, m, z_centre, z_offset, singular, flip, seed):
     """The branch (noflip: flip 0, flip: 1) of one arm, of ``_arm``: q as a 6-tuple in (-pi, pi]."""
     z = _add(z_centre, z_offset) if flip == 0 else _sub(z_centre, z_offset)
-    return _wrist_branch(geometry, arm, d, m, z, singular, _wrist_reference(geometry), seed)
+    return _wrist_branch(geometry, arm, d, m, z, singular, _row(geometry, N6), seed)
 
 
 @njit(cache=True)
