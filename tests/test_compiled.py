@@ -188,7 +188,11 @@ def test_very_wide_limits_give_one_representative_and_bounded_memory():
     tracemalloc.stop()
     assert result.success and len(result.solutions) <= 8 and peak < 5e6
     assert np.abs(result.q - (q + 2.0 * np.pi * np.array([3, 0, -2, 5, 1, -7]))).max() < 1e-6
-    assert result.details["variants"][0] > 1e30
+    assert result.solutions.variants[0] > 1e30
+    gp7 = load_robot("gp7")                     # narrower joints: every variant listed, and counted as listed
+    listed = gp7.ik(gp7.fk(q), method="analytic").solutions
+    labels = [solution.branch for solution in listed]
+    assert len(listed) > 8 and listed.variants == [labels.count(label) for label in labels]
 
 
 def test_ik_without_a_seed_works_with_continuous_joints():

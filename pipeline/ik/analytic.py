@@ -9,7 +9,6 @@ an arm does not fit it) and turns the solver's arrays into IkResults with named 
 
 from __future__ import annotations
 
-import math
 import weakref
 from dataclasses import dataclass
 
@@ -208,14 +207,9 @@ def _result(robot, out: np.ndarray, numbers, X_target: np.ndarray) -> IkResult:
         position_error, rotation_error = pose_errors(robot.fk(q), IkTarget(X_target))
         return IkResult(False, q, position_error, rotation_error, 1, "analytic", _failure_reason(robot, numbers), (),
                         details={"branches_reachable": reachable})
-    variants = out[:count, closed_form.VARIANTS].tolist()
-    if math.inf in variants:
-        variants = [None if v == math.inf else v for v in variants]
     return IkResult(True, out[0, :6], numbers[closed_form.FIRST_POSITION_ERROR],
-                    numbers[closed_form.FIRST_ROTATION_ERROR], 1, "analytic", "",
-                    Solutions(out[:count, :closed_form.VARIANTS], LABELS),
-                    details={"branches_reachable": reachable, "branch": LABELS[int(numbers[closed_form.FIRST_CODE])],
-                             "variants": variants})
+                    numbers[closed_form.FIRST_ROTATION_ERROR], 1, "analytic", "", Solutions(out[:count], LABELS, 6),
+                    details={"branches_reachable": reachable, "branch": LABELS[int(numbers[closed_form.FIRST_CODE])]})
 
 
 def _failure_reason(robot, info) -> str:

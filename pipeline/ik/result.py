@@ -92,20 +92,27 @@ class Solution(NamedTuple):
 class Solutions(Sequence):
     """The in-limit solutions of one target as a read-only sequence of Solution (compares equal to the
     tuple of them), built from a kernel's arrays on first use: a batch of many targets pays only for
-    the solutions it looks at. ``rows`` (M, dof + 3): q, position error [m], rotation error [rad] and
-    the index of the branch's name in ``names``."""
+    the solutions it looks at. ``rows`` (M, dof + 3 or dof + 4): q, position error [m], rotation error
+    [rad], the index of the branch's name in ``names`` and, where the solver counts them, ``variants``."""
 
-    __slots__ = ("_rows", "_names", "_items")
+    __slots__ = ("_rows", "_names", "_dof", "_items")
 
-    def __init__(self, rows: np.ndarray, names: Sequence[str]):
-        self._rows, self._names, self._items = rows, names, None
+    def __init__(self, rows: np.ndarray, names: Sequence[str], dof: int):
+        self._rows, self._names, self._dof, self._items = rows, names, dof, None
 
     def _solutions(self) -> tuple[Solution, ...]:
         if self._items is None:
-            dof, names = self._rows.shape[1] - 3, self._names
-            Q, numbers = self._rows[:, :dof], self._rows[:, dof:].tolist()
+            dof, names = self._dof, self._names
+            Q, numbers = self._rows[:, :dof], self._rows[:, dof:dof + 3].tolist()
             self._items = tuple([Solution(q, e[0], e[1], names[int(e[2])]) for q, e in zip(Q, numbers)])
         return self._items
+
+    @property
+    def variants(self) -> list[float]:
+        """How many in-limit 2 pi variants each solution stands for (the product over its joints; inf
+        with a continuous joint): a joint with a range over four turns gets only the variant nearest
+        the seed, and the others are counted here rather than listed. Empty when not counted."""
+        return self._rows[:, self._dof + 3].tolist() if self._rows.shape[1] > self._dof + 3 else []
 
     def __len__(self) -> int:
         return len(self._rows)
