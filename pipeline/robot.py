@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -99,6 +100,13 @@ class Robot(DhKinematics):
         except (TypeError, ValueError):
             compiled.fk_and_jacobian_into(self._chain, self._checked(q), X, J)
         return X, J
+
+    @cached_property
+    def _analytic_solver(self):
+        """The closed-form IK solver of this arm (``pipeline.ik.analytic.derive_solver``), derived on first use."""
+        from .ik.analytic import derive_solver
+
+        return derive_solver(self)
 
     @property
     def limits(self) -> Limits:

@@ -9,7 +9,6 @@ an arm does not fit it) and turns the solver's arrays into IkResults with named 
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,18 +63,13 @@ class AnalyticSolver:
     geometry: np.ndarray | None = None
 
 
-_SOLVERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
 def analytic_solver_for(robot) -> AnalyticSolver:
-    """The (cached) closed-form solver of a robot, derived from its DH table."""
-    solver = _SOLVERS.get(robot)
-    if solver is None:
-        solver = _SOLVERS[robot] = _derive_solver(robot)
-    return solver
+    """The closed-form solver of a robot, derived from its DH table once (cached on the robot)."""
+    return robot._analytic_solver
 
 
-def _derive_solver(robot) -> AnalyticSolver:
+def derive_solver(robot) -> AnalyticSolver:
+    """The closed-form solver of a robot (or why it does not fit), from its DH table."""
     spec = robot.spec
     revolute = sum(j.is_revolute for j in spec.joints)
     if spec.dof != 6 or revolute != 6:
