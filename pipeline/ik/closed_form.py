@@ -22,11 +22,11 @@ variant.
 
 Layouts: ``geometry`` (GEOMETRY_ROWS, 3, of ``pack_geometry``) holds w (rows AXES), r (rows POINTS), c
 (row CENTRE) and X0 (its rotation in rows R0, its position in row P0), then what follows from them
-alone (rows N6 to WRIST: computed once per robot, not per target); ``limits`` (2, 6) holds q_min and q_max [rad]. The
-solvers write each target's solutions into ``out`` (capacity, SOLUTION_COLUMNS): q (6), position and
-rotation errors [m, rad], label code, number of 2 pi variants (inf: continuous joint); and its numbers
-into ``info`` (INFO,). Vectors and rotations are tuples inside the kernels: nothing is allocated per
-branch.
+alone (rows N6 to WRIST: computed once per robot, not per target); ``limits`` (2, 6) holds q_min and
+q_max [rad]. The solvers write each target's solutions into ``out`` (capacity, SOLUTION_COLUMNS): q (6),
+position and rotation errors [m, rad], label code, number of 2 pi variants (inf: continuous joint);
+and its numbers into ``info`` (INFO,). Vectors and rotations are tuples inside the kernels: nothing is
+allocated per branch.
 """
 
 from __future__ import annotations
