@@ -112,6 +112,22 @@ def test_target_beyond_reach_fails_with_a_reason(method):
     assert result.solutions == ()
 
 
+def test_auto_tries_jacobian_once_after_the_closed_form_fails(monkeypatch):
+    """``auto`` on a single call: the closed form's failure goes to damped least squares once, and both
+    reasons are reported (the fast path does not solve the closed form a second time)."""
+    import pipeline.ik as ik
+
+    calls = []
+    monkeypatch.setattr(ik, "solve_analytic", lambda *args: calls.append("checked path") or None)
+    robot = load_robot("gp7")
+    X = robot.fk(np.zeros(6))
+    X[:3, 3] = [2.0, 0.0, 0.5]
+    result = robot.ik(X)
+    assert not result.success and calls == []
+    assert result.reason.startswith("target out of reach: no closed-form branch")
+    assert "; jacobian: no strict" in result.reason
+
+
 def test_target_reachable_only_outside_the_limits_fails_with_a_reason():
     """Poses of out-of-limit configurations: some have no in-limit branch at all. The first such one
     (seeded search) must fail for both methods, with a reason, within the budget."""

@@ -39,8 +39,10 @@ def solve_ik(robot, X_target, q_seed=None, method: str = "auto", target_kind: st
     """
     if method in CLOSED_FORM_FIRST and target_kind == FULL_POSE and not options:
         result = solve_analytic_unchecked(robot, X_target, q_seed)      # the fast path of single calls
-        if result is not None and (result.success or method == "analytic"):
-            return result
+        if result is not None:
+            if result.success or method == "analytic":
+                return result
+            return _with_fallback(robot, result, make_target(X_target), _seed(robot, q_seed), options)
     target = make_target(X_target, target_kind)
     seed = _seed(robot, q_seed)
     if options:
