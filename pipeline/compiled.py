@@ -29,8 +29,8 @@ from .arrays import MAX_MAGNITUDE
 
 #: Types of the kernels Python calls: 1-, 2- and 3-d C-contiguous float64 arrays.
 _V, _M, _T = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
-#: The chain's products and sums may fuse into FMA instructions (as exact or more; never reordered).
-_FUSED = {"contract"}
+#: Kernels whose products and sums may fuse into FMA instructions (as exact or more; never reordered).
+FUSED = {"contract"}
 #: Columns of a chain row: K_i (12), then joint i's sign and kind.
 SIGN, REVOLUTE = 12, 13
 CHAIN_COLUMNS = 14
@@ -94,6 +94,13 @@ def cross(a, b):
 
 
 @njit(cache=True)
+def unit(v):
+    """The 3-vector v (tuple or array) divided by its length -> tuple."""
+    norm = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return (v[0] / norm, v[1] / norm, v[2] / norm)
+
+
+@njit(cache=True)
 def check_configuration(q, dof):
     """ValueError unless q has dof values, each finite and at most MAX_MAGNITUDE."""
     if q.shape[0] != dof:
@@ -110,7 +117,7 @@ def _constant(chain, i):
             chain[i, 8], chain[i, 9], chain[i, 10], chain[i, 11])
 
 
-@njit(cache=True, fastmath=_FUSED)
+@njit(cache=True, fastmath=FUSED)
 def _moved(chain, i, x, value):
     """The Pose x M_i K_i (i from 1) at joint i's value [rad or m]."""
     v = chain[i, SIGN] * value
@@ -123,7 +130,7 @@ def _moved(chain, i, x, value):
     return compose(x, _constant(chain, i))
 
 
-@njit(cache=True, fastmath=_FUSED)
+@njit(cache=True, fastmath=FUSED)
 def compose(x, a):
     """The Pose x a."""
     return (x[0] * a[0] + x[1] * a[4] + x[2] * a[8], x[0] * a[1] + x[1] * a[5] + x[2] * a[9],
@@ -163,11 +170,11 @@ def _write_pose(x, X):
     X[3, 0], X[3, 1], X[3, 2], X[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@njit(cache=True, fastmath=_FUSED)
+@njit(cache=True, fastmath=FUSED)
 def pose_and_jacobian(chain, q, J):
     """The Pose X_BE(q) [m], with J (6, dof) set to its geometric Jacobian, rows [v; w], base frame, at
     E's origin; q already checked."""
-    x = _constant(chain, 0)
+    x = base_pose(chain)
     for i in range(q.shape[0]):                        # J[:3] holds joint origins until the end is known
         sign = chain[i + 1, SIGN]
         J[3, i], J[4, i], J[5, i] = x[2] * sign, x[6] * sign, x[10] * sign

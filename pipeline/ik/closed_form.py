@@ -36,7 +36,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import POSE, base_pose, check_configuration, cross, end_pose, is_pose, moved_pose, pose_errors, sincos
+from ..compiled import (FUSED, POSE, base_pose, check_configuration, cross, end_pose, is_pose, moved_pose, pose_errors,
+                        sincos)
 from ..poses import ROTATION_TOLERANCE as POSE_TOLERANCE
 from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERANCE
 
@@ -78,32 +79,32 @@ _BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], floa
 
 
 # -- 3-vectors and rotations (row-major 9-tuples) --------------------------------------------------------
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _row(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _scale(k, a):
     return (k * a[0], k * a[1], k * a[2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _rotate(w, angle, v):
     """Rodrigues: v rotated about the unit axis w by angle [rad]."""
     wv = cross(w, v)
@@ -111,7 +112,7 @@ def _rotate(w, angle, v):
     return _add(_add(v, _scale(s, wv)), _scale(1.0 - c, cross(w, wv)))
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _mm(A, B):
     return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
             A[0] * B[2] + A[1] * B[5] + A[2] * B[8], A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
@@ -120,51 +121,51 @@ def _mm(A, B):
             A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _t(A):
     return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _mv(A, v):
     return (A[0] * v[0] + A[1] * v[1] + A[2] * v[2], A[3] * v[0] + A[4] * v[1] + A[5] * v[2],
             A[6] * v[0] + A[7] * v[1] + A[8] * v[2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _rotation_of(X):
     """The rotation of a 4x4 array."""
     return (X[0, 0], X[0, 1], X[0, 2], X[1, 0], X[1, 1], X[1, 2], X[2, 0], X[2, 1], X[2, 2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _angle(w, u, v):
     """Subproblem 1: the rotation about w taking u's projection onto v's [rad]."""
     return math.atan2(_dot(w, cross(u, v)), _dot(u, v) - _dot(u, w) * _dot(v, w))
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _wrap(angle):
     """An angle into (-pi, pi]."""
     return angle - TWO_PI * math.ceil((angle - math.pi) / TWO_PI)
 
 
 # -- the branches ----------------------------------------------------------------------------------------
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _home_rotation(geometry):
     """The rotation of X0, the end pose at q = 0."""
     return (geometry[R0, 0], geometry[R0, 1], geometry[R0, 2], geometry[R0 + 1, 0], geometry[R0 + 1, 1],
             geometry[R0 + 1, 2], geometry[R0 + 2, 0], geometry[R0 + 2, 1], geometry[R0 + 2, 2])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def wrist_centre(geometry, X):
     """Where the wrist centre (at q = 0, pose X0) is when the end frame is at X (4, 4) [m]."""
     c_in_end = _mv(_t(_home_rotation(geometry)), _sub(_row(geometry, CENTRE), _row(geometry, P0)))
     return _add(_mv(_rotation_of(X), c_in_end), (X[0, 3], X[1, 3], X[2, 3]))
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def label_code(geometry, p_wrist, q):
     """FRONT | UP | FLIP bits of configuration q (wrapped into (-pi, pi]) whose wrist centre is at p_wrist.
 
@@ -189,7 +190,7 @@ def label_code(geometry, p_wrist, q):
     return code
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _shoulder(geometry, p_wrist):
     """(phi, spread, reach): q1 = phi +- spread are the two roots, reach whether they reach the wrist
     centre; spread < 0 at a shoulder singularity (q1 is free)."""
@@ -205,12 +206,12 @@ def _shoulder(geometry, p_wrist):
     return math.atan2(B, A), math.acos(min(max(ratio, -1.0), 1.0)), abs(ratio) <= 1.0 + REACH_SLACK
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _q1_count(spread):
     return SHOULDER_SAMPLES + 1 if spread < 0.0 else 2
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _q1_value(i, phi, spread, seed1, q1_min, q1_max):
     """The i-th q1 candidate: a root, or (shoulder singularity) the seed's and then SHOULDER_SAMPLES
     values spread over the limits within half a turn of it."""
@@ -231,7 +232,7 @@ def pack_geometry(axes: np.ndarray, points: np.ndarray, centre: np.ndarray, X_BE
     return geometry
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _derived_rows(geometry):
     """Rows N6 (a unit vector normal to axis 6, whose turn about it gives q6), N45 (w4 x w5), ELBOW
     (theta0, |u_p|^2 + |v_p|^2, 2 |u_p| |v_p| of subproblem 3 for q3) and WRIST (w4 . w5, |w4 x w5|^2,
@@ -252,7 +253,7 @@ def _derived_rows(geometry):
             geometry[N6 + k, j] = rows[k][j]
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _goal_axes(geometry, X):
     """Where the joints must turn axis 6 and n6 (``_wrist_reference``) for target X (4, 4): R_goal w6
     and R_goal n6, with R_goal = R_target R0^T the rotation of all six joints together."""
@@ -260,7 +261,7 @@ def _goal_axes(geometry, X):
     return _mv(R_goal, _row(geometry, AXES + 5)), _mv(R_goal, _row(geometry, N6))
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _elbow(geometry, goal_axes, p_wrist, q1):
     """What one q1 leaves to the elbow: (theta0, spread3: q3 = theta0 -+ spread3 for elbow down/up,
     whether the elbow reaches, p' (the wrist centre turned back by q1), R1^T R_goal w6 and
@@ -275,7 +276,7 @@ def _elbow(geometry, goal_axes, p_wrist, q1):
     return theta0, spread3, abs(kappa) <= 1.0 + REACH_SLACK, p_prime, after1
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _arm(geometry, after1, p_prime, q1, q3):
     """The arm (q1, q2, q3) wrapped into (-pi, pi] for one q1 and q3, and what the wrist must do: d and
     m (where axis 6 and n6 must go, R_wrist w6 and R_wrist n6 with R_wrist = R_arm^T R_goal), axis 5's
@@ -297,14 +298,14 @@ def _arm(geometry, after1, p_prime, q1, q3):
             singular)
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _branch(geometry, arm, d, m, z_centre, z_offset, singular, flip, seed):
     """The branch (noflip: flip 0, flip: 1) of one arm, of ``_arm``: q as a 6-tuple in (-pi, pi]."""
     z = _add(z_centre, z_offset) if flip == 0 else _sub(z_centre, z_offset)
     return _wrist_branch(geometry, arm, d, m, z, singular, _row(geometry, N6), seed)
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _wrist_branch(geometry, arm, d, m, z, singular, n6, seed):
     """One branch: the arm's (q1, q2, q3) and the wrist's q4, q5, q6 that put axis 6 along d with axis
     5 along z (m: where n6 must go); at a wrist singularity, the split of q4 +- q6 nearest the seed."""
@@ -319,7 +320,7 @@ def _wrist_branch(geometry, arm, d, m, z, singular, n6, seed):
     return (arm[0], arm[1], arm[2], _wrap(q4), _wrap(q5), _wrap(q6))
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def raw_branches(geometry, X, seed, q1_min, q1_max):
     """Every closed-form branch of target X (4, 4): (Q (B, 6) wrapped into (-pi, pi], reachable (B,)),
     B = 4 per q1 value (8 away from a shoulder singularity), in the order elbow down, up, each noflip, flip."""
@@ -342,13 +343,13 @@ def raw_branches(geometry, X, seed, q1_min, q1_max):
     return Q, reachable
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _pose_error(chain, q, X):
     """(position error [m], rotation error [rad]) of FK(q) against X (4, 4)."""
     return pose_errors(end_pose(chain, q), X, POSE)
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _joint_values(value, seed, low, high, out):
     """The in-limit 2 pi variants of one revolute joint's value [rad] into out; returns (how many were
     written, the violation [rad] when there is none)."""
@@ -373,7 +374,7 @@ def _joint_values(value, seed, low, high, out):
     return 0, min(below, above)
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _variant_count(q, limits):
     """How many in-limit 2 pi variants configuration q has in all (a float: inf with a continuous joint)."""
     total = 1.0
@@ -386,7 +387,7 @@ def _variant_count(q, limits):
     return total
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _solve(geometry, chain, limits, X, seed, out, info):
     """The solutions of one target X into out, its numbers into info (see the module's layouts)."""
     capacity = out.shape[0]
@@ -459,7 +460,7 @@ def _solve(geometry, chain, limits, X, seed, out, info):
         info[FIRST_CODE] = out[0, CODE]
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _is_duplicate(out, i, k):
     """Whether rows i and k of out are one solution (largest joint difference <= DUPLICATE_TOLERANCE)."""
     for j in range(6):
@@ -468,7 +469,7 @@ def _is_duplicate(out, i, k):
     return True
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def _sort_distinct(out, m, seed):
     """Sort the first m rows of out by distance to the seed (stable, in place) and drop duplicates;
     returns how many rows are left."""
@@ -524,7 +525,7 @@ def solve_batch(geometry, chain, limits, X, seeds, out, info):
         _solve(geometry, chain, limits, X[n], seeds[n], out[n], info[n])
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FUSED)
 def label_codes(geometry, chain, Q, codes):
     """codes (N,) = the label code of each configuration Q (N, 6), its wrist centre by the compiled FK."""
     q = np.empty(6)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import POSE, POSITION_AND_AXIS, REVOLUTE, cross, end_pose, pose_and_jacobian, pose_errors
+from ..compiled import POSE, POSITION_AND_AXIS, REVOLUTE, cross, end_pose, pose_and_jacobian, pose_errors, unit
 from .result import POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Newton iterations stop once the error is this small (well inside the strict 1e-6 test) [m, rad].
@@ -52,12 +52,6 @@ def _rotation_log(R):
 
 
 @njit(cache=True)
-def _unit(v):
-    norm = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    return v[0] / norm, v[1] / norm, v[2] / norm
-
-
-@njit(cache=True)
 def residual(x, J, X_target, kind, e, A):
     """Fill e (rows,) with the error of the Pose x the target asks for (base frame) and A (rows, dof)
     with the matching Jacobian rows; returns the number of rows (6, 5 or 3)."""
@@ -79,7 +73,7 @@ def residual(x, J, X_target, kind, e, A):
         return 6
     if kind == POSITION_AND_AXIS:
         z, z_target = (x[2], x[6], x[10]), (X_target[0, 2], X_target[1, 2], X_target[2, 2])
-        b1 = _unit(cross(z, (1.0, 0.0, 0.0) if abs(z[0]) < 0.9 else (0.0, 1.0, 0.0)))
+        b1 = unit(cross(z, (1.0, 0.0, 0.0) if abs(z[0]) < 0.9 else (0.0, 1.0, 0.0)))
         b2 = cross(z, b1)
         axis = cross(z, z_target)
         norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
