@@ -149,7 +149,7 @@ def cmd_reach(args) -> int:
     from .scale.reach import plan_map
     from .scale.result import FILES
 
-    plan = plan_map(args.robot, step=args.step * 1e-3, orientations=args.orientations,
+    plan = plan_map(_robot_or_cell(args.robot), step=args.step * 1e-3, orientations=args.orientations,
                     tool_axis_cone=args.tool_axis_cone, seed=args.seed, point=args.point)
     with staged_output(args.out) as staging, dask_client(args.workers, args.scheduler) as client:
         reach_map = plan.run(client)
@@ -157,6 +157,13 @@ def cmd_reach(args) -> int:
     print(reach_map.describe())
     print("wrote " + ", ".join(f"{args.out}/{name}" for name in FILES.values()))
     return 0
+
+
+def _robot_or_cell(name_or_path: str):
+    """A demo cell's name -> its file; anything else (a preset, a robot or cell file) as given."""
+    from .cell import cell_names, resolve_cell_path
+
+    return resolve_cell_path(name_or_path) if name_or_path in cell_names() else name_or_path
 
 
 def cmd_bench(args) -> int:
@@ -233,6 +240,37 @@ def _add_dask_options(parser) -> None:
                         help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (instead of --workers)")
 
 
+#: The top parser's text for users (the module docstring is for developers); {prog} is the command.
+_DESCRIPTION = """\
+From a Denavit-Hartenberg table to certified, collision-free, time-optimal joint profiles.
+
+A robot is a YAML file with its DH table and joint limits, or a preset. A job file names the robot,
+its waypoints (joint values or tool poses) and how to time them; "run" solves the inverse kinematics,
+times the path within the limits, certifies every sample and writes the profile (CSV, NPZ), a JSON
+report, plots and a 3-D view. A job may run in a work cell, where moves are planned around the
+obstacles and the clearance is certified too.
+
+  preset robots: {presets}
+  demo cells:    {cells}"""
+
+_EPILOG = """\
+examples:
+  {prog} show gp7
+  {prog} run trajectories/jobs/gp7_pick_place.yaml --out out/gp7
+  {prog} check-cell gp7_wall_cell
+
+"{prog} VERB --help" shows a verb's options and examples. Exit status: 0 done; 2 bad input, one line
+"error: ..." naming the file, line and field, nothing written; 1 an internal error (-v prints its
+traceback), a check above tolerance or a batch with a failed job; 130 interrupted."""
+
+
+def _verb(sub, prog: str, name: str, summary: str, description: str, examples: list[str]) -> argparse.ArgumentParser:
+    """A subcommand with a one-line summary (in the verb list), a description and examples (in its --help)."""
+    lines = "\n".join(f"  {prog} {name} {example}" for example in examples)
+    return sub.add_parser(name, help=summary, description=description, epilog=f"examples:\n{lines}",
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse reporting a usage mistake as one line and exit status 2, like every other bad input."""
 
@@ -240,13 +278,23 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="python -m pipeline", description=__doc__)
+def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
+    from .cell import cell_names
+
+    parser = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter,
+                     description=_DESCRIPTION.format(presets=", ".join(preset_names()), cells=", ".join(cell_names())),
+                     epilog=_EPILOG.format(prog=prog))
     parser.add_argument("-v", "--verbose", action="store_true",
                         help="log debug messages; print the traceback of an internal error")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, title="verbs (each with its own --help)")
 
-    run = sub.add_parser("run", help="run a job file (IK, path, timing, certification) and write its outputs")
+    run = _verb(sub, prog, "run", "run a job file (IK, path, timing, certification) and write its outputs",
+                "Run a job file: inverse kinematics for its pose waypoints, a path through them, timing within\n"
+                "the robot's limits, a certificate on every sample (and the clearance in a cell), then the\n"
+                "outputs the job lists (profile.csv/.npz, report.json, plots, view.html) in --out. Nothing is\n"
+                "written when anything fails.",
+                ["trajectories/jobs/gp7_pick_place.yaml --out out/gp7",
+                 "my_job.yaml --out out/my_job --max-samples 2000000"])
     run.add_argument("job", help="job file, e.g. trajectories/jobs/gp7_pick_place.yaml")
     run.add_argument("--out", required=True, help="output folder, replaced whole (profile CSV/NPZ, JSON report, "
                                                    "plots, 3-D view); only a new, empty or earlier output folder")
@@ -254,23 +302,34 @@ def build_parser() -> argparse.ArgumentParser:
                      help=f"refuse profiles of more samples (default {DEFAULT_MAX_SAMPLES:,})")
     run.set_defaults(func=cmd_run)
 
-    show = sub.add_parser("show", help="print a robot's DH table, FK and Jacobian at q = 0")
+    show = _verb(sub, prog, "show", "print a robot's DH table, FK and Jacobian at q = 0",
+                 "Print a robot's DH table with its units and limits, the end frame's pose, the Jacobian and the\n"
+                 "singularity measures at q = 0.", ["gp7", "models/arm6.yaml"])
     show.add_argument("robot", help="preset name or robot file path")
     show.set_defaults(func=cmd_show)
 
-    check = sub.add_parser("check", help="check Drake's FK/Jacobian against the analytic one and finite differences")
+    check = _verb(sub, prog, "check", "check Drake's FK/Jacobian against the analytic one and finite differences",
+                  "Compare Drake's forward kinematics and Jacobian with the analytic (NumPy) ones and both with\n"
+                  "central finite differences on random in-limit configurations; exit 1 above tolerance.",
+                  ["gp7", "all --samples 50 --out out/check"])
     check.add_argument("robot", help="preset name, robot file path, or 'all'")
     check.add_argument("--samples", type=POSITIVE, default=200, help="random in-limit configurations (default 200)")
     check.add_argument("--seed", type=NON_NEGATIVE, default=0)
     check.add_argument("--out", help="folder for the JSON reports, replaced whole")
     check.set_defaults(func=cmd_check)
 
-    export = sub.add_parser("export", help="write a robot as URDF (base_link ... tool0) for ROS, MoveIt and Drake")
+    export = _verb(sub, prog, "export", "write a robot as URDF (base_link ... tool0) for ROS, MoveIt and Drake",
+                   "Write a robot as URDF with ROS-Industrial frame names (base_link, link_1 .., tool0), its\n"
+                   "joint limits, shapes and inertias.", ["gp7 --urdf gp7.urdf"])
     export.add_argument("robot", help="preset name or robot file path")
     export.add_argument("--urdf", required=True, metavar="FILE", help="the URDF file to write")
     export.set_defaults(func=cmd_export)
 
-    urdf_in = sub.add_parser("import-urdf", help="turn a URDF serial chain into a robot file (DH table from the axes)")
+    urdf_in = _verb(sub, prog, "import-urdf", "turn a URDF serial chain into a robot file (DH table from the axes)",
+                    "Turn the serial chain of a URDF (from --base to --tip) into a robot file: a DH table from\n"
+                    "the joint axes, limits, inertias and provenance; its forward kinematics is checked against\n"
+                    "the URDF's before anything is written.",
+                    ["irb1600.urdf --out irb1600.yaml", "ur5.urdf --out ur5.yaml --tip tool0 --convention modified"])
     urdf_in.add_argument("urdf", help="the URDF file (xacro must be expanded first)")
     urdf_in.add_argument("--out", required=True, metavar="ROBOT.yaml", help="the robot file to write")
     urdf_in.add_argument("--base", metavar="LINK", help="the chain's first link (default base_link, else the root)")
@@ -281,12 +340,19 @@ def build_parser() -> argparse.ArgumentParser:
     urdf_in.add_argument("--name", help="the robot's name (default the URDF's)")
     urdf_in.set_defaults(func=cmd_import_urdf)
 
-    check_cell = sub.add_parser("check-cell", help="print a cell, its collision model and the robot's clearance at "
-                                "q = 0 (exit 1 when q = 0 collides)")
-    check_cell.add_argument("cell", help="cell file, e.g. models/cells/gp7_wall_cell.yaml")
+    check_cell = _verb(sub, prog, "check-cell", "print a cell, its collision model and the robot's clearance at "
+                       "q = 0 (exit 1 when q = 0 collides)",
+                       "Print a work cell (its robot, base pose, obstacles, clearance), the pairs the collision\n"
+                       "model does not check, and the robot's distance to the obstacles at q = 0; exit 1 when\n"
+                       "q = 0 collides or comes closer than the clearance.",
+                       ["gp7_wall_cell", "my_cell.yaml"])
+    check_cell.add_argument("cell", help=f"a demo cell ({', '.join(cell_names())}) or a cell file")
     check_cell.set_defaults(func=cmd_check_cell)
 
-    bench = sub.add_parser("bench", help="benchmarks beside the peers, in the same run")
+    bench = _verb(sub, prog, "bench", "benchmarks beside the peers, in the same run",
+                  "Time one part of the pipeline beside the libraries it is compared with, in the same run (the\n"
+                  "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
+                  ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
     bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "scale"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
@@ -307,8 +373,12 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--out", help="JSON file for the results")
     bench.set_defaults(func=cmd_bench)
 
-    batch = sub.add_parser("batch", help="run many job files on Dask workers, each into DIR/<job name>/, with "
-                           "summary.csv and summary.json (exit 1 when a job failed)")
+    batch = _verb(sub, prog, "batch", "run many job files on Dask workers, each into DIR/<job name>/, with "
+                  "summary.csv and summary.json (exit 1 when a job failed)",
+                  "Run job files (or every *.yaml in the folders given) as run does, on Dask workers, each into\n"
+                  "DIR/<job name>/, with summary.csv and summary.json: a row per job, a failed one with its\n"
+                  "error. The outputs are the same with 1 worker or many.",
+                  ["trajectories/jobs --out out/batch", "a.yaml b.yaml --out out/batch --workers 1"])
     batch.add_argument("jobs", nargs="+", metavar="JOB", help="job files, or folders of *.yaml job files")
     batch.add_argument("--out", required=True, metavar="DIR", help="output folder, replaced whole when the batch is "
                        "done; only a new, empty or earlier output folder")
@@ -317,9 +387,14 @@ def build_parser() -> argparse.ArgumentParser:
     _add_dask_options(batch)
     batch.set_defaults(func=cmd_batch)
 
-    reach = sub.add_parser("reach", help="a reachability map over a voxel grid (fraction of tool orientations "
-                           "reached, manipulability, IK branches) on Dask workers")
-    reach.add_argument("robot", metavar="ROBOT|CELL", help="preset name, robot file or cell file")
+    reach = _verb(sub, prog, "reach", "a reachability map over a voxel grid (fraction of tool orientations "
+                  "reached, manipulability, IK branches) on Dask workers",
+                  "Map where a robot (or the robot in a cell) reaches: at every voxel centre the fraction of\n"
+                  "the tool orientations with an in-limit (and, in a cell, collision-free) IK answer, the best\n"
+                  "manipulability and the IK branches; map.npz, slices.png, map.html and summary.json in DIR.",
+                  ["irb1600 --out out/reach --step 50 --point wrist",
+                   "gp7_wall_cell --out out/cell_reach --tool-axis-cone 30"])
+    reach.add_argument("robot", metavar="ROBOT|CELL", help="preset name, robot file, demo cell or cell file")
     reach.add_argument("--out", required=True, metavar="DIR", help="output folder (map.npz, slices.png, map.html, "
                        "summary.json), replaced whole")
     reach.add_argument("--step", type=_millimetres, default=25.0, metavar="MM", help="voxel size in mm (default 25)")
@@ -342,8 +417,8 @@ def _one_line(text: str) -> str:
     return re.sub(r"\s*\n\s*", " ", text.strip())
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv: list[str] | None = None, prog: str = "python -m pipeline") -> int:
+    args = build_parser(prog).parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     # Dask's own loggers (read when ``distributed`` is first imported, here and in its worker processes):
     # its routine INFO lines only with -v.
@@ -362,6 +437,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"internal error: {type(exc).__name__}: {_one_line(str(exc))} (run with -v for the traceback)",
               file=sys.stderr)
         return 1
+
+
+def console_script() -> int:
+    """The ``dh-pipeline`` command (pyproject's [project.scripts]): ``main`` under that name."""
+    return main(prog="dh-pipeline")
 
 
 if __name__ == "__main__":

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import CellFileError, MissingFieldError
-from .robot_spec import MAX_LENGTH_M, preset_names
+from .errors import CellFileError, InvalidValueError, MissingFieldError, file_error
+from .robot_spec import MAX_LENGTH_M, PRESETS, preset_names
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
@@ -27,6 +27,9 @@ SHAPE_SIZES = {"box": ("x", "y", "z"), "cylinder": ("radius", "length"), "sphere
                "capsule": ("radius", "length")}
 #: The largest clearance a cell may ask for [m]: more is a unit mistake.
 MAX_CLEARANCE_M = 1.0
+
+#: The demo cell files, installed with the package (the checkout's models/cells/ folder).
+DEMO_CELLS = PRESETS / "cells"
 
 _TOP_REQUIRED = ("name", "length_unit", "robot")
 _TOP_OPTIONAL = ("angle_unit", "robot_base", "clearance", "objects", "tool_shapes", "description", "notes")
@@ -177,8 +180,26 @@ def parse_cell(doc: Any, source: str = "<dict>", base_dir: str | Path = ".") -> 
     return _CellReader(document_from_data(doc, source), Path(base_dir)).cell()
 
 
-def load_cell(path: str | Path) -> Cell:
-    """Read and validate a cell file; a relative robot path in it is relative to the file."""
-    path = Path(path)
+def resolve_cell_path(name_or_path: str | Path) -> Path:
+    """A demo cell's name (``gp7_wall_cell``) or a path to a cell file -> the file's path."""
+    candidate = Path(name_or_path)
+    if candidate.is_file():
+        return candidate
+    if str(name_or_path) in cell_names():
+        return Path(str(DEMO_CELLS / f"{name_or_path}.yaml"))
+    raise file_error(InvalidValueError, CellFileError)(
+        str(name_or_path), "document", f"no such cell file, nor a demo cell of that name; demo cells: "
+        f"{', '.join(cell_names())}")
+
+
+def cell_names() -> list[str]:
+    """Names of the demo cell files (``models/cells/*.yaml``, installed as ``pipeline.models``)."""
+    return sorted(entry.name[: -len(".yaml")] for entry in DEMO_CELLS.iterdir() if entry.name.endswith(".yaml"))
+
+
+def load_cell(name_or_path: str | Path) -> Cell:
+    """Read and validate a cell file (a demo cell's name or a path); a relative robot path in it is
+    relative to the file."""
+    path = resolve_cell_path(name_or_path)
     return _CellReader(load_document(path, CellFileError), path.parent).cell()
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .cell import Cell, load_cell
+from .cell import Cell, cell_names, load_cell, resolve_cell_path
 from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FULL_POSE, IK_METHODS, MOVES, PATH_SHAPES,
                       PLAN_MODES, PLAN_TIME_BUDGET_S, PLANNERS, SINGULARITY_POLICIES, TARGET_KINDS, TIMING_ALIASES,
                       TIMING_METHODS)
@@ -161,14 +161,18 @@ class _JobReader(Reader):
         return candidate if candidate.is_absolute() else self.base_dir / candidate
 
     def load_cell(self) -> Cell | None:
-        """The cell the job names (relative to the job file; its own errors name the cell file)."""
+        """The cell the job names: a cell file (relative to the job file) or a demo cell's name (its own
+        errors name the cell file)."""
         self.mapping((), _REQUIRED, _OPTIONAL)
         if not self.has(("cell",)):
             return None
         value = Path(self.text(("cell",), max_chars=4096))
         path = Path(os.path.normpath(value if value.is_absolute() else self.base_dir / value))
+        if not path.is_file() and str(value) in cell_names():
+            path = resolve_cell_path(str(value))
         if not path.is_file():
-            self.fail(("cell",), f"no cell file at {path}", str(value))
+            self.fail(("cell",), f"no cell file at {path}, nor a demo cell of that name; demo cells: "
+                      f"{', '.join(cell_names())}", str(value))
         return load_cell(path)
 
     def load_robot(self) -> Robot:

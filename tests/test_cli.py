@@ -111,3 +111,51 @@ def test_bench_out_that_is_a_folder_fails_before_the_benchmark(tmp_path, monkeyp
                         lambda *args, **kwargs: pytest.fail("the benchmark ran"))
     assert main(["bench", "kinematics", "--out", str(tmp_path)]) == 2
     assert capsys.readouterr().err == f"error: {tmp_path}: is a folder; give a file name for this output\n"
+
+
+# -- the first hour: help for users, the console script, demo cells by name ------------------------------
+VERBS = ("run", "show", "check", "export", "import-urdf", "check-cell", "bench", "batch", "reach")
+
+
+@pytest.mark.parametrize("verb", ["", *VERBS])
+def test_every_help_is_for_users_and_shows_an_example(verb, capsys):
+    with pytest.raises(SystemExit) as leaving:
+        main([verb, "--help"] if verb else ["--help"])
+    assert leaving.value.code == 0
+    out = capsys.readouterr().out
+    assert "`" not in out and "configures logging" not in out       # not the developers' docstring (RST)
+    assert f"examples:\n  python -m pipeline {verb}".rstrip() in out
+
+
+def test_the_console_script_is_main_under_its_own_name(capsys):
+    tomllib = pytest.importorskip("tomllib")
+    target = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["dh-pipeline"]
+    module, function = target.split(":")
+    assert module == "pipeline.__main__" and getattr(pipeline.__main__, function) is pipeline.__main__.console_script
+    with pytest.raises(SystemExit):
+        main(["--help"], prog="dh-pipeline")
+    out = capsys.readouterr().out
+    assert out.startswith("usage: dh-pipeline") and "  dh-pipeline run trajectories/" in out
+
+
+def test_demo_cells_resolve_by_name_and_an_unknown_name_lists_them(capsys):
+    from pipeline.cell import cell_names, load_cell, resolve_cell_path
+
+    assert cell_names() == ["gp7_shelf_cell", "gp7_wall_cell"]
+    assert resolve_cell_path("gp7_wall_cell").samefile(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
+    assert load_cell("gp7_shelf_cell").name == "gp7_shelf_cell"
+    assert main(["check-cell", "gp7_wal"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: gp7_wal: ") and "demo cells: gp7_shelf_cell, gp7_wall_cell" in err
+
+
+def test_a_job_names_a_demo_cell_from_any_directory(tmp_path, monkeypatch):
+    from pipeline.errors import JobFileError
+    from pipeline.jobs import parse_job
+
+    monkeypatch.chdir(tmp_path)
+    doc = {"cell": "gp7_wall_cell", "angle_unit": "deg", "waypoints": [[0, 0, 0, 0, -90, 0], [10, 0, 0, 0, -90, 0]]}
+    job = parse_job(doc, "job.yaml", base_dir=tmp_path)
+    assert job.cell.name == "gp7_wall_cell" and job.robot.name == "gp7"
+    with pytest.raises(JobFileError, match=r"job.yaml:.*cell: .*demo cells: gp7_shelf_cell, gp7_wall_cell"):
+        parse_job({**doc, "cell": "gp7_wal"}, "job.yaml", base_dir=tmp_path)

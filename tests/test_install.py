@@ -1,5 +1,6 @@
 """The package installed non-editable, as a user gets it from `pip install .`, works from any
-directory: the presets ship inside it and a demo job runs.
+directory: the presets and demo cells ship inside it, a demo job runs, the `dh-pipeline` console script
+exists, and a job names a demo cell by its name.
 
 The tracked files are copied to a temporary folder first (so no build/ or egg-info lands in the
 checkout) and installed there with `pip install --no-deps` into a fresh virtual environment; the
@@ -75,3 +76,21 @@ def test_non_editable_install_works_from_another_directory(tmp_path):
     assert run.returncode == 0, run.stderr
     assert (elsewhere / "out" / "report.json").is_file() and (elsewhere / "out" / "profile.csv").is_file()
     assert json.loads((elsewhere / "out" / "report.json").read_text())["limits"]["timed"]["passed"] is True
+    check_console_script_and_demo_cell_by_name(tmp_path / "venv" / "bin" / "dh-pipeline", elsewhere)
+
+
+def check_console_script_and_demo_cell_by_name(script: Path, elsewhere: Path) -> None:
+    """The console script exists and runs; a job written anywhere names a demo cell by its name."""
+    assert script.is_file(), "pip install did not create the dh-pipeline console script"
+    usage = subprocess.run([str(script), "--help"], cwd=elsewhere, capture_output=True, text=True)
+    assert usage.returncode == 0 and usage.stdout.startswith("usage: dh-pipeline"), usage.stderr
+    check = subprocess.run([str(script), "check-cell", "gp7_wall_cell"], cwd=elsewhere, capture_output=True, text=True)
+    assert check.returncode == 0 and "cell gp7_wall_cell" in check.stdout, check.stderr
+    (elsewhere / "cell_job.yaml").write_text("cell: gp7_wall_cell\nangle_unit: deg\noutputs: [json]\n"
+                                             "waypoints: [[0, 0, 0, 0, -90, 0], [20, 10, 0, 0, -90, 0]]\n")
+    run = subprocess.run([str(script), "run", "cell_job.yaml", "--out", "cell_out"], cwd=elsewhere,
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    report = json.loads((elsewhere / "cell_out" / "report.json").read_text())
+    assert report["cell"]["name"] == "gp7_wall_cell" and report["cell"]["clearance"]["passed"] is True
+    assert Path(report["cell"]["file"]).is_relative_to(script.parent.parent)     # the installed copy
