@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OutputError
+from .paths import special_kind
 from .profile import Profile
 
 #: Written into every output folder: the names of the files the package put there. A folder is
@@ -55,11 +56,16 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
 
 
 def prepare_file_target(path: str | Path) -> None:
-    """Check before any work that a single output file can go to ``path``: not a folder, and its
-    parent a folder (created if missing). Raises OutputError naming the path."""
+    """Check before any work that a single output file can go to ``path``: absent or a regular file
+    (never a folder, FIFO, device or socket, which the atomic rename would replace; a symbolic link
+    counts as what it points to), and its parent a folder (created if missing). Raises OutputError
+    naming the path."""
     path = Path(path)
-    if path.is_dir():
+    kind = special_kind(path)
+    if kind == "a folder":
         raise OutputError(f"{path}: is a folder; give a file name for this output")
+    if kind is not None:
+        raise OutputError(f"{path}: is {kind}, not a regular file: it is never replaced; give a file name")
     _make_parent(path)
 
 
@@ -100,7 +106,7 @@ def _commit(staging: Path, target: Path) -> Path | None:
 def _check_replaceable(target: Path) -> None:
     """OutputError unless ``target`` is absent, an empty folder, or an output folder of this package."""
     if target.is_symlink() or (target.exists() and not target.is_dir()):
-        kind = "a symbolic link" if target.is_symlink() else "a file"
+        kind = "a symbolic link" if target.is_symlink() else (special_kind(target) or "a file")
         raise OutputError(f"{target}: is {kind}, not an output folder; choose a folder path")
     if target.is_dir():
         try:

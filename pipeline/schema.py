@@ -29,6 +29,7 @@ import numpy as np
 import yaml
 
 from .errors import FileFormatError, InvalidValueError, MissingFieldError, UnknownFieldError, file_error
+from .paths import special_kind
 from .poses import quaternion_position_to_pose, rpy_position_to_pose
 
 #: Largest file read [bytes]: the YAML parser takes ~4 s per MiB here; robot and job files are kB.
@@ -151,7 +152,11 @@ class _Converter:
 
 
 def _read_bytes(path: Path, fail) -> bytes:
-    """The file's bytes: it must exist and be at most MAX_FILE_BYTES."""
+    """The file's bytes: it must exist, be a regular file (a FIFO or device may never end) and be at
+    most MAX_FILE_BYTES (no more is read)."""
+    kind = special_kind(path)
+    if kind is not None:
+        fail((), f"cannot read the file: it is {kind}, not a regular file")
     try:
         with open(path, "rb") as handle:
             raw = handle.read(MAX_FILE_BYTES + 1)

@@ -157,3 +157,93 @@ def test_max_samples_raises_the_limit(tmp_path, capsys):
     assert "above the limit of 1,000" in capsys.readouterr().err and not Path(out).exists()
     assert main(["run", job, "--out", out, "--max-samples", "2000"]) == 0
     assert json.loads((Path(out) / "report.json").read_text())["samples"] > 1000
+
+
+# -- special files are never replaced, never read (fuzz finding 1 of issue 22) ------------------------
+def special_files(tmp_path: Path) -> dict[str, Path]:
+    """A FIFO and a Unix socket in tmp_path (the kinds a user can make without root; a device such as
+    /dev/null is refused by the same check, and is never used in a test)."""
+    import os
+    import socket
+
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    sock_path = tmp_path / "sock.yaml"
+    sock = socket.socket(socket.AF_UNIX)
+    sock.bind(str(sock_path))
+    sock.close()
+    return {"a FIFO": fifo, "a socket": sock_path}
+
+
+def output_commands(target: Path) -> dict[str, list[str]]:
+    """Every command that writes a user path, its output pointed at ``target``."""
+    return {"import-urdf": ["import-urdf", str(ROOT / "tests" / "data" / "urdf" / "motoman_gp7.urdf"),
+                            "--out", str(target)],
+            "export": ["export", "gp7", "--urdf", str(target)],
+            "run": ["run", str(JOBS / "arm6_joint_rad.yaml"), "--out", str(target)],
+            "check": ["check", "arm6", "--samples", "1", "--out", str(target)],
+            "batch": ["batch", str(JOBS / "arm6_joint_rad.yaml"), "--out", str(target), "--workers", "1"],
+            "reach": ["reach", "arm6", "--step", "400", "--orientations", "1", "--out", str(target),
+                      "--workers", "1"]}
+
+
+def test_no_command_replaces_a_fifo_or_a_socket_with_a_regular_file(tmp_path, capsys):
+    from pipeline.__main__ import main
+
+    for kind, path in special_files(tmp_path).items():
+        for command, args in output_commands(path).items():
+            assert main(args) == 2, (kind, command)
+            err = capsys.readouterr().err
+            assert err.startswith("error: ") and kind in err and str(path.name) in err, (command, err)
+            assert path.exists() and not path.is_file(), (kind, command)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe.yaml", "sock.yaml"]     # nothing else left
+
+
+def test_a_link_to_a_special_file_is_refused_like_the_file(tmp_path):
+    from pipeline.io import write_text_atomic
+
+    link = tmp_path / "link.yaml"
+    link.symlink_to(special_files(tmp_path)["a FIFO"])
+    with pytest.raises(OutputError, match="is a FIFO"):
+        write_text_atomic(link, "text")
+    assert link.is_symlink()
+
+
+def read_without_blocking(read, path: Path):
+    """``read(path)`` for a FIFO ``path``, in a thread: it must end within QUICK_FAILURE_S (a reader that
+    opens the FIFO would wait for a writer forever: the test opens and closes one to set it free,
+    then fails). Returns the exception it raised."""
+    import threading
+
+    outcome = {}
+
+    def target():
+        try:
+            read(path)
+        except Exception as exc:            # noqa: BLE001 - handed to the test
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join(QUICK_FAILURE_S)
+    blocked = thread.is_alive()
+    if blocked:
+        with open(path, "wb"):              # a writer: the blocked open returns, the read sees EOF
+            pass
+        thread.join()
+    assert not blocked, f"reading {path} blocked on the FIFO"
+    return outcome.get("error")
+
+
+@pytest.mark.parametrize("reader", ["job", "robot", "cell", "urdf"])
+def test_input_files_that_are_fifos_are_refused_without_blocking(tmp_path, reader):
+    from pipeline.cell import load_cell
+    from pipeline.errors import PipelineError
+    from pipeline.robot import load_robot
+    from pipeline.urdf import import_urdf
+
+    read = {"job": load_job, "robot": load_robot, "cell": load_cell, "urdf": import_urdf}[reader]
+    fifo = special_files(tmp_path)["a FIFO"]
+    error = read_without_blocking(read, fifo)
+    assert isinstance(error, PipelineError) and fifo.name in str(error), error
+    assert reader in ("robot", "cell") or "FIFO" in str(error), error      # those two look for regular files only
