@@ -49,7 +49,10 @@ MASS_DIGITS = 15
 
 
 def _significant(value: float, scale: float) -> float:
-    """``value`` rounded to MASS_DIGITS significant digits of ``scale``."""
+    """``value`` rounded to MASS_DIGITS significant digits of ``scale`` (unrounded when ``scale`` is not
+    finite: the robot-file reader refuses such a value with its field)."""
+    if not math.isfinite(scale):
+        return float(value)
     return round(float(value), MASS_DIGITS - math.ceil(math.log10(scale))) + 0.0 if scale > 0.0 else 0.0
 
 

@@ -348,3 +348,121 @@ def test_cli_import_of_a_fork_fails_in_one_line_and_writes_nothing(tmp_path):
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "chain forks" in result.stderr and "left, right" in result.stderr
     assert not (tmp_path / "out.yaml").exists()
+
+
+# -- fuzz findings 2 and 7 of issue 22: overflow, the FK self-check, bounded sizes and counts --------------
+def chain_urdf(moving: int, fixed_between: int = 0, fixed_beside: int = 0, axis: str = "0 0 1", extra: str = "",
+               inertial: str = "") -> str:
+    """A serial URDF: ``moving`` revolute joints 0.1 m apart (joint 0's axis ``axis``, the others y), each
+    after ``fixed_between`` fixed links; ``fixed_beside`` fixed links hung on the last link; ``inertial``
+    in every moving link; ``extra`` XML before ``</robot>``."""
+    lines, parent = ['<robot name="r">', '<link name="base_link"/>'], "base_link"
+    for i in range(moving):
+        for k in range(fixed_between):
+            lines += [f'<link name="s{i}_{k}"/><joint name="f{i}_{k}" type="fixed"><parent link="{parent}"/>'
+                      f'<child link="s{i}_{k}"/><origin xyz="0 0 0.001"/></joint>']
+            parent = f"s{i}_{k}"
+        lines += [f'<link name="l{i}">{inertial}</link><joint name="j{i}" type="revolute"><parent link="{parent}"/>'
+                  f'<child link="l{i}"/><origin xyz="0 0 0.1"/><axis xyz="{axis if i == 0 else "0 1 0"}"/>'
+                  '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>']
+        parent = f"l{i}"
+    lines += [f'<link name="b{k}"/><joint name="b{k}" type="fixed"><parent link="{parent}"/><child link="b{k}"/>'
+              '</joint>' for k in range(fixed_beside)]
+    return "\n".join([*lines, extra, "</robot>"])
+
+
+def test_a_huge_axis_is_normalised_without_overflow_and_imports_exactly(tmp_path):
+    """Finding 2: ``<axis xyz="1e308 1e308 0"/>`` overflowed the norm (to a zero axis: FK 4.2 m off, and
+    written); it is a direction like any other."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                  # numpy's overflow warning fails the test
+        imported = import_urdf(write(tmp_path, chain_urdf(3, axis="1e308 1e308 0")))
+    np.testing.assert_allclose(imported.chain.joints[0].joint.axis, np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0),
+                               atol=1e-15)
+    assert imported.max_fk_error_m < FK_TOLERANCE
+
+
+def test_an_import_whose_own_fk_check_fails_is_an_error_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """Finding 2: the import printed its own FK check "largest difference 4.2 m" and wrote the file (exit
+    0). A DH table that differs from the URDF (here one row's d moved by 1 mm) is refused with the
+    difference and the tolerance."""
+    import dataclasses
+
+    from pipeline.__main__ import main
+    from pipeline.urdf import importer
+
+    def one_row_off(*args):
+        geometry = dh_from_axes(*args)
+        rows = (dataclasses.replace(geometry.rows[0], d=geometry.rows[0].d + 1e-3), *geometry.rows[1:])
+        return dataclasses.replace(geometry, rows=rows)
+
+    dh_from_axes = importer.dh_from_axes
+    monkeypatch.setattr(importer, "dh_from_axes", one_row_off)
+    path, out = write(tmp_path, chain_urdf(3)), tmp_path / "out.yaml"
+    with pytest.raises(UrdfChainError, match=r"link\[l2\]: .*differs .* by 0.001 m .*tolerance 1e-06 m"):
+        import_urdf(path)
+    assert main(["import-urdf", str(path), "--out", str(out)]) == 2
+    assert "nothing written" in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.parametrize("change, field", [
+    (('<mass value="1"/>', '<mass value="1e308"/>'), r"link\[l0\]\.inertial\.mass\.value: is implausible"),
+    (('ixx="0.1"', 'ixx="1e308"'), r"link\[l0\]\.inertial\.inertia\.ixx: is implausible"),
+    (('<origin xyz="0 0 0.1"/>', '<origin xyz="0 0 1e300"/>'), r"joint\[j0\]\.origin\.xyz: is implausible"),
+    (('upper="1"', 'upper="1e308"'), r"joint\[j0\]\.limit\.upper: is implausible"),
+    (('effort="1"', 'effort="1e308"'), r"joint\[j0\]\.limit\.effort: is implausible"),
+])
+def test_numbers_too_large_for_a_robot_are_typed_errors_naming_the_element(tmp_path, change, field):
+    """Finding 7: masses of 1e308 ended in an OverflowError (robot_file._significant)."""
+    inertial = '<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>'
+    text = chain_urdf(2, inertial=inertial)
+    assert change[0] in text
+    with pytest.raises(UrdfFileError, match=field):
+        import_urdf(write(tmp_path, text.replace(change[0], change[1], 1)))
+
+
+def test_rounding_an_infinite_inertia_does_not_overflow():
+    from pipeline.robot_file import _significant
+
+    assert _significant(float("inf"), float("inf")) == float("inf")
+    assert _significant(0.12345678901234567, 1.0) == 0.123456789012346
+
+
+def test_a_kinematic_loop_is_a_typed_error_naming_its_joints(tmp_path):
+    """Finding 7: a loop of links beside the tree ended in a RecursionError."""
+    loop = ('<link name="a"/><link name="b"/><joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint>'
+            '<joint name="ba" type="fixed"><parent link="b"/><child link="a"/></joint>')
+    with pytest.raises(UrdfChainError, match=r"joint\[ab\]: lies on a kinematic loop") as error:
+        import_urdf(write(tmp_path, chain_urdf(2, extra=loop)), base="a")
+    assert error.value.value == ["ab", "ba"]
+
+
+def test_long_chains_take_linear_time_and_too_many_moving_joints_are_refused(tmp_path):
+    """Finding 7: a 2000-joint chain ended in a RecursionError (every walk over the tree recursed)."""
+    from pipeline.urdf.chain import MAX_CHAIN_JOINTS
+
+    deep = import_urdf(write(tmp_path, chain_urdf(2, fixed_between=600), "deep.urdf"))    # 1200 deep: > recursion limit
+    assert deep.robot.dof == 2 and deep.max_fk_error_m < FK_TOLERANCE
+    with pytest.raises(UrdfChainError, match=rf"joint\[j{MAX_CHAIN_JOINTS}\]: .*at most {MAX_CHAIN_JOINTS}"):
+        import_urdf(write(tmp_path, chain_urdf(MAX_CHAIN_JOINTS + 5), "long.urdf"))
+
+
+def test_too_many_links_and_too_large_files_are_refused_before_any_work(tmp_path, monkeypatch):
+    """Finding 7: 100,000 fixed links gave no answer in 60 s (the limit, scaled down here; a real one
+    is parsed in ~0.2 ms per link, and the tree is walked in linear time)."""
+    from pipeline.urdf import reader
+
+    monkeypatch.setattr(reader, "MAX_URDF_LINKS", 100)
+    with pytest.raises(UrdfFileError, match=r"document: has 102 <link> elements, more than 100"):
+        import_urdf(write(tmp_path, chain_urdf(2, fixed_beside=99)))
+    monkeypatch.setattr(reader, "MAX_URDF_BYTES", 2**20)
+    big = write(tmp_path, chain_urdf(2, extra="<!--" + "x" * 2**20 + "-->"), "big.urdf")
+    with pytest.raises(UrdfFileError, match=r"document: is larger than 1 MiB"):
+        import_urdf(big)
+
+
+def test_a_device_is_refused_by_its_kind_without_reading_it():
+    """Finding 7: /dev/zero reports size 0, so the size check passed and reading ended in a MemoryError
+    after 11 s; only the path's kind is looked at (os.stat), nothing is read."""
+    with pytest.raises(UrdfFileError, match=r"/dev/zero: document: is a character device, not a URDF file"):
+        import_urdf("/dev/zero")

@@ -4,7 +4,10 @@ Fixed joints are folded into the poses. Links welded to a moving link (by fixed 
 or beside it) belong to its body, for the mass properties. Without a tip, the chain follows the
 moving joints from the base and must not fork: a fork where moving joints lie on two sides is a
 UrdfChainError naming the link and the joints (give ``tip``). Mimic, floating and planar joints on
-the chain are UrdfChainErrors naming the joint.
+the chain are UrdfChainErrors naming the joint. The links must form one tree: a link not below the
+root (a kinematic loop) is a UrdfChainError. Every walk over the tree is a loop, not a recursion, so
+a chain as long as the reader allows (``reader.MAX_URDF_LINKS``) takes linear time; a chain of more
+than MAX_CHAIN_JOINTS moving joints is no arm.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ from .reader import UrdfInertial, UrdfJoint, UrdfModel
 
 #: The names ROS-Industrial gives the robot's mounting frame and its flange frame (REP 199).
 ROS_BASE_LINK, ROS_TIP_LINK = "base_link", "tool0"
+#: Most moving joints of an imported chain: arms have up to 7, humanoid limbs and snakes a few dozen.
+MAX_CHAIN_JOINTS = 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,7 +54,7 @@ class SerialChain:
 
 
 class _Tree:
-    """Parent and child joints of every link; checks there is one root."""
+    """Parent and child joints of every link; checks there is one root and every link lies below it."""
 
     def __init__(self, model: UrdfModel):
         self.model = model
@@ -65,13 +70,33 @@ class _Tree:
         if len(roots) != 1:
             self.fail("document", f"must have exactly one root link (one without a parent joint), has {len(roots)}",
                       roots)
+        self.order = self._top_down(roots[0])
+        self.moving_below = self._moving_below()
 
     def fail(self, field: str, problem: str, value=None):
         raise UrdfChainError(self.model.source, field, problem, value=value)
 
+    def _top_down(self, root: str) -> list[UrdfJoint]:
+        """Every joint, parents before children; a UrdfChainError when some link is not below the root
+        (its joints close a kinematic loop)."""
+        order = self.below(root)
+        if len(order) != len(self.model.joints):
+            reached = {j.name for j in order}
+            loop = [j.name for j in self.model.joints if j.name not in reached]
+            self.fail(f"joint[{loop[0]}]", "lies on a kinematic loop (its links are not below the root link "
+                      f"{root!r}): a URDF is a tree", loop)
+        return order
+
+    def _moving_below(self) -> dict[str, bool]:
+        """Per joint name: whether it or any joint below its child moves (children before parents)."""
+        moving: dict[str, bool] = {}
+        for joint in reversed(self.order):
+            moving[joint.name] = joint.is_movable or any(moving[j.name] for j in self.children[joint.child])
+        return moving
+
     def moves_below(self, joint: UrdfJoint) -> bool:
         """Whether ``joint`` or any joint below its child moves."""
-        return joint.is_movable or any(self.moves_below(j) for j in self.children[joint.child])
+        return self.moving_below[joint.name]
 
     def default_tip(self, base: str) -> str:
         """Follow the moving joints down from ``base``; the child of the last one is the tip."""
@@ -97,15 +122,21 @@ class _Tree:
 
     def welded(self, link: str, X_BL: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """``link`` and every link attached below it by fixed joints, with their poses."""
-        found = [(link, X_BL)]
-        for joint in self.children[link]:
-            if not joint.is_movable:
-                found += self.welded(joint.child, X_BL @ joint.X_PJ)
+        found, stack = [], [(link, X_BL)]
+        while stack:
+            name, X = stack.pop()
+            found.append((name, X))
+            stack += [(j.child, X @ j.X_PJ) for j in reversed(self.children[name]) if not j.is_movable]
         return found
 
     def below(self, link: str) -> list[UrdfJoint]:
-        """Every joint below ``link``."""
-        return [j for joint in self.children[link] for j in (joint, *self.below(joint.child))]
+        """Every joint below ``link``, depth first in file order (parents before children)."""
+        found, stack = [], self.children[link][::-1]
+        while stack:
+            joint = stack.pop()
+            found.append(joint)
+            stack += self.children[joint.child][::-1]
+        return found
 
     def path_exists(self, base: str, tip: str) -> bool:
         return any(joint.child == tip for joint in self.below(base))
@@ -133,6 +164,9 @@ def serial_chain(model: UrdfModel, base: str | None = None, tip: str | None = No
                       "joints", joint.kind)
         if joint.mimic is not None:
             tree.fail(f"joint[{joint.name}].mimic", "a mimic joint is not an independent DH joint", joint.mimic)
+        if len(joints) == MAX_CHAIN_JOINTS:
+            tree.fail(f"joint[{joint.name}]", f"is the moving joint number {MAX_CHAIN_JOINTS + 1} from the base link "
+                      f"{base!r}: a chain has at most {MAX_CHAIN_JOINTS} (name a nearer --tip)")
         joints.append(ChainJoint(joint, X.copy()))
         welded = tree.welded(joint.child, X)
         bodies.append(tuple((X_BL, model.links[name]) for name, X_BL in welded if model.links[name] is not None))

@@ -7,7 +7,7 @@ continuous joint becomes ``continuous: true``.
 Mass properties of the links welded to each moving link are summed into its DH frame. The robot-file
 document goes through the strict robot-file reader, and the imported FK is compared with the URDF's
 own chain on random configurations (``max_fk_error_m``), so an import never hands over a different
-robot silently.
+robot silently: above ``fk_tolerance`` it is a UrdfChainError, and no robot file is written.
 """
 
 from __future__ import annotations
@@ -34,6 +34,9 @@ from .reader import read_urdf
 #: Configurations on which the imported FK is compared with the URDF chain's, and the seed.
 CHECK_CONFIGURATIONS = 200
 CHECK_SEED = 0
+#: Largest FK difference (see UrdfImport) an import may have where no axes were snapped to parallel:
+#: round-off is ~1e-15 m per metre of reach, so more is a wrong robot [m].
+FK_TOLERANCE_M = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,7 +153,26 @@ def import_urdf(path: str | Path, base: str | None = None, tip: str | None = Non
     document = robot_document(spec, description=f"imported from the URDF {Path(path).name} (robot {model.name!r})",
                               assumptions=assumptions)
     robot = Robot(parse_robot_spec(document, source=str(path)))
-    return UrdfImport(robot, document, chain, _fk_error(robot, chain))
+    imported = UrdfImport(robot, document, chain, _fk_error(robot, chain))
+    _check_fk(imported, fk_tolerance(robot, geometry.snapped))
+    return imported
+
+
+def fk_tolerance(robot: Robot, snapped) -> float:
+    """The largest FK difference [m] an import may have: FK_TOLERANCE_M, plus per pair of axes treated
+    as parallel (``snapped``: (index, angle [rad])) twice its angle times (the reach bound + 1 m)
+    (what turning the later axes by that angle can move the end frame, position plus 1 m x angle)."""
+    return FK_TOLERANCE_M + 2.0 * sum(angle for _, angle in snapped) * (robot.spec.reach_bound + 1.0)
+
+
+def _check_fk(imported: UrdfImport, tolerance: float) -> None:
+    """UrdfChainError when the imported robot's FK differs from the URDF chain's by more than ``tolerance``."""
+    if not imported.max_fk_error_m <= tolerance:
+        chain = imported.chain
+        raise UrdfChainError(chain.model.source, f"link[{chain.tip}]", f"the imported DH robot's end frame differs "
+                             f"from the URDF chain {chain.base} -> {chain.tip} by {imported.max_fk_error_m:.3g} m on "
+                             f"random configurations (tolerance {tolerance:.3g} m): the chain cannot be imported "
+                             "as DH; nothing written")
 
 
 def _provenance(chain: SerialChain, convention: str) -> dict:
