@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import CellFileError, InvalidValueError, MissingFieldError, file_error
-from .robot_spec import MAX_LENGTH_M, PRESETS, preset_names
+from .errors import CellFileError, ConfigurationError, InvalidValueError, MissingFieldError, file_error, shown
+from .robot_spec import MAX_LENGTH_M, MIN_SIZE_M, PRESETS, preset_names
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
@@ -27,6 +27,10 @@ SHAPE_SIZES = {"box": ("x", "y", "z"), "cylinder": ("radius", "length"), "sphere
                "capsule": ("radius", "length")}
 #: The largest clearance a cell may ask for [m]: more is a unit mistake.
 MAX_CLEARANCE_M = 1.0
+#: Most objects, and most tool shapes, in a cell. Drake's collision checker costs time and memory
+#: growing with the square of the shapes (measured with gp7 and small boxes: 200 objects 0.6 s and
+#: +40 MB, 400 1.7 s and +130 MB, 800 15 s and +440 MB, 5000 runs out of memory); real cells have tens.
+MAX_CELL_SHAPES = 300
 
 #: The demo cell files, installed with the package (the checkout's models/cells/ folder).
 DEMO_CELLS = PRESETS / "cells"
@@ -37,14 +41,22 @@ _TOP_OPTIONAL = ("angle_unit", "robot_base", "clearance", "objects", "tool_shape
 
 @dataclass(frozen=True, eq=False)
 class Shape:
-    """A box, cylinder, sphere or capsule: ``size`` in SI units as in SHAPE_SIZES [m], centred at its
-    pose ``X`` (4, 4) [m] (in the cell frame W for obstacles, in the robot's end frame for tool
-    shapes)."""
+    """A box, cylinder, sphere or capsule: ``size`` in SI units as in SHAPE_SIZES [m], each in
+    [MIN_SIZE_M, MAX_LENGTH_M] (ConfigurationError otherwise: Drake aborts the process on a size of 0),
+    centred at its pose ``X`` (4, 4) [m] (in the cell frame W for obstacles, in the robot's end frame
+    for tool shapes)."""
 
     name: str
     kind: str
     size: tuple[float, ...]
     X: np.ndarray
+
+    def __post_init__(self):
+        if self.kind not in SHAPE_SIZES or len(self.size) != len(SHAPE_SIZES[self.kind]) or not all(
+                MIN_SIZE_M <= value <= MAX_LENGTH_M for value in self.size):
+            raise ConfigurationError(f"shape {self.name!r}: a {self.kind} needs sizes "
+                                     f"{', '.join(SHAPE_SIZES.get(self.kind, ()))} in [{MIN_SIZE_M:g}, "
+                                     f"{MAX_LENGTH_M:g}] m, got {shown(self.size)}")
 
     @property
     def bounding_radius(self) -> float:
@@ -112,6 +124,15 @@ class _CellReader(Reader):
                       value)
         return value
 
+    def size(self, path) -> float:
+        """A shape's size in the file's unit -> [m], checked after the conversion: in [MIN_SIZE_M,
+        MAX_LENGTH_M]."""
+        value = self.length(path)
+        if not value >= MIN_SIZE_M:
+            self.fail(path, f"is {value:.4g} m, smaller than any shape ({MIN_SIZE_M:g} m, checked in metres): is "
+                      "length_unit right?", self.get(path))
+        return value
+
     def length(self, path, low_open: bool = True) -> float:
         value = self.number(path, low=0.0, low_open=low_open, unit=self.get(("length_unit",))) * self.ls
         if value > MAX_LENGTH_M:
@@ -133,10 +154,10 @@ class _CellReader(Reader):
         kind = kinds[0]
         labels = SHAPE_SIZES[kind]
         if len(labels) == 1:
-            size = (self.length((*path, kind)),)
+            size = (self.size((*path, kind)),)
         else:
             self.vector((*path, kind), len(labels), ", ".join(labels))
-            size = tuple(self.length((*path, kind, i)) for i in range(len(labels)))
+            size = tuple(self.size((*path, kind, i)) for i in range(len(labels)))
         X = self.pose(path, self.ls, self.angle_scale(path), complete=False, max_length_m=MAX_LENGTH_M,
                       extra=(kind, "name", "note"))
         return Shape(self.name((*path, "name"), default=default_name), kind, size, X)
@@ -145,6 +166,9 @@ class _CellReader(Reader):
         if not self.has((key,)):
             return ()
         count = len(self.sequence((key,), what="shapes (box, cylinder, sphere or capsule mappings)"))
+        if count > MAX_CELL_SHAPES:
+            self.fail((key,), f"has {count:,} shapes, more than {MAX_CELL_SHAPES}: the collision checker's time and "
+                      "memory grow with their square; merge small shapes into larger ones")
         return tuple(self.shape((key, i), f"{default_prefix}{i}") for i in range(count))
 
     def cell(self) -> Cell:
@@ -163,11 +187,12 @@ class _CellReader(Reader):
                       self.get(("clearance",)))
         objects = self.shapes("objects", "object")
         tool_shapes = self.shapes("tool_shapes", "tool")
+        seen: set[str] = set()
         for key, shapes in (("objects", objects), ("tool_shapes", tool_shapes)):
-            names = [s.name for s in shapes]
-            for i, name in enumerate(names):
-                if names.index(name) != i or name in {s.name for s in (objects if key == "tool_shapes" else ())}:
+            for i, name in enumerate(s.name for s in shapes):
+                if name in seen:
                     self.fail((key, i, "name"), "names of objects and tool shapes must be unique", name)
+                seen.add(name)
                 if name.startswith("link") or name in ("robot_base", "tool", "world"):
                     self.fail((key, i, "name"), "robot_base, tool, world and link<k> name the robot's own bodies", name)
         return Cell(name=self.name(("name",)), source=self.source, robot=robot, X_WB=X_WB, clearance=clearance,

@@ -12,6 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import ConfigurationError
+from .robot_spec import MIN_SIZE_M
+
 #: Points closer than this are merged in a polyline [m].
 MERGE_TOLERANCE_M = 1e-9
 #: Link radius as a fraction of the robot's size (the farthest drawn point from the base origin at
@@ -82,12 +85,18 @@ def link_radii(robot) -> np.ndarray:
 @dataclass(frozen=True)
 class Capsule:
     """A capsule fixed on body ``body`` (0: the robot's base, i: link i): the segment ``p`` -> ``r``
-    (3,) in the body frame [m] (base frame B for 0, DH frame i for link i) and its ``radius`` [m]."""
+    (3,) in the body frame [m] (base frame B for 0, DH frame i for link i) and its ``radius`` [m], at
+    least MIN_SIZE_M (ConfigurationError otherwise: Drake aborts the process on a radius of 0)."""
 
     body: int
     p: np.ndarray
     r: np.ndarray
     radius: float
+
+    def __post_init__(self):
+        if not MIN_SIZE_M <= self.radius < np.inf:
+            raise ConfigurationError(f"link capsule of body {self.body}: radius {self.radius!r} m is not a finite "
+                                     f"size of at least {MIN_SIZE_M:g} m")
 
     @property
     def length(self) -> float:

@@ -192,6 +192,7 @@ MIN_RATE = 1e-9               # qd_max, qdd_max, qddd_max [unit/s^k]: smaller ca
 MAX_RATE = 1e9                # qdd_max, qddd_max, tau_max: beyond any drive
 MAX_MASS_KG = 1e6
 MAX_RADIUS_M = 2.0            # a link radius [m]: thicker is mm written under m
+MIN_SIZE_M = 1e-6             # a link radius, a cell shape's size [m]: thinner is no shape (0 aborts Drake)
 
 _TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
 _TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
@@ -330,8 +331,11 @@ class _RobotReader(Reader):
         )
 
     def radius(self, path) -> float:
-        """A link radius in the file's unit -> [m], > 0 and below MAX_RADIUS_M."""
+        """A link radius in the file's unit -> [m], in [MIN_SIZE_M, MAX_RADIUS_M]."""
         value = self.positive(path, self.length_unit) * self.ls
+        if not value >= MIN_SIZE_M:
+            self.fail(path, f"is {value:.4g} m, thinner than any shape ({MIN_SIZE_M:g} m, checked in metres)",
+                      self.get(path))
         if value > MAX_RADIUS_M:
             self.fail(path, f"is {value:.4g} m, thicker than any arm link ({MAX_RADIUS_M:g} m): is length_unit: "
                       f"{self.length_unit} right?", self.get(path))

@@ -270,3 +270,62 @@ def test_check_cell_command(tmp_path, capsys):
     assert "COLLISION at q = 0" in capsys.readouterr().out
     path.write_text("name: x\n")
     assert main(["check-cell", str(path)]) == 2
+
+
+# -- fuzz findings 5 and 6 of issue 22: shape sizes checked in metres, a bounded count of shapes -----------
+def cell_with(objects=(), tool_shapes=(), unit="mm") -> dict:
+    doc = {"name": "c", "length_unit": unit, "robot": "gp7", "objects": list(objects)}
+    return {**doc, "tool_shapes": list(tool_shapes)} if tool_shapes else doc
+
+
+@pytest.mark.parametrize("doc, field", [
+    (cell_with([{"name": "b", "box": [5e-324, 100, 100], "xyz": [900, 0, 0]}]), "objects[0].box[0]"),
+    (cell_with([{"name": "s", "sphere": 1e-4, "xyz": [900, 0, 0]}]), "objects[0].sphere"),
+    (cell_with([{"name": "c", "cylinder": [1e-9, 1], "xyz": [900, 0, 0]}], unit="m"), "objects[0].cylinder[0]"),
+    (cell_with(tool_shapes=[{"name": "g", "capsule": [10, 5e-324]}]), "tool_shapes[0].capsule[1]"),
+])
+def test_a_size_that_is_zero_in_metres_is_a_cell_file_error(doc, field):
+    """Finding 6: 5e-324 mm passed the "> 0" check and became 0 m; Drake's DRAKE_DEMAND then aborted the
+    process (a SystemExit in Python, which also kills a Dask worker). Sizes are checked in metres."""
+    import re
+
+    with pytest.raises(CellFileError, match=rf"{re.escape(field)}: is .* m, smaller than any shape \(1e-06 m"):
+        parse_cell(doc, "cell.yaml")
+
+
+def test_shapes_and_link_radii_made_in_python_are_checked_before_drake():
+    """Finding 6 through the Python API: a Shape or a link radius of 0 m is a ConfigurationError, not
+    Drake's abort."""
+    import dataclasses
+
+    from pipeline.cell import Shape
+    from pipeline.errors import ConfigurationError
+    from pipeline.robot import Robot
+
+    with pytest.raises(ConfigurationError, match="shape 'b': a box needs sizes"):
+        Shape("b", "box", (0.0, 1.0, 1.0), np.eye(4))
+    robot = load_robot("gp7")
+    thin = dataclasses.replace(robot.spec, joints=tuple(dataclasses.replace(j, radius=0.0) for j in robot.spec.joints))
+    with pytest.raises(ConfigurationError, match="radius 0.0 m is not a finite size of at least 1e-06 m"):
+        CollisionModel(Robot(thin))
+
+
+def test_a_link_radius_that_is_zero_in_metres_is_a_robot_file_error():
+    document = yaml.safe_load((ROOT / "models" / "gp7.yaml").read_text())
+    document["joints"][0]["radius"] = 5e-324
+    with pytest.raises(RobotFileError, match=r"joints\[0\]\.radius: is 0 m, thinner than any shape"):
+        parse_robot_spec(document, "gp7.yaml")
+
+
+def test_more_shapes_than_the_checker_can_hold_are_refused_by_count():
+    """Finding 5: 5000 small boxes ran check-cell 48 s to 5.9 GB and std::bad_alloc in Drake's checker,
+    whose time and memory grow with the square of the shapes (measured: 200 boxes 0.6 s, 800 boxes 15 s
+    and +440 MB). The count is refused before any shape is read."""
+    from pipeline.cell import MAX_CELL_SHAPES
+
+    boxes = [{"name": f"b{k}", "box": [10, 10, 10], "xyz": [2000 + 20 * k, 0, 0]} for k in range(MAX_CELL_SHAPES + 1)]
+    with pytest.raises(CellFileError, match=rf"objects: has {MAX_CELL_SHAPES + 1} shapes, more than {MAX_CELL_SHAPES}"):
+        parse_cell(cell_with(boxes), "cell.yaml")
+    with pytest.raises(CellFileError, match=rf"tool_shapes: has {MAX_CELL_SHAPES + 1} shapes"):
+        parse_cell(cell_with(tool_shapes=boxes), "cell.yaml")
+    assert len(parse_cell(cell_with(boxes[:MAX_CELL_SHAPES]), "cell.yaml").objects) == MAX_CELL_SHAPES
