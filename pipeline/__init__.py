@@ -1,34 +1,83 @@
-"""From a Denavit-Hartenberg table to an exact NumPy model, a Drake plant and checked Jacobians.
+"""From a Denavit-Hartenberg table to an exact NumPy model, a Drake plant, checked Jacobians and
+certified, collision-free, time-optimal joint profiles.
 
     >>> from pipeline import load_robot
     >>> robot = load_robot("gp7")
     >>> robot.fk([0, 0, 0, 0, 0, 0])[:3, 3]      # flange position [m]
     array([0.56 , 0.   , 0.815])
+
+This module is the public front door: the robot, its files and errors are imported at once; the rest
+(timing, jobs, cells, collision, planning, views, Dask) on first use, so ``import pipeline`` stays light.
 """
 
+import importlib
+
 from .errors import (
+    CellFileError,
+    CollisionError,
     ConfigurationError,
     InvalidValueError,
+    JobFileError,
     MissingFieldError,
     PipelineError,
+    PlanningError,
     RobotFileError,
     RobotNotFoundError,
+    TimingError,
     UnknownFieldError,
 )
-from .poses import pose_to_quaternion_position, quaternion_position_to_pose
-from .robot import Robot, load_robot
+from .poses import pose_to_quaternion_position, quaternion_position_to_pose, rpy_position_to_pose
+from .robot import Robot, load_robot, robot_with_tool
 from .robot_spec import RobotSpec, load_robot_spec, parse_robot_spec, preset_names
 from .singularity import compute_singularity
 
-__all__ = [
+#: Public names loaded on first use: name -> the module (in this package) that defines it.
+_LAZY = {
+    "retime": "timing",
+    "Profile": "profile", "certify": "profile", "jerk_reversal_rate": "profile",
+    "Job": "jobs", "load_job": "jobs", "parse_job": "jobs",
+    "run_job": "runner", "run_job_file": "runner",
+    "Cell": "cell", "cell_names": "cell", "load_cell": "cell", "parse_cell": "cell",
+    "CollisionModel": "collision",
+    "plan_joint_path": "planning",
+    "check_robot": "jacobian_check",
+    "build_drake_robot": "drake_model",
+    "standard_to_modified": "dh_convert",
+    "finite_difference_jacobian": "kinematics",
+    "arm_figure": "views", "motion_figure": "views", "profile_html": "views", "show_profile": "views",
+    "profile_figure": "plots", "tcp_figure": "plots",
+    "dask_client": "scale", "reachability_map": "scale", "run_batch": "scale",
+    "slices_figure": "scale.figures",
+}
+
+
+def __getattr__(name: str):
+    """A public name of ``_LAZY``, imported from its module the first time it is asked for."""
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})
+
+
+__all__ = sorted([
+    "CellFileError",
+    "CollisionError",
     "ConfigurationError",
     "InvalidValueError",
+    "JobFileError",
     "MissingFieldError",
     "PipelineError",
+    "PlanningError",
     "Robot",
     "RobotFileError",
     "RobotNotFoundError",
     "RobotSpec",
+    "TimingError",
     "UnknownFieldError",
     "compute_singularity",
     "load_robot",
@@ -37,4 +86,7 @@ __all__ = [
     "pose_to_quaternion_position",
     "preset_names",
     "quaternion_position_to_pose",
-]
+    "robot_with_tool",
+    "rpy_position_to_pose",
+    *_LAZY,
+])

@@ -1,6 +1,7 @@
 """The notebooks in notebooks/: one per seed paper and one per topic (TOPICS: work cells and planning),
-committed without outputs, executed headless, and their key numbers asserted against expectations
-derived here (the seed papers, models/SOURCES.md, our own FK, the demo cell), not only shown.
+committed without outputs, on the public API (``import pipeline``) and without asserts of their own,
+executed headless, and their key numbers checked here against expectations derived here (the seed
+papers, models/SOURCES.md, our own FK, the demo cell): the notebooks explain, this file checks.
 
 Each notebook runs in a fresh ``python3`` kernel of *this* interpreter (a kernel spec written into a
 temporary JUPYTER_PATH, so no other installed kernel is picked up), with the repository first on
@@ -14,13 +15,15 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pipeline.robot import load_robot
+import pipeline
+from pipeline import load_robot
 from tests.test_seed_papers import SEED000_FIGURE15
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -70,6 +73,18 @@ def test_committed_notebook_has_no_outputs(path):
             assert cell["execution_count"] is None, f"{path.name}: cell {k} has an execution count"
     tagged = [c for c in nb["cells"] if KEY_TAG in c.get("metadata", {}).get("tags", [])]
     assert len(tagged) == 1 and tagged[0] is nb["cells"][-1], f"{path.name}: the last cell must be the one tagged {KEY_TAG}"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_teaches_the_public_api_and_leaves_the_checks_here(path):
+    nb = json.loads(path.read_text(encoding="utf-8"))
+    for k, cell in enumerate(nb["cells"]):
+        if cell["cell_type"] == "code":
+            code = "".join(cell["source"])
+            assert "from pipeline." not in code and "import pipeline." not in code, f"{path.name}: cell {k}"
+            assert not re.search(r"^\s*assert\b|np\.testing\.assert", code, re.M), f"{path.name}: cell {k} asserts"
+            used = set(re.findall(r"\bpipeline\.(\w+)", code)) - {"__file__"}
+            assert used <= set(pipeline.__all__), f"{path.name}: cell {k} uses {used - set(pipeline.__all__)}"
 
 
 # -- execution ---------------------------------------------------------------------------------------
@@ -302,13 +317,9 @@ def check_cells_and_planning(n: dict) -> None:
     the wall; the planned path runs from the one to the other along edges this test's own collision model
     finds free; its profile is certified, within the limits, at rest at both ends, and keeps the clearance
     on every sample; the demo job's report carries the same verdicts."""
-    from pipeline.cell import load_cell
-    from pipeline.collision import CollisionModel
-    from pipeline.robot import robot_with_tool
-
-    cell = load_cell(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
+    cell = pipeline.load_cell(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
     robot = cell.load_robot()
-    model = CollisionModel(robot, cell)
+    model = pipeline.CollisionModel(robot, cell)
     clearance = 10 * MM
     assert n["cell"] == "gp7_wall_cell" and n["robot"] == "gp7" and n["clearance_m"] == pytest.approx(clearance)
     assert n["objects"] == ["table", "wall", "floor"] and n["home_free"] is True
@@ -319,7 +330,7 @@ def check_cells_and_planning(n: dict) -> None:
     np.testing.assert_allclose(n["targets"]["place"], _tcp_pointing_down(-30, [550, -300, 400]), atol=1e-12)
     X_ET = np.eye(4)
     X_ET[:3, 3] = n["tool_xyz_m"]
-    tcp = robot_with_tool(robot, X_ET)
+    tcp = pipeline.robot_with_tool(robot, X_ET)
     q_pick, q_place = np.array(n["q_pick_rad"]), np.array(n["q_place_rad"])
     for q, X in ((q_pick, n["targets"]["pick"]), (q_place, n["targets"]["place"])):
         np.testing.assert_allclose(tcp.fk(q), X, atol=1e-9)
@@ -329,6 +340,7 @@ def check_cells_and_planning(n: dict) -> None:
     # The direct move: refused for the wall, and it does go into it.
     direct = n["direct"]
     assert direct["passed"] is False and direct["clearance_passed"] is False and "wall" in direct["pair"]
+    assert direct["within_limits"] is True and direct["failed_at_s"] is not None   # refused for the wall alone
     assert direct["plain_min_distance_m"] < clearance and not model.edge_is_free(q_pick, q_place)
     # The planned path: from the pick to the place exactly, every edge free here too.
     plan = n["plan"]
@@ -357,6 +369,7 @@ def check_cells_and_planning(n: dict) -> None:
     assert section["clearance"]["passed"] is True and section["clearance"]["min_distance_m"] >= clearance
     assert section["clearance"]["clearance_m"] == pytest.approx(clearance)
     assert [move["planner"] for move in section["planned_moves"]] == ["RRTConnect", "RRTConnect"]
+    assert "report.json" in job["files"] and "profile.csv" in job["files"]
 
 
 def check_reachability_irb1600(n: dict) -> None:
@@ -364,7 +377,8 @@ def check_reachability_irb1600(n: dict) -> None:
     to its rounding, never beyond the stretched arm's a1 + a2 + d4 (models/SOURCES.md), short of it by
     less than a voxel diagonal; the flange reaches farther, by at most d6; the files are all there."""
     stretched = (150 + 475 + 600) * MM
-    assert n["robot"] == "irb1600" and n["workers"] == 2 and n["orientations"] == 8 and n["poses"] > 100_000
+    assert n["robot"] == "irb1600" and n["workers"] == n["flange_workers"] == 2 and n["orientations"] == 8
+    assert n["poses"] > 100_000
     assert n["stretched_m"] == pytest.approx(stretched, abs=1e-12) and n["datasheet_reach_m"] == 1.2
     reach = n["wrist_reach_m"]
     assert stretched - n["step_m"] * math.sqrt(3) <= reach <= stretched + 1e-9
@@ -374,6 +388,7 @@ def check_reachability_irb1600(n: dict) -> None:
     volumes = list(n["volume_m3"].values())
     assert volumes == sorted(volumes, reverse=True) and volumes[0] > 1.0
     assert n["files"] == ["map.html", "map.npz", "slices.png", "summary.json"]
+    assert n["npz_fraction_equal"] is True and n["npz_x_unit"] == "m"
 
 
 CHECKS = {"seed000": check_seed000, "seed001": check_seed001, "seed002": check_seed002,
