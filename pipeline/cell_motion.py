@@ -18,6 +18,17 @@ from .errors import CollisionError
 from .planning import plan_joint_path
 from .profile import Profile, certify
 
+class ClearanceError(CollisionError):
+    """A profile that does not keep the clearance: its clearance ``report`` and the ``profile`` it was
+    found on, both in job time (the profile's times plus the start of its piece); ``first`` and ``last``
+    (None: the job's last): the job's waypoints that profile runs between, for the caller to name the
+    move."""
+
+    def __init__(self, report, profile: Profile, hint: str = "", first: int = 0, last: int | None = None):
+        self.report, self.profile, self.first, self.last = report, profile, first, last
+        super().__init__(f"the profile does not keep the clearance: {report.reason}{hint}")
+
+
 #: Most vertices added to a planned piece to bring its timed path within the clearance.
 MAX_REFINEMENTS = 8
 #: Numeric IK methods are restarted from this many random seeds when every answer collides.
@@ -72,33 +83,41 @@ def _refined(vertices: np.ndarray, q_fail: np.ndarray) -> np.ndarray:
     return np.insert(vertices, k + 1, (a[k] + b[k]) / 2.0, axis=0)
 
 
-def time_clear(model, vertices: np.ndarray, time, refine: bool) -> tuple[Profile, int]:
+def time_clear(model, vertices: np.ndarray, time, refine: bool, t_start: float = 0.0) -> tuple[Profile, int]:
     """``time(vertices)`` -> a profile certified with its clearance, refining the vertices (``refine``:
-    planned paths) while the certificate fails; returns (profile, vertices added). CollisionError
-    names the pair and the time when it still fails."""
+    planned paths) while the certificate fails; returns (profile, vertices added). The profile starts at
+    ``t_start`` [s] of the job: its clearance certificate gives job times. ClearanceError names the pair
+    and the job time when it still fails."""
     for added in range(MAX_REFINEMENTS + 1):
         profile = time(vertices)
-        report = certify(profile, scene=model)
+        in_job_time = _shifted(profile, t_start)
+        report = certify(in_job_time, scene=model)
         clearance = report.clearance
         if clearance.passed:
             return dataclasses.replace(profile, certificate=report), added
         if not refine or added == MAX_REFINEMENTS or clearance.failed_at_s is None:
             break
-        q_fail = np.array([np.interp(clearance.failed_at_s, profile.t, column) for column in profile.q.T])
+        q_fail = np.array([np.interp(clearance.failed_at_s, in_job_time.t, column) for column in profile.q.T])
         vertices = _refined(vertices, q_fail)
     hint = "" if refine else " (plan: collision_free plans joint moves around obstacles)"
-    raise CollisionError(f"the profile does not keep the clearance: {clearance.reason}{hint}")
+    raise ClearanceError(clearance, in_job_time, hint)
+
+
+def _shifted(profile: Profile, t_start: float) -> Profile:
+    """``profile`` with its times starting at ``t_start`` [s]."""
+    return profile if t_start == 0.0 else dataclasses.replace(profile, t=profile.t + t_start)
 
 
 def time_joint_moves(model, waypoints: np.ndarray, timed, plan: str, planner: str,
-                     time_budget: float) -> tuple[Profile, list, int, int]:
-    """Joint moves through ``waypoints`` (k, dof) in a cell: planned first with ``plan``
-    "collision_free" (``planned_waypoints``), then ``timed`` and certified clear (``time_clear``, which
-    refines planned paths only). Returns (profile, the PlannedPaths, vertices timed, vertices added)."""
+                     time_budget: float, t_start: float = 0.0) -> tuple[Profile, list, int, int]:
+    """Joint moves through ``waypoints`` (k, dof) in a cell, starting at ``t_start`` [s] of the job:
+    planned first with ``plan`` "collision_free" (``planned_waypoints``), then ``timed`` and certified
+    clear (``time_clear``, which refines planned paths only). Returns (profile, the PlannedPaths,
+    vertices timed, vertices added)."""
     plans = []
     if plan == "collision_free":
         waypoints, plans = planned_waypoints(model, waypoints, planner, time_budget)
-    profile, added = time_clear(model, waypoints, timed, refine=plan == "collision_free")
+    profile, added = time_clear(model, waypoints, timed, refine=plan == "collision_free", t_start=t_start)
     return profile, plans, len(waypoints), added
 
 

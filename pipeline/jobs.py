@@ -14,6 +14,7 @@ import json
 import math
 import os
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -26,8 +27,8 @@ from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FULL_POSE
 from .errors import ConfigurationError, JobFileError, MissingFieldError, RobotNotFoundError
 from .configurations import parse_configuration
 from .robot import Robot, load_robot, robot_with_tool
-from .robot_spec import preset_names, resolve_robot_path
-from .schema import Document, Reader, document_from_data, load_document
+from .robot_spec import missing_limit_error, preset_names, resolve_robot_path
+from .schema import Document, Reader, document_from_data, field_name, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png")
@@ -52,6 +53,19 @@ _POSE_EXTRA = ("target", "config", "move", "via", "zone")
 #: Largest TCP speed [m/s] and acceleration [m/s^2] a job may ask for: beyond any arm (unit mistakes).
 MAX_TCP_SPEED = 20.0
 MAX_TCP_ACCEL = 1000.0
+#: Under ``length_unit: mm``, a TCP speed below 1 mm/s, an acceleration below 10 mm/s^2 and a tool
+#: offset below 1 mm (but not 0) are m/s, m/s^2 and metres written under mm: refused with a hint (a value
+#: that small is stated unambiguously under ``length_unit: m``).
+MIN_TCP_SPEED_MM = 1.0
+MIN_TCP_ACCEL_MM = 10.0
+MIN_TOOL_OFFSET_MM = 1.0
+#: Under ``angle_unit: deg``, rpy values are radians written under deg when every rpy value of the
+#: waypoints (or of the tool, judged apart) is within a turn (2 pi) and one of them is a fraction within
+#: RADIAN_LIKE_TOLERANCE of a nonzero multiple of pi/4 (3.14, 1.5708, 0.785, ...); [180, 0, 90],
+#: [0, 0, 0] and whole angles are degrees.
+RADIAN_LIKE_TOLERANCE = 0.01
+#: The limits each timing method needs beyond qd_max (from the robot file).
+TIMING_NEEDS = {"toppra": ("qdd_max",), "ruckig": ("qdd_max", "qddd_max"), "topp3": ("qdd_max", "qddd_max")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,7 +110,8 @@ class Job:
     what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
     none; then nothing is checked for collision); ``plan``: direct or collision_free (joint moves
     replaced by planned ones where the direct path comes too close); ``planner`` (an OMPL planner name)
-    and ``plan_time_budget`` [s] per planned move.
+    and ``plan_time_budget`` [s] per planned move. ``document``: the file as read, so that errors found
+    after reading (IK, collisions, timing) name the line of their field (``error``).
     """
 
     name: str
@@ -121,6 +136,18 @@ class Job:
     plan: str = "direct"
     planner: str = DEFAULT_PLANNER
     plan_time_budget: float = PLAN_TIME_BUDGET_S
+    document: Document | None = None
+
+    def location(self, path: tuple) -> str:
+        """``file:line: field`` of the field at ``path`` (``file: field`` where the line is unknown)."""
+        line = None if self.document is None else self.document.line(path)
+        return f"{self.source}{'' if line is None else f':{line}'}: {field_name(path)}"
+
+    def error(self, path: tuple, problem: str, value: Any = None) -> JobFileError:
+        """The JobFileError of a problem found after reading, naming this file, the field at ``path``
+        (e.g. ``("waypoints", 3)``) and its line."""
+        line = None if self.document is None else self.document.line(path)
+        return JobFileError(self.source, field_name(path), problem, value=value, line=line)
 
     @property
     def has_poses(self) -> bool:
@@ -208,12 +235,14 @@ class _JobReader(Reader):
         limits = robot.limits
         for j in np.flatnonzero((q < limits.q_min) | (q > limits.q_max)):
             value = self.get((*path, int(j)))
+            low, high = limits.q_min[j] / scales[j], limits.q_max[j] / scales[j]
+            side, excess = ("below", low - value) if q[j] < limits.q_min[j] else ("above", value - high)
             hint = ""
             if self.get(("angle_unit",)) == "rad" and robot.spec.joints[j].is_revolute and \
-                    limits.q_min[j] <= math.radians(value) <= limits.q_max[j]:
+                    limits.q_min[j] <= math.radians(value) <= limits.q_max[j] and excess > 0.01 * (high - low):
                 hint = "; are these degrees? (angle_unit: rad)"
-            self.fail((*path, int(j)), f"joint {robot.joint_names[j]} = {value:g} is outside its limits "
-                      f"[{limits.q_min[j] / scales[j]:.6g}, {limits.q_max[j] / scales[j]:.6g}] (file units){hint}")
+            self.fail((*path, int(j)), f"joint {robot.joint_names[j]} = {value!r} is outside its limits "
+                      f"[{low:.6g}, {high:.6g}] (file units): {excess:.3g} {side}{hint}")
         return q
 
     def pose_waypoint(self, path, robot: Robot, length_scale: float, angle_scale: float | None,
@@ -292,20 +321,72 @@ class _JobReader(Reader):
             return None
         if length_scale is None:
             self.fail(("length_unit",), "required because a tool is given", kind=MissingFieldError)
-        return self.pose(("tool",), length_scale, angle_scale, complete=False,
-                         max_length_m=robot.spec.reach_bound)
+        X_ET = self.pose(("tool",), length_scale, angle_scale, complete=False, max_length_m=robot.spec.reach_bound)
+        offset_mm = float(np.linalg.norm(X_ET[:3, 3])) * 1e3
+        if self.get(("length_unit",)) == "mm" and 0.0 < offset_mm < MIN_TOOL_OFFSET_MM:
+            xyz = self.get(("tool", "xyz"))
+            self.fail(("tool", "xyz"), f"puts the TCP {offset_mm:.3g} mm from the end frame (the flange) under "
+                      f"length_unit: mm, shorter than any tool ({MIN_TOOL_OFFSET_MM:g} mm): is this in metres? Then "
+                      f"write {_listed(np.array(xyz) * 1e3)}. (An offset this small is stated unambiguously with "
+                      f"length_unit: m: {_listed(np.array(xyz) * 1e-3)}; none at all is [0, 0, 0].)", xyz)
+        return X_ET
 
-    def tcp_limit(self, key: str, length_scale: float | None, high: float, unit: str) -> float | None:
-        """``tcp_speed_max`` or ``tcp_accel_max`` in length_unit/s^k -> SI, plausible (None when absent)."""
+    def tcp_limit(self, key: str, length_scale: float | None, high: float, low_mm: float,
+                  unit: str) -> float | None:
+        """``tcp_speed_max`` or ``tcp_accel_max`` in length_unit/s^k -> SI (None when absent), at most
+        ``high`` [``unit``, SI] and, under mm, at least ``low_mm`` [mm/s^k] (below: SI written under mm)."""
         if not self.has((key,)):
             return None
         if length_scale is None:
             self.fail(("length_unit",), f"required because {key} is given (length_unit/s^k)", kind=MissingFieldError)
-        value = self.positive((key,)) * length_scale
+        written = self.positive((key,))
+        if self.get(("length_unit",)) == "mm" and written < low_mm:
+            self.fail((key,), f"is this {unit}? Under length_unit: mm, {written:g} is {written:g} m{unit}, below any "
+                      f"TCP limit ({low_mm:g} m{unit}): for {written:g} {unit} write {written * 1e3:g}. (A limit this "
+                      f"low is stated unambiguously with length_unit: m: {written * 1e-3:g}.)", written)
+        value = written * length_scale
         if value > high:
-            self.fail((key,), f"is {value:.4g} {unit}, above any arm ({high:g} {unit}): is length_unit right?",
-                      self.get((key,)))
+            self.fail((key,), f"is {value:.4g} {unit}, above any arm ({high:g} {unit}): is length_unit right?", written)
         return value
+
+    def check_rpy_unit(self) -> None:
+        """rpy values that fit only the other angle unit: under rad, more than a turn (degrees); under
+        deg, radians by the rule of RADIAN_LIKE_TOLERANCE, the tool and the waypoints judged apart."""
+        waypoints = [("waypoints", k, "rpy") for k in range(len(self.get(("waypoints",))))]
+        for paths in ([("tool", "rpy")], waypoints):
+            given = [(path, np.array(self.get(path), dtype=float)) for path in paths if self.has(path)]
+            if self.get(("angle_unit",)) == "rad":
+                self.check_turns(given)
+            elif all(np.abs(rpy).max() <= 2.0 * math.pi + RADIAN_LIKE_TOLERANCE for _, rpy in given):
+                self.check_radian_like(given)
+
+    def check_turns(self, given: list) -> None:
+        """Under angle_unit: rad, no rpy angle beyond a full turn (degrees written under rad)."""
+        for path, rpy in given:
+            if np.abs(rpy).max() > 2.0 * math.pi + 1e-9:
+                self.fail(path, "has an angle of more than a full turn: are these degrees? (angle_unit: rad)",
+                          self.get(path))
+
+    def check_radian_like(self, given: list) -> None:
+        """Under angle_unit: deg, no rpy value a fraction within RADIAN_LIKE_TOLERANCE of a nonzero
+        multiple of pi/4 (the caller checked that every value is within a turn)."""
+        for path, rpy in given:
+            quarter_turns = np.round(rpy / (math.pi / 4.0))
+            like = (quarter_turns != 0) & (np.abs(rpy - quarter_turns * math.pi / 4.0) <= RADIAN_LIKE_TOLERANCE) \
+                & (rpy != np.round(rpy))
+            if like.any():
+                i = int(np.argmax(like))
+                self.fail(path, f"are these radians? Under angle_unit: deg they turn by a few degrees at most, and "
+                          f"{rpy[i]:g} is {_pi_fraction(int(quarter_turns[i]))} in radians: for radians write "
+                          f"{_listed(np.degrees(rpy))}. (Angles this small in degrees are stated unambiguously with "
+                          f"angle_unit: rad: {_listed(np.radians(rpy))}.)", self.get(path))
+
+    def check_timing_limits(self, robot: Robot, timing: str) -> None:
+        """The robot file gives the limits ``timing`` needs (TIMING_NEEDS): a RobotFileError naming the
+        robot file, the joint and its line otherwise."""
+        for key in TIMING_NEEDS[timing]:
+            if getattr(robot.limits, key) is None:
+                raise missing_limit_error(robot.spec, key, f"timing {timing} (the job {self.source})")
 
     def outputs(self, has_tcp: bool) -> tuple[str, ...]:
         """The outputs to write; ``has_tcp``: the job has tool moves or TCP limits (a TCP figure)."""
@@ -329,8 +410,10 @@ class _JobReader(Reader):
         waypoints, start = self.waypoints(robot)
         timing = self.choice(("timing",), TIMING_METHODS + tuple(TIMING_ALIASES), "toppra")
         timing = TIMING_ALIASES.get(timing, timing)
-        tcp_speed_max = self.tcp_limit("tcp_speed_max", length_scale, MAX_TCP_SPEED, "m/s")
-        tcp_accel_max = self.tcp_limit("tcp_accel_max", length_scale, MAX_TCP_ACCEL, "m/s^2")
+        self.check_rpy_unit()
+        self.check_timing_limits(robot, timing)
+        tcp_speed_max = self.tcp_limit("tcp_speed_max", length_scale, MAX_TCP_SPEED, MIN_TCP_SPEED_MM, "m/s")
+        tcp_accel_max = self.tcp_limit("tcp_accel_max", length_scale, MAX_TCP_ACCEL, MIN_TCP_ACCEL_MM, "m/s^2")
         tool_move = next((k for k, w in enumerate(waypoints) if isinstance(w, PoseWaypoint) and w.is_tool_move), None)
         if tool_move is not None and tcp_speed_max is None:
             self.fail(("tcp_speed_max",), f"required because waypoint {tool_move} is a {waypoints[tool_move].move} move "
@@ -364,6 +447,7 @@ class _JobReader(Reader):
             tcp_accel_max=tcp_accel_max,
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
             cell=self.cell,
+            document=self.document,
             **self.planning(),
         )
 
@@ -380,6 +464,18 @@ class _JobReader(Reader):
         return {"plan": plan, "planner": self.choice(("planner",), PLANNERS, DEFAULT_PLANNER),
                 "plan_time_budget": self.number(("plan_time_budget",), PLAN_TIME_BUDGET_S, low=0.0, high=600.0,
                                                 low_open=True, unit="s")}
+
+
+def _listed(values) -> str:
+    """Numbers as a file would give them: [0, 0, 100], 6 significant digits."""
+    return f"[{', '.join(f'{v:.6g}' for v in values)}]"
+
+
+def _pi_fraction(quarter_turns: int) -> str:
+    """3 -> "3 pi/4", 4 -> "pi", -2 -> "-pi/2"."""
+    fraction = Fraction(quarter_turns, 4)
+    number = "" if abs(fraction.numerator) == 1 else f"{abs(fraction.numerator)} "
+    return f"{'-' if fraction < 0 else ''}{number}pi{'' if fraction.denominator == 1 else f'/{fraction.denominator}'}"
 
 
 def _robot_file(reference: str | Path) -> Path | None:

@@ -15,8 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cell_motion import check_samples, time_joint_moves
-from .errors import CollisionError
+from .cell_motion import ClearanceError, check_samples, time_joint_moves
 from .jobs import Job, PoseWaypoint
 from .profile import Profile, TcpSamples, TimingDetails, certify
 from .tcp import TcpMotion
@@ -72,7 +71,12 @@ def time_tool_job(job: Job, solved_q: list[np.ndarray], max_samples: int, scene=
     for piece in pieces_of(job):
         if piece.kind == "joint":
             waypoints = np.array([q_start, *solved_q[piece.first + 1: piece.last + 1]])
-            profile, report = _time_joint_piece(job, scene, waypoints, timing, plans)
+            try:
+                profile, report = _time_joint_piece(job, scene, waypoints, timing, plans,
+                                                    sum(p.duration for p in profiles))
+            except ClearanceError as exc:
+                exc.first, exc.last = piece.first, piece.last
+                raise
         else:
             moves = [ToolMove(w.move, w.X_BE, w.via, w.zone if k < piece.last else 0.0)
                      for k, w in enumerate(job.waypoints[piece.first + 1: piece.last + 1], start=piece.first + 1)]
@@ -93,19 +97,21 @@ def time_tool_job(job: Job, solved_q: list[np.ndarray], max_samples: int, scene=
     joined = join_profiles(profiles, MotionDetails(tuple(reports)))
     certificate = certify(joined, scene=scene)
     if certificate.clearance is not None and not certificate.clearance.passed:
-        raise CollisionError(f"the profile does not keep the clearance: {certificate.clearance.reason}")
+        raise ClearanceError(certificate.clearance, joined)
     return dataclasses.replace(joined, certificate=certificate), plans
 
 
-def _time_joint_piece(job: Job, scene, waypoints: np.ndarray, timing: dict, plans: list) -> tuple[Profile, dict]:
-    """A joint piece timed through its waypoints (planned and certified clear in a cell); its report."""
+def _time_joint_piece(job: Job, scene, waypoints: np.ndarray, timing: dict, plans: list,
+                      t_start: float) -> tuple[Profile, dict]:
+    """A joint piece timed through its waypoints (planned and certified clear in a cell, its clearance
+    in job time from ``t_start`` [s]); its report."""
     def timed(vertices: np.ndarray) -> Profile:
         return retime(job.robot, vertices, shape=job.path, **timing)
 
     if scene is None:
         return timed(waypoints), {}
     profile, piece_plans, vertices, added = time_joint_moves(scene, waypoints, timed, job.plan, job.planner,
-                                                              job.plan_time_budget)
+                                                              job.plan_time_budget, t_start)
     plans += piece_plans
     return profile, {"vertices": vertices, "vertices_added_for_clearance": added}
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import MissingFieldError, RobotFileError, RobotNotFoundError
+from .errors import MissingFieldError, RobotFileError, RobotNotFoundError, file_error
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
@@ -384,6 +384,33 @@ class _RobotReader(Reader):
             self.fail(("joints",), f"the arm reaches at most {spec.reach_bound * 1e3:.3g} mm from its base: "
                       f"are the lengths in metres under length_unit: {self.length_unit}?")
         return spec
+
+
+#: What a missing optional limit is and where its value comes from, for the error of a method that needs it.
+_LIMIT_HINTS = {
+    "qdd_max": "the joints' acceleration limits [unit/s^2]: add qdd_max to every joint row. Datasheets rarely "
+               "give it; from the time T a joint takes to reach full speed, qdd_max = qd_max / T (the presets "
+               "assume T = 0.3 s); import-urdf --time-to-full-speed T fills it in (models/README.md, 'Acceleration "
+               "and jerk limits')",
+    "qddd_max": "the joints' jerk limits [unit/s^3]: add qddd_max to every joint row, e.g. qdd_max / 0.1 s as the "
+                "presets assume (models/README.md, 'Acceleration and jerk limits')",
+}
+
+
+def missing_limit_error(spec: RobotSpec, key: str, needed_by: str) -> RobotFileError:
+    """The error of a robot file without ``key`` (qdd_max or qddd_max), which ``needed_by`` needs: a
+    MissingFieldError naming the file, the first joint row without it and that row's line."""
+    joint = next(i for i, j in enumerate(spec.joints) if getattr(j, key) is None)
+    path = ("joints", joint, key)
+    line = None
+    if Path(spec.source).is_file():
+        try:
+            line = load_document(spec.source, RobotFileError).line(path)
+        except RobotFileError:
+            line = None
+    return file_error(MissingFieldError, RobotFileError)(
+        spec.source, f"joints[{joint}].{key}", f"required by {needed_by}; the file gives none: {_LIMIT_HINTS[key]}",
+        joint=joint, line=line)
 
 
 def parse_robot_spec(doc: Any, source: str = "<dict>") -> RobotSpec:

@@ -19,12 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from .controller_formats import write_json_trajectory, write_ros2_yaml
-from .cell_motion import collision_free_ik, time_joint_moves
-from .errors import CollisionError, ConfigurationError, JobFileError, PlanningError, TimingError
+from .cell_motion import ClearanceError, collision_free_ik, time_joint_moves
+from .choices import DEFAULT_MAX_DURATION_S
+from .errors import CollisionError, ConfigurationError, PlanningError, TimingError
 from .ik import with_drake_model
 from .ik.branches import branch_change_reason, choose_solution, configuration_labels
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
-from .jobs import Job, JointWaypoint, load_job
+from .jobs import Job, JointWaypoint, PoseWaypoint, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
 from .timing import DEFAULT_MAX_SAMPLES, retime
 from .versions import installed_version
@@ -120,10 +121,10 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointIk]:
     options = with_drake_model(robot, job.ik, {}) if job.has_poses else {}
     solved = []
     for k, waypoint in enumerate(job.waypoints):
-        field = f"waypoints[{k}]"
+        field = ("waypoints", k)
         if isinstance(waypoint, JointWaypoint):
             if scene is not None and not scene.is_free(waypoint.q):
-                raise JobFileError(job.source, field, f"is not collision-free: {scene.why_not_free(waypoint.q)}")
+                raise job.error(field, f"is not collision-free: {scene.why_not_free(waypoint.q)}")
             solved.append(WaypointIk(waypoint.q))
             previous, previous_branch = waypoint.q, configuration_labels(robot, waypoint.q[None])[0]
             continue
@@ -133,25 +134,67 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointIk]:
             result, collides = collision_free_ik(robot, scene, waypoint.X_BE, previous, job.ik, waypoint.target,
                                                  options, np.random.default_rng(k))
             if result is None:
-                raise JobFileError(job.source, field, collides)
+                raise job.error(field, collides)
         if not result.success:
-            raise JobFileError(job.source, field, f"pose is unreachable with IK method {job.ik!r} ({result.method}, "
+            raise job.error(field, f"pose is unreachable with IK method {job.ik!r} ({result.method}, "
                                f"target {waypoint.target}): {result.reason}")
         choice = choose_solution(robot, result, previous, previous_branch, waypoint.config)
         if choice.q is None:
-            raise JobFileError(job.source, f"{field}.config", choice.reason)
+            raise job.error((*field, "config"), choice.reason)
         if choice.changed and not job.allow_branch_change:
-            raise JobFileError(job.source, field, f"the IK branch changes from '{choice.previous}' to '{choice.branch}': "
+            raise job.error(field, f"the IK branch changes from '{choice.previous}' to '{choice.branch}': "
                                f"{branch_change_reason(robot, choice, waypoint.X_BE, previous)}. Name the configuration "
                                "(config:), add waypoints, or allow the change (allow_branch_change: true)")
         if choice.changed:
-            log.warning("%s: %s: branch changes from %s to %s (allowed)", job.source, field, choice.previous,
+            log.warning("%s: branch changes from %s to %s (allowed)", job.location(field), choice.previous,
                         choice.branch)
         solved.append(WaypointIk(choice.q, result.method, result.position_error, result.rotation_error,
                                  choice.solutions, waypoint.target, result.matched, waypoint.config, choice.branch,
                                  choice.changed))
         previous, previous_branch = choice.q, choice.branch
     return solved
+
+
+def duration_lower_bound(job: Job, solved_q: list[np.ndarray]) -> tuple[float, float, float]:
+    """(bound, tcp, joints) [s]: a lower bound of the job's duration from its moves before timing, and
+    the parts of it the TCP's and the joints' speed limits set. Per move, the TCP travels at least the
+    straight distance between its waypoints (through the via point of a circular move, less the zones at
+    either end) at most ``tcp_speed_max``; a joint move turns each joint at least the difference of its
+    solved values at most ``qd_max``; both x ``speed_scale``."""
+    positions = job.robot.fk_batch(np.array(solved_q))[:, :3, 3]
+    zones = [w.zone if isinstance(w, PoseWaypoint) else 0.0 for w in job.waypoints]
+    tcp_speed = None if job.tcp_speed_max is None else job.tcp_speed_max * job.speed_scale
+    qd_max = job.robot.limits.qd_max * job.speed_scale
+    bound = tcp_total = joint_total = 0.0
+    for k in range(1, len(solved_q)):
+        waypoint = job.waypoints[k]
+        tool_move = isinstance(waypoint, PoseWaypoint) and waypoint.is_tool_move
+        via = [waypoint.via] if tool_move and waypoint.via is not None else []
+        stops = np.array([positions[k - 1], *via, positions[k]])
+        distance = max(float(np.linalg.norm(np.diff(stops, axis=0), axis=1).sum()) - zones[k - 1] - zones[k], 0.0)
+        tcp = 0.0 if tcp_speed is None else distance / tcp_speed
+        joints = 0.0 if tool_move else float(np.max(np.abs(solved_q[k] - solved_q[k - 1]) / qd_max))
+        bound, tcp_total, joint_total = bound + max(tcp, joints), tcp_total + tcp, joint_total + joints
+    return bound, tcp_total, joint_total
+
+
+def check_duration(job: Job, solved_q: list[np.ndarray], max_samples: int, max_duration_s: float) -> None:
+    """Refuse, before timing, a job whose duration is bounded from below (``duration_lower_bound``) by
+    more than ``max_duration_s`` [s] or by more than ``max_samples`` samples of ``dt``: a JobFileError
+    naming the field that sets the bound (tcp_speed_max, or speed_scale for the joints' speeds)."""
+    bound, tcp, joints = duration_lower_bound(job, solved_q)
+    samples = bound / job.dt + 2.0
+    if bound <= max_duration_s and samples <= max_samples:
+        return
+    too_long = (f"longer than {max_duration_s:g} s (raise it with run --max-duration)" if bound > max_duration_s
+                else f"{samples:,.0f} samples of dt = {job.dt:g} s, above the limit of {max_samples:,}")
+    if tcp >= joints:
+        speed = job.tcp_speed_max * job.speed_scale
+        raise job.error(("tcp_speed_max",), f"the job would last at least {bound:.4g} s, {too_long}: its TCP travels "
+                        f"at least {tcp * speed * 1e3:.4g} mm at {speed * 1e3:.4g} mm/s (tcp_speed_max x speed_scale). "
+                        "Is tcp_speed_max in the job's length_unit per second?")
+    raise job.error(("speed_scale",), f"the job would last at least {bound:.4g} s, {too_long}: its joint moves take "
+                    f"{joints:.4g} s at the robot's qd_max x speed_scale {job.speed_scale:g}")
 
 
 def package_versions() -> dict[str, str | None]:
@@ -192,13 +235,17 @@ def _title(job: Job, profile: Profile) -> str:
     return f"{job.robot.name}: {job.name}, {profile.method}, speed scale {job.speed_scale:g}, {profile.duration:.3f} s"
 
 
-def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobOutcome:
+def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES,
+            max_duration_s: float = DEFAULT_MAX_DURATION_S) -> JobOutcome:
     """Run a validated job and write its outputs into ``out_dir``, which is replaced whole on success
     and left as it was on any failure (``staged_output``; checked before any work). A profile of more
-    than ``max_samples`` samples is refused (ProfileSizeError) before it is made."""
+    than ``max_samples`` samples is refused (ProfileSizeError) before it is made, and a job whose moves
+    take more than ``max_duration_s`` [s] or ``max_samples`` samples at their speed limits before any
+    timing (``check_duration``)."""
     with staged_output(out_dir) as staging:
         scene = collision_model(job)
         waypoints = solve_waypoints(job, scene)
+        check_duration(job, [w.q for w in waypoints], max_samples, max_duration_s)
         profile, plans = _timed(job, waypoints, max_samples, scene)
         report = build_report(job, waypoints, profile, plans)
         writers = _writers(job, profile, report)
@@ -232,7 +279,7 @@ def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int, scene=None) 
             try:
                 return time_tool_job(job, [w.q for w in waypoints], max_samples, scene)
             except ToolMoveError as exc:
-                raise JobFileError(job.source, f"waypoints[{exc.move}]", str(exc)) from exc
+                raise job.error(("waypoints", exc.move), str(exc)) from exc
         Q = np.array([w.q for w in waypoints])
 
         def timed(vertices: np.ndarray) -> Profile:
@@ -243,8 +290,25 @@ def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int, scene=None) 
             return timed(Q), []
         profile, plans, _, _ = time_joint_moves(scene, Q, timed, job.plan, job.planner, job.plan_time_budget)
         return profile, plans
+    except ClearanceError as exc:
+        k = move_at(exc.profile, [w.q for w in waypoints], exc.first, exc.last, exc.report.failed_at_s)
+        raise CollisionError(f"{job.location(('waypoints', k))}: on the move to this waypoint (t in job time), "
+                             f"{exc}") from exc
     except (TimingError, ConfigurationError, CollisionError, PlanningError) as exc:
         raise type(exc)(f"{job.source}: {exc}") from exc
+
+
+def move_at(profile: Profile, solved_q: list[np.ndarray], first: int, last: int | None, t: float | None) -> int:
+    """The waypoint the motion is moving to at time ``t`` [s] (None: the last) of ``profile``, which
+    runs through the solved waypoints ``first`` .. ``last`` (None: the last) in order: each is reached at
+    the sample nearest its joint values after the previous one's."""
+    last = len(solved_q) - 1 if last is None else last
+    start = 0
+    for k in range(first + 1, last + 1):
+        start += int(np.argmin(np.linalg.norm(profile.q[start:] - solved_q[k], axis=1)))
+        if t is not None and profile.t[start] >= t:
+            return k
+    return last
 
 
 def _writers(job: Job, profile: Profile, report: dict) -> dict:
@@ -278,7 +342,7 @@ def _plot_tcp(path: Path, job: Job, profile: Profile) -> None:
 def _view_html(path: Path, job: Job, profile: Profile) -> None:
     from .views import profile_html   # Drake's Meshcat only when a view is asked for
 
-    Path(path).write_text(profile_html(job.robot, profile, cell=job.cell), encoding="utf-8")
+    Path(path).write_text(profile_html(job.robot, profile, cell=job.cell, tool=job.tool), encoding="utf-8")
 
 
 def _plot_arm(path: Path, job: Job, profile: Profile) -> None:
@@ -287,6 +351,7 @@ def _plot_arm(path: Path, job: Job, profile: Profile) -> None:
     plot_arm_motion(path, job.robot, profile, _title(job, profile), job.cell)
 
 
-def run_job_file(path: str | Path, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobOutcome:
-    """Load a job file and run it: ``run_job(load_job(path), out_dir, max_samples)``."""
-    return run_job(load_job(path), out_dir, max_samples)
+def run_job_file(path: str | Path, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLES,
+                 max_duration_s: float = DEFAULT_MAX_DURATION_S) -> JobOutcome:
+    """Load a job file and run it: ``run_job(load_job(path), out_dir, max_samples, max_duration_s)``."""
+    return run_job(load_job(path), out_dir, max_samples, max_duration_s)

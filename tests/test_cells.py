@@ -14,7 +14,7 @@ from pipeline.cell import load_cell, parse_cell
 from pipeline.cell_motion import collision_free_ik, time_clear
 from pipeline.collision import CollisionModel
 from pipeline.errors import CellFileError, CollisionError, JobFileError, RobotFileError
-from pipeline.jobs import parse_job
+from pipeline.jobs import load_job, parse_job
 from pipeline.planning import plan_joint_path
 from pipeline.profile import certify
 from pipeline.robot import load_robot
@@ -270,6 +270,50 @@ def test_check_cell_command(tmp_path, capsys):
     assert "COLLISION at q = 0" in capsys.readouterr().out
     path.write_text("name: x\n")
     assert main(["check-cell", str(path)]) == 2
+
+
+#: A tool move down at the pick, then a direct joint move through the wall (one waypoint per line).
+PICK_AND_THROUGH = """\
+cell: {cell}
+length_unit: mm
+angle_unit: deg
+tool: {{xyz: [0, 0, 120]}}
+tcp_speed_max: 500
+waypoints:
+  - {{xyz: [550, 300, 400], rpy: [180, 0, 30]}}
+  - {{xyz: [550, 300, 330], rpy: [180, 0, 30], move: linear}}
+  - {{xyz: [550, -300, 400], rpy: [180, 0, -30]}}
+outputs: [json]
+"""
+
+
+def test_a_clearance_failure_names_the_waypoint_line_and_the_job_time(tmp_path):
+    """The joint move after a tool move fails the clearance: the error names the line of the waypoint
+    it goes to and the job's time (the tool move's duration plus the time into the joint move)."""
+    path = tmp_path / "through.yaml"
+    path.write_text(PICK_AND_THROUGH.format(cell=WALL_CELL))
+    with pytest.raises(CollisionError) as error:
+        run_job(load_job(path), tmp_path / "out")
+    failure = error.value.__cause__
+    piece_start, failed_at = failure.profile.t[0], failure.report.failed_at_s
+    assert piece_start > 0.1 and failed_at > piece_start                  # after the tool move, in job time
+    assert str(error.value).startswith(f"{path}:9: waypoints[2]: on the move to this waypoint")
+    assert f"wall (clearance 10 mm) at t = {failed_at:.4f} s" in str(error.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_reported_smallest_distance_is_the_smallest_over_the_samples(wall):
+    """min_distance_m is the smallest robot-obstacle distance over the profile's samples (to 1e-6 m),
+    not the smallest at the certificate's own evaluations (up to 0.09 mm above it)."""
+    robot = wall.robot
+    profile, _ = time_clear(wall, np.radians([PICK_DEG, [40, 10, 0, 0, -50, 20]]),
+                            lambda vertices: retime(robot, vertices), refine=False)
+    clearance = profile.certificate.clearance
+    distances = np.array([wall.clearance(q).obstacle for q in profile.q])
+    k = int(np.argmin(distances))
+    assert clearance.passed and clearance.min_distance_m == pytest.approx(distances[k], abs=1e-6)
+    assert clearance.t_s in profile.t and clearance.t_s == pytest.approx(profile.t[k], abs=0.05)   # a sample's time
+    assert 0 < clearance.sample_evaluations < len(profile.t) / 2
 
 
 # -- fuzz findings 5 and 6 of issue 22: shape sizes checked in metres, a bounded count of shapes -----------

@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
-from pipeline.errors import JobFileError
+from pipeline.__main__ import main
+from pipeline.errors import JobFileError, RobotFileError
 from pipeline.jobs import JointWaypoint, PoseWaypoint, load_job, parse_job
-from pipeline.runner import run_job_file
+from pipeline.runner import run_job, run_job_file
 
 JOBS_DIR = Path(__file__).resolve().parent.parent / "trajectories" / "jobs"
 
@@ -149,3 +151,114 @@ def test_job_file_that_is_not_a_mapping(tmp_path):
 def test_missing_job_file_is_a_job_file_error(tmp_path):
     with pytest.raises(JobFileError, match="cannot read"):
         load_job(tmp_path / "absent.yaml")
+
+
+#: A GP7 tool job (mm, deg) as a new user writes it; the unit mistakes below change one key of it.
+TOOL_JOB = {"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "tool": {"xyz": [0, 0, 120]},
+            "tcp_speed_max": 500, "tcp_accel_max": 2500, "outputs": ["json"],
+            "waypoints": [{"xyz": [500, 350, 330], "rpy": [180, 0, 35]},
+                          {"xyz": [500, 350, 200], "rpy": [180, 0, 35], "move": "linear"}]}
+RADIAN_POSES = [{"xyz": [500, 350, 330], "rpy": [3.1416, 0, 1.5708]},
+                {"xyz": [500, 350, 200], "rpy": [3.1416, 0, 0.61], "move": "linear"}]
+UNIT_MISTAKES = {
+    "TCP speed in m/s": ({"tcp_speed_max": 0.25}, "tcp_speed_max", "is this m/s? Under length_unit: mm, 0.25 is "
+                         "0.25 mm/s", "write 250"),
+    "TCP acceleration in m/s^2": ({"tcp_accel_max": 2.5}, "tcp_accel_max", "is this m/s^2?", "write 2500"),
+    "tool in metres": ({"tool": {"xyz": [0, 0, 0.1]}}, "tool.xyz", "0.1 mm from the end frame", "write [0, 0, 100]"),
+    "rpy in radians": ({"waypoints": RADIAN_POSES}, "waypoints[0].rpy", "are these radians?", "[180, 0, 90"),
+    "tool rpy in radians": ({"tool": {"xyz": [0, 0, 120], "rpy": [0, 0, 1.5708]}}, "tool.rpy", "is pi/2 in radians",
+                            "[0, 0, 90.0002]"),
+    "rpy in degrees under rad": ({"angle_unit": "rad"}, "waypoints[0].rpy", "are these degrees?", "full turn"),
+}
+
+
+@pytest.mark.parametrize("case", list(UNIT_MISTAKES), ids=list(UNIT_MISTAKES))
+def test_unit_mistakes_are_refused_with_a_hint_and_nothing_written(tmp_path, capsys, case):
+    """The CLI refuses each before any work (exit 2), naming the file, line, field and a hint."""
+    change, field, problem, fix = UNIT_MISTAKES[case]
+    path = write_job(tmp_path, {**TOOL_JOB, **change})
+    out_dir = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out_dir)]) == 2
+    message = capsys.readouterr().err
+    line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if text.startswith(field.split(".")[0].split("[")[0]))
+    assert message.startswith(f"error: {path}:") and f": {field}: " in message and problem in message and fix in message
+    assert int(message.split(f"{path}:")[1].split(":")[0]) >= line
+    assert not out_dir.exists()
+
+
+@pytest.mark.parametrize("change", [{"waypoints": [{"xyz": [500, 350, 330], "rpy": [180, 0, 90]},
+                                                   {"xyz": [500, 350, 200], "rpy": [0, 0, 0], "move": "linear"}]},
+                                    {"tool": {"xyz": [0, 0, 1.5], "rpy": [0, 0, 3]}}, {"tcp_speed_max": 1},
+                                    {"tcp_accel_max": 10}])
+def test_ordinary_values_near_the_unit_rules_are_accepted(change):
+    """Degrees such as [180, 0, 90], [0, 0, 0] and whole small angles, a 1.5 mm tool, 1 mm/s, 10 mm/s^2."""
+    assert parse_job({**TOOL_JOB, **change}).tcp_speed_max > 0
+
+
+def test_small_values_are_stated_unambiguously_in_the_other_unit():
+    """What the hints propose: a 0.1 mm tool and 0.25 mm/s in metres, small degree angles in radians."""
+    job = parse_job({**TOOL_JOB, "length_unit": "m", "angle_unit": "rad", "tool": {"xyz": [0, 0, 0.0001]}, "tcp_speed_max": 0.00025,
+                     "tcp_accel_max": 2.5, "waypoints": [{"xyz": [0.5, 0.35, 0.33], "rpy": [3.14, 0, 0.61]},
+                                                         {"xyz": [0.5, 0.35, 0.2], "rpy": [3.14, 0, 0.61]}]})
+    assert job.tcp_speed_max == pytest.approx(0.00025) and job.tool[2, 3] == pytest.approx(1e-4)
+    assert parse_job({**TOOL_JOB, "angle_unit": "rad", "waypoints": [
+        {"xyz": [500, 350, 330], "rpy": [0.054831, 0, 0.027416]},
+        {"xyz": [500, 350, 200], "rpy": [math.pi, 0, 0.61], "move": "linear"}]}).has_tool_moves
+
+
+def test_a_waypoint_just_outside_a_limit_shows_by_how_much():
+    """Not "-2.96706 is outside its limits [-2.96706, 2.96706]": the value in full and the excess."""
+    q_min = load_job(JOBS_DIR / "gp7_pick_place.yaml").robot.limits.q_min[0]
+    with pytest.raises(JobFileError) as error:
+        parse_job({"robot": "gp7", "angle_unit": "rad", "waypoints": [[0] * 6, [q_min - 1e-9, 0, 0, 0, 0, 0]]})
+    assert f"= {q_min - 1e-9!r} is outside" in str(error.value) and ": 1e-09 below" in str(error.value)
+    assert "are these degrees" not in str(error.value)
+
+
+def _without(robot_text: str, key: str) -> str:
+    """A robot file's text with ``key: value`` dropped from every flow-style joint row."""
+    return "\n".join(", ".join(part for part in line.split(", ") if not part.startswith(f"{key}:"))
+                     .replace("}}", "}") if line.lstrip().startswith("- {") else line
+                     for line in robot_text.splitlines())
+
+
+@pytest.mark.parametrize("timing, key", [("toppra", "qdd_max"), ("ruckig", "qddd_max")])
+def test_a_robot_without_the_limits_its_timing_needs_is_named(tmp_path, timing, key):
+    """The error names the ROBOT file, the first joint row and its line, not the job."""
+    text = (JOBS_DIR.parent.parent / "models" / "arm5.yaml").read_text()
+    robot_file = tmp_path / "jobs" / "arm5_bare.yaml"
+    robot_file.parent.mkdir()
+    robot_file.write_text(_without(_without(text, "qddd_max"), key))
+    path = write_job(tmp_path, changed(ARM5_JOB, robot="arm5_bare.yaml", timing=timing))
+    with pytest.raises(RobotFileError) as error:
+        run_job_file(path, tmp_path / "out")
+    row = next(i for i, line in enumerate(robot_file.read_text().splitlines(), 1) if line.lstrip().startswith("- {"))
+    assert (error.value.source, error.value.field, error.value.line) == (str(robot_file), f"joints[0].{key}", row)
+    assert f"required by timing {timing}" in str(error.value) and str(path) in str(error.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_absurd_duration_is_refused_before_timing(tmp_path):
+    """tcp_speed_max: 1 (mm/s) on the demo pick and place: at least 1743 s of motion, refused in well under
+    a second after reading (it ran for minutes and wrote hundreds of MB), naming the field and its line."""
+    text = (JOBS_DIR / "gp7_pick_place.yaml").read_text()
+    path = tmp_path / "slow.yaml"
+    path.write_text(text.replace("tcp_speed_max: 500 ", "tcp_speed_max: 1 "))
+    job = load_job(path)
+    start = time.perf_counter()
+    with pytest.raises(JobFileError) as error:
+        run_job(job, tmp_path / "out")
+    assert time.perf_counter() - start < 1.0
+    line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if text.startswith("tcp_speed_max"))
+    assert (error.value.field, error.value.line) == ("tcp_speed_max", line)
+    assert "would last at least 17" in str(error.value) and "at 1 mm/s" in str(error.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_tiny_speed_scale_is_refused_naming_it(tmp_path):
+    """A joint job whose moves need more samples than allowed at qd_max x speed_scale, before timing."""
+    path = write_job(tmp_path, changed(ARM5_JOB, speed_scale=1e-4))
+    with pytest.raises(JobFileError) as error:
+        run_job_file(path, tmp_path / "out")
+    assert error.value.field == "speed_scale" and "joint moves take" in str(error.value)
+    assert not (tmp_path / "out").exists()

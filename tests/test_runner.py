@@ -140,7 +140,8 @@ def test_unreachable_pose_names_the_waypoint_and_the_reason(tmp_path):
     with pytest.raises(JobFileError) as error:
         run_job_file(path, tmp_path / "out")
     message = str(error.value)
-    assert message.startswith(f"{path}: waypoints[1]: pose is unreachable") and len(message) > len(str(path)) + 60
+    assert message.startswith(f"{path}:{error.value.line}: waypoints[1]: pose is unreachable")
+    assert len(message) > len(str(path)) + 60 and error.value.line is not None
     assert (error.value.source, error.value.field) == (str(path), "waypoints[1]")
     assert not (tmp_path / "out").exists()
 
@@ -194,3 +195,50 @@ def test_the_report_says_what_timed_the_path_and_certifies_once(tmp_path, monkey
         assert report["method"]["timing"] == timing and report["method"]["path"] == path
         assert report["timing_details"] == json.loads(json.dumps(outcome.profile.details.to_dict()))
         assert not any(isinstance(value, str) for value in report["timing_details"].values())
+
+
+BRANCH_JOB = ROOT / "tests" / "data" / "gp7_branch_change.yaml"
+#: A tool job whose line passes through the base's axis, out of reach (one waypoint per line).
+TOOL_MOVE_JOB = """\
+robot: gp7
+length_unit: mm
+angle_unit: deg
+tcp_speed_max: 500
+allow_branch_change: true
+waypoints:
+  - {xyz: [300, 300, 300], rpy: [180, 0, 0]}
+  - {xyz: [-300, -300, 300], rpy: [180, 0, 0], move: linear}
+outputs: [json]
+"""
+
+
+def _line_of(text: str, start: str, occurrence: int = 0) -> int:
+    """The 1-based line of the ``occurrence``-th line of ``text`` that starts (stripped) with ``start``."""
+    return [i for i, line in enumerate(text.splitlines(), 1) if line.lstrip().startswith(start)][occurrence]
+
+
+@pytest.mark.parametrize("change, field, words", [
+    ("", "waypoints[1]", "the IK branch changes"),
+    ("rpy: [8.86217177, 26.86158031, 60.80439172], config: {shoulder: front}", "waypoints[1].config",
+     "no in-limit solution has the configuration"),
+])
+def test_errors_after_reading_name_the_line_of_their_waypoint(tmp_path, change, field, words):
+    """A branch change and a configuration without a solution (IK, after reading) carry the file line."""
+    text = BRANCH_JOB.read_text()
+    if change:
+        text = text.replace("rpy: [8.86217177, 26.86158031, 60.80439172]", change)
+    path = tmp_path / "job.yaml"
+    path.write_text(text)
+    with pytest.raises(JobFileError) as error:
+        run_job_file(path, tmp_path / "out")
+    assert (error.value.field, error.value.line) == (field, _line_of(text, "- {", 1)) and words in str(error.value)
+    assert str(error.value).startswith(f"{path}:{error.value.line}: {field}: ") and not (tmp_path / "out").exists()
+
+
+def test_a_tool_move_error_names_the_line_of_its_waypoint(tmp_path):
+    path = tmp_path / "line.yaml"
+    path.write_text(TOOL_MOVE_JOB)
+    with pytest.raises(JobFileError) as error:
+        run_job_file(path, tmp_path / "out")
+    assert (error.value.field, error.value.line) == ("waypoints[1]", _line_of(TOOL_MOVE_JOB, "- {", 1))
+    assert "out of reach" in str(error.value) and not (tmp_path / "out").exists()

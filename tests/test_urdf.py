@@ -350,6 +350,47 @@ def test_cli_import_of_a_fork_fails_in_one_line_and_writes_nothing(tmp_path):
     assert not (tmp_path / "out.yaml").exists()
 
 
+def _imported_ur5_jobs(tmp_path: Path, *options: str) -> Path:
+    """The UR5 imported with ``options`` into tmp_path/ur5.yaml and a joint job on it; the job's path."""
+    from pipeline.__main__ import main
+
+    assert main(["import-urdf", str(URDF_DIR / "ur5.urdf"), "--out", str(tmp_path / "ur5.yaml"), *options]) == 0
+    job = {"robot": "ur5.yaml", "angle_unit": "deg", "waypoints": [[0, -90, 90, 0, 90, 0], [45, -60, 60, 10, 80, 30]],
+           "outputs": ["json"]}
+    (tmp_path / "job.yaml").write_text(yaml.safe_dump(job))
+    return tmp_path / "job.yaml"
+
+
+def test_a_urdf_import_without_acceleration_limits_is_named_by_the_first_job(tmp_path):
+    """A URDF has no acceleration limits: the first job names the robot file's joint row, not the job."""
+    from pipeline.errors import RobotFileError
+    from pipeline.runner import run_job_file
+
+    job = _imported_ur5_jobs(tmp_path)
+    with pytest.raises(RobotFileError) as error:
+        run_job_file(job, tmp_path / "out")
+    assert (error.value.source, error.value.field) == (str(tmp_path / "ur5.yaml"), "joints[0].qdd_max")
+    assert error.value.line > 1 and "--time-to-full-speed" in str(error.value) and not (tmp_path / "out").exists()
+
+
+def test_time_to_full_speed_fills_the_acceleration_limits_and_records_them(tmp_path):
+    _imported_ur5_jobs(tmp_path, "--time-to-full-speed", "0.25")
+    document = yaml.safe_load((tmp_path / "ur5.yaml").read_text())
+    assert all(row["qdd_max"] == pytest.approx(row["qd_max"] / 0.25, rel=1e-12) for row in document["joints"])
+    assert "--time-to-full-speed 0.25" in document["provenance"]["qdd_max"]
+    assert any("qd_max / 0.25 s" in line for line in document["assumptions"])
+
+
+@pytest.mark.slow
+def test_an_imported_ur5_with_a_time_to_full_speed_runs_a_job(tmp_path):
+    """The issue's new user: an imported UR5 (torque limits, inertias) and --time-to-full-speed runs a job
+    (about 8 s: the torque-limited timing)."""
+    from pipeline.runner import run_job_file
+
+    outcome = run_job_file(_imported_ur5_jobs(tmp_path, "--time-to-full-speed", "0.25"), tmp_path / "out")
+    assert outcome.limit_report.passed and outcome.limit_report.max_ratio("qdd") <= 1.0 + 1e-6
+
+
 # -- fuzz findings 2 and 7 of issue 22: overflow, the FK self-check, bounded sizes and counts --------------
 def chain_urdf(moving: int, fixed_between: int = 0, fixed_beside: int = 0, axis: str = "0 0 1", extra: str = "",
                inertial: str = "") -> str:

@@ -31,6 +31,8 @@ from .chain import SerialChain, serial_chain
 from .dh_from_axes import dh_from_axes
 from .reader import read_urdf
 
+#: Longest time to full speed ``import_urdf`` accepts [s]: an arm that needs longer is a mistake.
+MAX_TIME_TO_FULL_SPEED_S = 10.0
 #: Configurations on which the imported FK is compared with the URDF chain's, and the seed.
 CHECK_CONFIGURATIONS = 200
 CHECK_SEED = 0
@@ -121,10 +123,15 @@ def _fk_error(robot: Robot, chain: SerialChain) -> float:
 
 
 def import_urdf(path: str | Path, base: str | None = None, tip: str | None = None, convention: str = "standard",
-                name: str | None = None) -> UrdfImport:
-    """Import the serial chain from ``base`` to ``tip`` of a URDF file (see the module docstring)."""
+                name: str | None = None, time_to_full_speed: float | None = None) -> UrdfImport:
+    """Import the serial chain from ``base`` to ``tip`` of a URDF file (see the module docstring).
+    ``time_to_full_speed`` [s] (a URDF has no acceleration limits): each joint's ``qdd_max`` is
+    ``qd_max / time_to_full_speed``, recorded in the file's provenance (None: no qdd_max)."""
     if convention not in CONVENTIONS:
         raise ConfigurationError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
+    if time_to_full_speed is not None and not 0.0 < time_to_full_speed <= MAX_TIME_TO_FULL_SPEED_S:
+        raise ConfigurationError(f"time_to_full_speed must be in (0, {MAX_TIME_TO_FULL_SPEED_S:g}] s, got "
+                                 f"{time_to_full_speed!r}")
     model = read_urdf(path)
     chain = serial_chain(model, base, tip)
     assumptions: list[str] = []
@@ -137,10 +144,11 @@ def import_urdf(path: str | Path, base: str | None = None, tip: str | None = Non
         q_min, q_max, qd_max = _limits(joint, model.source)
         joints.append(DhJoint(name=joint.name, kind="prismatic" if joint.kind == "prismatic" else "revolute",
                               a=row.a, alpha=row.alpha, d=row.d, theta_offset=row.theta_offset, sign=1.0,
-                              q_min=q_min, q_max=q_max, qd_max=qd_max, qdd_max=None, qddd_max=None, inertia=None))
+                              q_min=q_min, q_max=q_max, qd_max=qd_max, inertia=None, qddd_max=None,
+                              qdd_max=None if time_to_full_speed is None else qd_max / time_to_full_speed))
     spec = RobotSpec(name=name or model.name, convention="standard", joints=tuple(joints), X_BaseD0=geometry.X_BD0,
                      X_DnE=geometry.X_DnT, source=str(path), length_unit="mm", angle_unit="deg",
-                     provenance=_provenance(chain, convention))
+                     provenance=_provenance(chain, convention, time_to_full_speed))
     if convention == "modified":
         spec = dataclasses.replace(standard_to_modified(spec), name=spec.name)
     spec = _with_mass_properties(spec, chain, assumptions)
@@ -149,7 +157,10 @@ def import_urdf(path: str | Path, base: str | None = None, tip: str | None = Non
                            f"are {math.degrees(angle):.3g} deg from parallel: treated as parallel")
     if chain.ignored:
         assumptions.append("moving joints off the chain are not part of this robot: " + ", ".join(chain.ignored))
-    assumptions.append("a URDF has no acceleration or jerk limits: add qdd_max (and qddd_max) to time with them")
+    assumptions.append("a URDF has no acceleration or jerk limits: add qdd_max (and qddd_max) to time with them"
+                       if time_to_full_speed is None else f"a URDF has no acceleration limits: qdd_max = qd_max / "
+                       f"{time_to_full_speed:g} s, the time to full speed given to import-urdf; no jerk limits "
+                       "(qddd_max) for ruckig and topp3")
     document = robot_document(spec, description=f"imported from the URDF {Path(path).name} (robot {model.name!r})",
                               assumptions=assumptions)
     robot = Robot(parse_robot_spec(document, source=str(path)))
@@ -175,12 +186,16 @@ def _check_fk(imported: UrdfImport, tolerance: float) -> None:
                              "as DH; nothing written")
 
 
-def _provenance(chain: SerialChain, convention: str) -> dict:
+def _provenance(chain: SerialChain, convention: str, time_to_full_speed: float | None) -> dict:
+    acceleration = {} if time_to_full_speed is None else {
+        "qdd_max": f"qd_max / {time_to_full_speed:g} s (import-urdf --time-to-full-speed {time_to_full_speed:g}: "
+                   "the time each joint takes to reach full speed, an assumption)"}
     return {
         "source": f"URDF {chain.model.source}, robot {chain.model.name!r}, chain {chain.base} -> {chain.tip}",
         "dh": f"{convention} DH extracted from the joint axes at q = 0 by python -m pipeline import-urdf "
               "(common normals; every sign +1, q is the URDF's joint vector)",
         "limits": "position and velocity limits copied from the URDF's <limit> elements",
+        **acceleration,
     }
 
 
