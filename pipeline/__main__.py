@@ -20,6 +20,7 @@ from contextlib import nullcontext
 
 import numpy as np
 
+from .choices import DEFAULT_MAX_DURATION_S
 from .errors import PipelineError
 from .io import prepare_file_target, staged_output, write_text_atomic
 from .robot import load_robot
@@ -77,7 +78,8 @@ def cmd_import_urdf(args) -> int:
     from .urdf import import_urdf
 
     prepare_file_target(args.out)
-    imported = import_urdf(args.urdf, base=args.base, tip=args.tip, convention=args.convention, name=args.name)
+    imported = import_urdf(args.urdf, base=args.base, tip=args.tip, convention=args.convention, name=args.name,
+                           time_to_full_speed=args.time_to_full_speed)
     imported.write(args.out)
     chain = imported.chain
     print(imported.robot)
@@ -122,7 +124,7 @@ def cmd_run(args) -> int:
     """Run a job file: IK for pose waypoints, path, timing, certification, output files."""
     from .runner import run_job_file
 
-    outcome = run_job_file(args.job, args.out, max_samples=args.max_samples)
+    outcome = run_job_file(args.job, args.out, max_samples=args.max_samples, max_duration_s=args.max_duration)
     print(outcome.summary())
     return 0
 
@@ -220,15 +222,21 @@ def _count(minimum: int):
 POSITIVE, NON_NEGATIVE = _count(1), _count(0)
 
 
-def _millimetres(text: str) -> float:
-    """An argparse type: a positive finite length in millimetres."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of millimetres") from None
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number of millimetres, got {text}")
-    return value
+def _positive_number(unit: str):
+    """An argparse type: a positive finite number of ``unit`` (millimetres, seconds)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number of {unit}") from None
+        if not 0 < value < float("inf"):
+            raise argparse.ArgumentTypeError(f"must be a positive number of {unit}, got {text}")
+        return value
+
+    return parse
+
+
+_millimetres, _seconds = _positive_number("millimetres"), _positive_number("seconds")
 
 
 def _add_dask_options(parser) -> None:
@@ -300,6 +308,9 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                                                    "plots, 3-D view); only a new, empty or earlier output folder")
     run.add_argument("--max-samples", type=POSITIVE, default=DEFAULT_MAX_SAMPLES, metavar="N",
                      help=f"refuse profiles of more samples (default {DEFAULT_MAX_SAMPLES:,})")
+    run.add_argument("--max-duration", type=_seconds, default=DEFAULT_MAX_DURATION_S, metavar="SECONDS",
+                     help="refuse, before timing, a job whose moves take longer at their speed limits "
+                          f"(default {DEFAULT_MAX_DURATION_S:g})")
     run.set_defaults(func=cmd_run)
 
     show = _verb(sub, prog, "show", "print a robot's DH table, FK and Jacobian at q = 0",
@@ -338,6 +349,9 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     urdf_in.add_argument("--convention", choices=["standard", "modified"], default="standard",
                          help="DH convention of the robot file (default standard)")
     urdf_in.add_argument("--name", help="the robot's name (default the URDF's)")
+    urdf_in.add_argument("--time-to-full-speed", type=_seconds, metavar="SECONDS",
+                         help="fill in the acceleration limits a URDF lacks: qdd_max = qd_max / SECONDS per joint "
+                              "(e.g. 0.25; recorded in the file's provenance)")
     urdf_in.set_defaults(func=cmd_import_urdf)
 
     check_cell = _verb(sub, prog, "check-cell", "print a cell, its collision model and the robot's clearance at "
