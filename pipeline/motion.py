@@ -60,8 +60,8 @@ def time_tool_job(job: Job, solved_q: list[np.ndarray], max_samples: int, scene=
     """The certified profile of a job with tool moves, from the waypoints' solved joint values, and the
     planned paths of its joint pieces. With ``scene`` (a CollisionModel) joint pieces are timed by
     ``cell_motion.time_clear`` (planned first with ``plan: collision_free``), tool pieces' IK samples are
-    checked (CollisionError naming the move, the sample and the pair) and the joined profile carries its
-    clearance certificate."""
+    checked (ToolMoveError naming the move, the sample and the pair) and the joined profile carries its
+    clearance certificate; a ClearanceError gives the job's time and the waypoints of the piece it is in."""
     robot = job.robot
     limits = dataclasses.replace(robot.limits, tcp_speed_max=job.tcp_speed_max, tcp_accel_max=job.tcp_accel_max)
     tcp = TcpMotion(robot)

@@ -270,7 +270,8 @@ def collision_model(job: Job):
 def _timed(job: Job, waypoints: list[WaypointIk], max_samples: int, scene=None) -> tuple[Profile, list]:
     """The certified profile through the solved waypoints (in pieces when the job has tool moves or TCP
     limits, ``pipeline.motion``; in a cell, planned and certified clear, ``pipeline.cell_motion``) and the
-    planned paths; timing and collision errors name the job file, tool-move errors the waypoint."""
+    planned paths; timing and collision errors name the job file, tool-move errors the waypoint and its line,
+    clearance failures the line of the waypoint the move goes to (``move_at``) and the job's time."""
     try:
         if job.has_tool_moves or job.tcp_speed_max is not None or job.tcp_accel_max is not None:
             from .motion import time_tool_job
