@@ -126,6 +126,11 @@ JOINT_COLOUR = (0.25, 0.25, 0.28, 1.0)
 BASE_COLOUR = (0.35, 0.35, 0.38, 1.0)
 FLANGE_COLOUR = (0.20, 0.45, 0.85, 1.0)
 OBSTACLE_COLOUR = (0.55, 0.60, 0.65, 0.6)
+#: A job's tool: the stem from the end frame to the TCP, and the TCP's x, y, z axes (red, green, blue).
+TOOL_COLOUR = (0.15, 0.65, 0.75, 1.0)
+TCP_AXIS_COLOURS = ((0.85, 0.15, 0.15, 1.0), (0.15, 0.65, 0.20, 1.0), (0.15, 0.30, 0.90, 1.0))
+#: The tool stem's radius and the TCP axes' length and radius, in link radii (``visual_radius``).
+TOOL_STEM_RADII, TCP_AXIS_RADII, TCP_AXIS_WIDTH_RADII = 0.5, 3.0, 0.2
 
 
 def pose_between(p: np.ndarray, r: np.ndarray) -> RigidTransform:
@@ -215,10 +220,32 @@ def register_cell_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: list[
     return len(cell.objects) + len(cell.tool_shapes)
 
 
+def register_tool_geometry(plant: MultibodyPlant, spec: RobotSpec, bodies: list[RigidBody], X_ET: np.ndarray) -> int:
+    """Visual shapes of a job's tool X_ET (4, 4) [m] (the TCP T in the end frame E of ``spec``) on an
+    unfinalised plant, on the last link: a thin stem from E's origin to T's (none when they coincide)
+    and T's axes as a small red, green, blue triad. Returns the count."""
+    radius = visual_radius(DhKinematics(spec))
+    X_DnT = spec.X_DnE @ X_ET
+    p_E, p_T = spec.X_DnE[:3, 3], X_DnT[:3, 3]
+    shapes = []
+    stem = float(np.linalg.norm(p_T - p_E))
+    if stem >= MIN_SEGMENT_M:
+        shapes.append(("tool_stem", pose_between(p_E, p_T), Cylinder(TOOL_STEM_RADII * radius, stem), TOOL_COLOUR))
+    length = TCP_AXIS_RADII * radius
+    for k, (axis, colour) in enumerate(zip("xyz", TCP_AXIS_COLOURS)):
+        shapes.append((f"tcp_{axis}", pose_between(p_T, p_T + length * X_DnT[:3, k]),
+                       Cylinder(TCP_AXIS_WIDTH_RADII * radius, length), colour))
+    for name, X_DnG, shape, colour in shapes:
+        plant.RegisterVisualGeometry(bodies[-1], X_DnG, shape, name, np.array(colour))
+    return len(shapes)
+
+
 def build_visual_diagram(spec: RobotSpec, meshcat: Meshcat | None = None,
-                         params: MeshcatVisualizerParams | None = None, cell=None) -> VisualModel:
+                         params: MeshcatVisualizerParams | None = None, cell=None,
+                         tool: np.ndarray | None = None) -> VisualModel:
     """The robot in a Diagram: ``AddMultibodyPlantSceneGraph``, the chain of ``add_robot``, the shapes
-    of ``register_visual_geometry`` (and of ``register_cell_geometry`` with a cell), and a
+    of ``register_visual_geometry`` (and of ``register_cell_geometry`` with a cell, of
+    ``register_tool_geometry`` with a job's ``tool`` X_ET (4, 4) [m] in the end frame of ``spec``), and a
     MeshcatVisualizer (with ``params``, if given) publishing to ``meshcat`` if given."""
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
@@ -226,6 +253,8 @@ def build_visual_diagram(spec: RobotSpec, meshcat: Meshcat | None = None,
     count = register_visual_geometry(plant, spec, bodies)
     if cell is not None:
         count += register_cell_geometry(plant, spec, bodies, cell)
+    if tool is not None:
+        count += register_tool_geometry(plant, spec, bodies, tool)
     plant.Finalize()
     visualizer = None
     if meshcat is not None:

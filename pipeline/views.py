@@ -9,6 +9,7 @@ so a notebook's inline backend is untouched); Drake only when Meshcat is used.
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import logging
 from pathlib import Path
@@ -16,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigurationError
-from .geometry import compute_arm_path, robot_size, shape_outline
+from .geometry import compute_arm_path, robot_size, shape_outline, visual_radius
 from .profile import Profile
 
 log = logging.getLogger(__name__)
@@ -31,6 +32,23 @@ TRIAD_FRACTION = 0.15
 TRIAD_COLOURS = ("tab:red", "tab:green", "tab:blue")
 #: Obstacles are drawn within this fraction of the robot's size around the drawn arm.
 CELL_MARGIN_FRACTION = 0.25
+#: Meshcat's default camera: three.js ``PerspectiveCamera(75, aspect, ...)``, 75 deg vertically [deg],
+#: across as much wider as the window is (width / height; framed for a window at least 4:3).
+CAMERA_FOV_DEG = 75.0
+CAMERA_ASPECT = 4.0 / 3.0
+#: What a view shows reaches this fraction of the way from the view's centre to its edge.
+CAMERA_FILL = 0.85
+#: The camera looks at the scene from this direction: a 3/4 view from the front (+x), right (-y), above.
+CAMERA_AZIMUTH_DEG = -40.0
+CAMERA_ELEVATION_DEG = 30.0
+#: The visual geometry reaches this many link radii (``visual_radius``) beyond the stick figure (the
+#: base disc's radius).
+VISUAL_REACH_RADII = 3.0
+#: The TCP's trace in Meshcat: path, colour (magenta), width [px], most points drawn.
+TRACE_PATH = "/tcp_trace"
+TRACE_RGBA = (0.90, 0.10, 0.70, 1.0)
+TRACE_WIDTH_PX = 3.0
+TRACE_MAX_POINTS = 2000
 
 
 # -- matplotlib -------------------------------------------------------------------------------------
@@ -186,12 +204,94 @@ def sample_profile(profile: Profile, fps: float = DEFAULT_FPS) -> tuple[np.ndarr
     return t, q
 
 
-def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cell=None):
+def flange_robot(robot, tool: np.ndarray | None):
+    """The robot whose end frame is the flange (its file's end frame): ``robot`` (whose end frame is the
+    TCP) without the job's ``tool`` X_ET (4, 4) [m]; ``robot`` itself without a tool."""
+    if tool is None:
+        return robot
+    return type(robot)(dataclasses.replace(robot.spec, X_DnE=robot.spec.X_DnE @ np.linalg.inv(tool)))
+
+
+def scene_spheres(robot, Q: np.ndarray, cell=None, tool: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres that hold what a view shows over the configurations Q (N, dof): centres (k, 3) [m] in the
+    base frame and radii (k,) [m]. The arm's visual geometry (its stick figure from the base to the TCP,
+    through which the TCP's trace runs, widened by VISUAL_REACH_RADII link radii), the cell's tool shapes,
+    and the cell's obstacles within CELL_MARGIN_FRACTION of the robot's size around them (a floor would
+    dwarf the arm). ``robot``'s end frame is the TCP, ``tool`` X_ET (4, 4) [m] or None (``show_profile``)."""
+    flange = flange_robot(robot, tool)
+    centres = [np.vstack([compute_arm_path(robot, q) for q in Q])]
+    radii = [np.full(len(centres[0]), VISUAL_REACH_RADII * visual_radius(flange))]
+    if cell is not None:
+        X_BE = flange.fk_batch(Q)
+        for shape in cell.tool_shapes:
+            centres.append((X_BE @ shape.X)[:, :3, 3])
+            radii.append(np.full(len(Q), shape.bounding_radius))
+        shown = np.vstack(centres)
+        margin = CELL_MARGIN_FRACTION * robot_size(flange)
+        obstacles = cell_outlines(cell, shown.min(axis=0) - margin, shown.max(axis=0) + margin)
+        centres += obstacles
+        radii += [np.zeros(len(points)) for points in obstacles]
+    return np.vstack(centres), np.concatenate(radii)
+
+
+def view_direction() -> np.ndarray:
+    """Unit vector (3,) from the camera's target towards the camera (CAMERA_AZIMUTH_DEG, _ELEVATION_DEG)."""
+    azimuth, elevation = np.radians(CAMERA_AZIMUTH_DEG), np.radians(CAMERA_ELEVATION_DEG)
+    return np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+
+
+def camera_axes(towards_camera: np.ndarray) -> np.ndarray:
+    """The camera's right, up and backward unit vectors as rows (3, 3), for a camera looking along
+    ``-towards_camera`` with its up as close to +z as possible (as Meshcat's SetCameraPose)."""
+    back = towards_camera / np.linalg.norm(towards_camera)
+    right = np.cross(np.array([0.0, 0.0, 1.0]), back)
+    right /= np.linalg.norm(right)
+    return np.array([right, np.cross(back, right), back])
+
+
+def camera_pose(centres: np.ndarray, radii: np.ndarray, fov_deg: float = CAMERA_FOV_DEG,
+                aspect: float = CAMERA_ASPECT, fill: float = CAMERA_FILL) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, target) (3,) [m] framing the spheres (centres (k, 3), radii (k,) [m]) seen along
+    ``-view_direction()`` with a vertical field of view of ``fov_deg`` [deg] in a view ``aspect`` times as
+    wide as tall: the nearest camera that has every sphere within ``fill`` of the way from the view's
+    centre to its edge, the spheres centred; the farthest spheres up and down (or left and right) touch
+    that frame. The target is the view's centre at the middle of the spheres' bounding box in depth
+    (where Meshcat's camera orbits).
+
+    Per view axis, a sphere at lateral offset x, depth z = D - a (D: the camera's distance back from the
+    box's middle, a: the sphere's offset towards the camera) is inside the frame |x - c| <= s z (s: the
+    frame's slope, c: the target's lateral shift) when it keeps its radius r from both of its planes:
+    x + r sqrt(1 + s^2) + s a - s D <= c <= x - r sqrt(1 + s^2) - s a + s D."""
+    middle = ((centres - radii[:, None]).min(axis=0) + (centres + radii[:, None]).max(axis=0)) / 2.0
+    axes = camera_axes(view_direction())
+    right_up_back = (centres - middle) @ axes.T
+    slopes = fill * np.tan(np.radians(fov_deg) / 2.0) * np.array([aspect, 1.0])     # right, up
+    margins = radii[:, None] * np.hypot(1.0, slopes) + right_up_back[:, 2:] * slopes
+    highest = (right_up_back[:, :2] + margins).max(axis=0)
+    lowest = (right_up_back[:, :2] - margins).min(axis=0)
+    distance = float(((highest - lowest) / (2.0 * slopes)).max())
+    target = middle + ((highest + lowest) / 2.0) @ axes[:2]
+    return target + distance * axes[2], target
+
+
+def show_tcp_trace(meshcat, tcp: np.ndarray) -> None:
+    """Draw the TCP positions (N, 3) [m] as a line (TRACE_PATH, TRACE_RGBA; at most TRACE_MAX_POINTS)."""
+    from pydrake.geometry import Rgba
+
+    keep = np.unique(np.linspace(0, len(tcp) - 1, min(len(tcp), TRACE_MAX_POINTS)).round().astype(int))
+    meshcat.SetLine(TRACE_PATH, np.asfortranarray(tcp[keep].T), TRACE_WIDTH_PX, Rgba(*TRACE_RGBA))
+
+
+def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cell=None,
+                 tool: np.ndarray | None = None):
     """Play a profile in a running Meshcat (e.g. ``pydrake.geometry.StartMeshcat()`` in a notebook): the
     arm (replacing one shown before under the visualizer's path) is drawn at the first sample and the
     motion published as an animation sampled at ``fps`` [1/s] (play, pause, scrub in Meshcat's
-    Animations controls), with the obstacles and tool shapes of ``cell`` (a Cell) if given. Returns the
-    VisualModel (diagram, plant, scene graph, visualizer)."""
+    Animations controls), with the obstacles and tool shapes of ``cell`` (a Cell) if given, the job's
+    ``tool`` X_ET (4, 4) [m] (a stem from the flange to the TCP and the TCP's axes) if given, and the
+    TCP's trace; the camera frames all of it (``scene_spheres``, ``camera_pose``). ``robot``'s end frame is
+    the TCP (a job's robot: the robot file's with ``tool``). Returns the VisualModel (diagram, plant,
+    scene graph, visualizer)."""
     from pydrake.geometry import MeshcatVisualizerParams
 
     from .drake_model import build_visual_diagram
@@ -199,13 +299,15 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cel
     params = MeshcatVisualizerParams()
     params.publish_period = 1.0 / fps          # the visualizer records at 1 / publish_period frames/s
     params.delete_on_initialization_event = False
-    model = build_visual_diagram(robot.spec, meshcat, params, cell)
+    model = build_visual_diagram(flange_robot(robot, tool).spec, meshcat, params, cell, tool)
     times, Q = sample_profile(profile, fps)
     context = model.diagram.CreateDefaultContext()
     plant_context = model.plant.GetMyMutableContextFromRoot(context)
     model.visualizer.Delete()                   # a robot shown before in this Meshcat
     model.plant.SetPositions(plant_context, Q[0])
     model.diagram.ForcedPublish(context)        # geometry, and the arm at rest at the start
+    show_tcp_trace(meshcat, robot.fk_batch(profile.q)[:, :3, 3])
+    meshcat.SetCameraPose(*camera_pose(*scene_spheres(robot, Q, cell, tool)))
     model.visualizer.StartRecording(set_transforms_while_recording=False)
     for t, q in zip(times, Q):
         context.SetTime(float(t))
@@ -218,11 +320,12 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cel
     return model
 
 
-def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None) -> str:
+def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None, tool: np.ndarray | None = None) -> str:
     """A standalone HTML page (its JavaScript inlined, no server needed) of a Meshcat animation of the
-    profile: the arm with its visual geometry, ``fps`` frames per second, played once on opening (replay
-    it from the Animations controls)."""
-    return static_meshcat_html(lambda meshcat: show_profile(robot, profile, meshcat, fps, cell))
+    profile (``show_profile``: the arm with its visual geometry, the cell, the tool, the TCP's trace, the
+    camera framing them), ``fps`` frames per second, played once on opening (replay it from the
+    Animations controls)."""
+    return static_meshcat_html(lambda meshcat: show_profile(robot, profile, meshcat, fps, cell, tool))
 
 
 def static_meshcat_html(draw) -> str:

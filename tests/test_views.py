@@ -8,20 +8,24 @@ import logging
 import re
 from pathlib import Path
 
+import msgpack
 import numpy as np
 import pytest
 import yaml
 from pydrake.geometry import Cylinder, Role
 
+from pipeline.cell import load_cell
 from pipeline.drake_model import BASE_FRAME, END_FRAME, build_visual_diagram
 from pipeline.io import OWNER_MARKER
 from pipeline.jobs import load_job, parse_job
-from pipeline.robot import Robot, load_robot
+from pipeline.poses import rpy_position_to_pose
+from pipeline.robot import Robot, load_robot, robot_with_tool
 from pipeline.robot_spec import parse_robot_spec
 from pipeline.runner import FILE_NAMES, run_job
 from pipeline.timing import retime
 from pipeline.geometry import compute_arm_path, compute_link_polylines
-from pipeline.views import arm_figure, motion_figure, profile_html, sample_profile
+from pipeline.views import (CAMERA_ASPECT, CAMERA_FILL, CAMERA_FOV_DEG, TRACE_PATH, arm_figure, camera_pose,
+                            motion_figure, profile_html, sample_profile)
 
 ROOT = Path(__file__).resolve().parent.parent
 JOB_FILES = sorted((ROOT / "trajectories" / "jobs").glob("*.yaml"))
@@ -198,6 +202,8 @@ def test_a_job_with_html_and_arm_png_writes_view_html_and_arm_png(tmp_path):
     job = parse_job(yaml.safe_load("""
         robot: arm6
         angle_unit: deg
+        length_unit: mm
+        tool: {xyz: [0, 0, 100]}
         waypoints: [[0, 30, 30, 0, 30, 0], [20, 40, 10, 20, -20, 40]]
         outputs: [html, arm_png]
     """))
@@ -207,3 +213,124 @@ def test_a_job_with_html_and_arm_png_writes_view_html_and_arm_png(tmp_path):
     assert (tmp_path / "out" / "arm.png").read_bytes()[:8] == PNG_MAGIC
     html = (tmp_path / "out" / "view.html").read_text(encoding="utf-8")
     assert "<html" in html and len(html) > 100_000
+    assert {"/drake/visualizer/link6/tool_stem", TRACE_PATH} <= paths_of(meshcat_messages(html), "set_object")
+
+
+# -- the camera, the TCP's trace and the tool in the Meshcat page -------------------------------------
+def meshcat_messages(html: str) -> list[dict]:
+    """The Meshcat commands a static page replays (msgpack maps: type, path, ...)."""
+    return [msgpack.unpackb(base64.b64decode(data), raw=False, strict_map_key=False)
+            for data in re.findall(r'data:application/octet-[a-z]+;base64,([A-Za-z0-9+/=\s]*)"', html)]
+
+
+def recorded_camera(messages: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, target) (3,) [m] in Drake's z-up world from the page's commands (three.js's
+    y-up frame: (x, y, z) three = (x, z, -y) Drake), the last of each."""
+    position = [m["value"] for m in messages if m.get("path") == "/Cameras/default/rotated/<object>"
+                and m.get("property") == "position"][-1]
+    target = [m["value"] for m in messages if m["type"] == "set_target"][-1]
+    to_drake = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+    return to_drake @ position, to_drake @ target
+
+
+def view_fractions(points: np.ndarray, camera: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Where points (k, 3) [m] appear in a perspective view (CAMERA_FOV_DEG up, CAMERA_ASPECT across)
+    from ``camera`` towards ``target`` with its up towards +z: (k, 2) right and up, from -1 to 1 at the
+    view's edges (inside when both are within [-1, 1] and the point is in front)."""
+    back = (camera - target) / np.linalg.norm(camera - target)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    relative = points - camera
+    depth = -relative @ back
+    assert np.all(depth > 0), "a point is behind the camera"
+    half = np.tan(np.radians(CAMERA_FOV_DEG) / 2.0)
+    return np.column_stack([relative @ right / (CAMERA_ASPECT * half), relative @ up / half]) / depth[:, None]
+
+
+def paths_of(messages: list[dict], kind: str) -> set[str]:
+    return {m["path"] for m in messages if m["type"] == kind}
+
+
+def transform_of(messages: list[dict], path: str) -> np.ndarray:
+    """The last 4x4 transform recorded for ``path`` (three.js matrices are column-major)."""
+    matrix = [m["matrix"] for m in messages if m["type"] == "set_transform" and m["path"] == path][-1]
+    return np.array(matrix).reshape(4, 4).T
+
+
+def shown_arm(robot: Robot, profile, every: int = 5) -> np.ndarray:
+    """The stick figure at every ``every``-th profile sample and the last, and the TCP at every sample (k, 3) [m]."""
+    samples = [*profile.q[::every], profile.q[-1]]
+    return np.vstack([*(compute_arm_path(robot, q) for q in samples), robot.fk_batch(profile.q)[:, :3, 3]])
+
+
+def test_camera_pose_frames_spheres_up_to_the_fill_and_centres_them(rng):
+    """Every point of every sphere lies within CAMERA_FILL of the view's half-widths, the farthest touch it
+    (to the sampling of the spheres' surfaces), and the spheres are centred along that view axis."""
+    centres = rng.uniform(-1.0, 1.0, (6, 3)) * [2.0, 1.0, 0.5] + [0.5, 0.0, 0.3]
+    radii = rng.uniform(0.0, 0.3, 6)
+    camera, target = camera_pose(centres, radii)
+    directions = rng.normal(size=(20_000, 3))
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    surfaces = (centres[:, None, :] + radii[:, None, None] * directions[None]).reshape(-1, 3)
+    fractions = view_fractions(surfaces, camera, target) / CAMERA_FILL
+    reach = np.abs(fractions).max(axis=0)
+    assert reach.max() <= 1.0 + 1e-9 and reach.max() > 0.995, reach
+    binding = int(np.argmax(reach))
+    assert fractions[:, binding].max() + fractions[:, binding].min() == pytest.approx(0.0, abs=0.01)
+
+
+def tool_job_view(fps: float = 10.0):
+    """A gp7 with a 150 mm tool (tilted, offset) and no cell: (flange robot, TCP robot, X_ET, profile,
+    the page's Meshcat commands)."""
+    flange = load_robot("gp7")
+    X_ET = rpy_position_to_pose(np.radians([0.0, 30.0, 0.0]), [0.02, 0.0, 0.15])
+    robot = robot_with_tool(flange, X_ET)
+    lo, hi = robot.limits.q_min, robot.limits.q_max
+    profile = retime(robot, np.array([lo + 0.35 * (hi - lo), lo + 0.65 * (hi - lo)]), method="toppra")
+    return flange, robot, X_ET, profile, meshcat_messages(profile_html(robot, profile, fps=fps, tool=X_ET))
+
+
+def test_view_of_a_tool_job_frames_the_motion_and_draws_the_trace_and_the_tool():
+    flange, robot, X_ET, profile, messages = tool_job_view()
+    camera, target = recorded_camera(messages)
+    fractions = np.abs(view_fractions(shown_arm(robot, profile), camera, target))
+    assert fractions.max() <= CAMERA_FILL and fractions.max() > 0.6, fractions.max(axis=0)   # fits, fills most
+    # The TCP's trace: the TCP at the profile's samples (float32 in the page).
+    (trace,) = [m for m in messages if m["type"] == "set_object" and m["path"] == TRACE_PATH]
+    vertices = np.frombuffer(trace["object"]["geometries"][0]["data"]["attributes"]["position"]["array"].data,
+                             dtype=np.float32).reshape(-1, 3)
+    tcp = robot.fk_batch(profile.q)[:, :3, 3]
+    assert len(vertices) == len(tcp)
+    np.testing.assert_allclose(vertices, tcp, atol=1e-6)
+    # The tool on the last link: a stem from the flange to the TCP, and the TCP's axes.
+    drawn = paths_of(messages, "set_object")
+    assert {f"/drake/visualizer/link6/{name}" for name in ("flange", "tool_stem", "tcp_x", "tcp_y", "tcp_z")} <= drawn
+    X_6E = flange.spec.X_DnE
+    stem = transform_of(messages, "/drake/visualizer/link6/tool_stem")
+    np.testing.assert_allclose(stem[:3, 3], (X_6E[:3, 3] + (X_6E @ X_ET)[:3, 3]) / 2.0, atol=EXACT)
+    np.testing.assert_allclose(stem[:3, 2], (X_6E @ X_ET)[:3, 3] / np.linalg.norm((X_6E @ X_ET)[:3, 3]), atol=1e-9)
+    np.testing.assert_allclose(transform_of(messages, "/drake/visualizer/link6/flange")[:3, 3], X_6E[:3, 3],
+                               atol=0.01)                 # the flange disc at the flange, not at the TCP
+
+
+def test_view_in_a_cell_frames_the_nearby_obstacles_and_carries_the_tool_shapes_on_the_flange():
+    cell = load_cell(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
+    X_ET = rpy_position_to_pose(np.zeros(3), [0.0, 0.0, 0.12])
+    robot = robot_with_tool(cell.load_robot(), X_ET)
+    q0 = np.radians([40.0, 10.0, 0.0, 0.0, -60.0, 0.0])
+    profile = retime(robot, np.array([q0, q0 * [-1, 1, 1, 1, 1, 1]]), method="toppra")
+    messages = meshcat_messages(profile_html(robot, profile, fps=10, cell=cell, tool=X_ET))
+    drawn = paths_of(messages, "set_object")
+    assert {f"/drake/visualizer/obstacle_{shape.name}" for shape in cell.objects} <= drawn
+    assert {"/drake/visualizer/link6/tool_gripper", "/drake/visualizer/link6/tool_stem", TRACE_PATH} <= drawn
+    (gripper,) = cell.tool_shapes                 # in the robot file's end frame, before the job's tool
+    np.testing.assert_allclose(transform_of(messages, "/drake/visualizer/link6/tool_gripper"),
+                               cell.load_robot().spec.X_DnE @ gripper.X, atol=EXACT)
+    camera, target = recorded_camera(messages)
+    (wall,) = [shape for shape in cell.objects if shape.name == "wall"]
+    half = np.array(wall.size) / 2.0
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
+    wall_corners = (np.linalg.inv(cell.X_WB) @ wall.X @ np.column_stack([corners, np.ones(8)]).T).T[:, :3]
+    fractions = np.abs(view_fractions(np.vstack([shown_arm(robot, profile), wall_corners]), camera, target))
+    assert fractions.max() <= CAMERA_FILL and fractions.max() > 0.6, fractions.max(axis=0)
