@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import logging
+import os
 import re
 from pathlib import Path
 
@@ -150,9 +151,15 @@ def test_sample_profile_covers_the_whole_profile():
     np.testing.assert_allclose(q[[0, -1]], profile.q[[0, -1]], atol=EXACT)
 
 
+def own_sockets() -> set[str]:
+    """Inodes of this process's open sockets (Linux /proc)."""
+    links = (os.readlink(fd) for fd in Path("/proc/self/fd").iterdir() if fd.is_symlink())
+    return {link[len("socket:["):-1] for link in links if link.startswith("socket:[")}
+
+
 def listening_ports() -> set[int]:
-    """TCP ports in LISTEN state on this machine (Linux /proc)."""
-    ports = set()
+    """TCP ports this process listens on (Linux /proc; other processes' servers are left out)."""
+    ports, mine = set(), own_sockets()
     for table in ("/proc/net/tcp", "/proc/net/tcp6"):
         try:
             lines = Path(table).read_text().splitlines()[1:]
@@ -160,7 +167,7 @@ def listening_ports() -> set[int]:
             continue
         for line in lines:
             fields = line.split()
-            if fields[3] == "0A":
+            if fields[3] == "0A" and fields[9] in mine:
                 ports.add(int(fields[1].rsplit(":", 1)[1], 16))
     return ports
 
