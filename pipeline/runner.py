@@ -21,7 +21,7 @@ import numpy as np
 from .controller_formats import write_json_trajectory, write_ros2_yaml
 from .cell_motion import ClearanceError, collision_free_ik, time_joint_moves
 from .choices import DEFAULT_MAX_DURATION_S
-from .errors import CollisionError, ConfigurationError, PlanningError, TimingError
+from .errors import CollisionError, ConfigurationError, PlanningError, ProfileSizeError, TimingError
 from .ik import with_drake_model
 from .ik.branches import branch_change_reason, choose_solution, configuration_labels
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
@@ -180,21 +180,26 @@ def duration_lower_bound(job: Job, solved_q: list[np.ndarray]) -> tuple[float, f
 
 def check_duration(job: Job, solved_q: list[np.ndarray], max_samples: int, max_duration_s: float) -> None:
     """Refuse, before timing, a job whose duration is bounded from below (``duration_lower_bound``) by
-    more than ``max_duration_s`` [s] or by more than ``max_samples`` samples of ``dt``: a JobFileError
-    naming the field that sets the bound (tcp_speed_max, or speed_scale for the joints' speeds)."""
+    more samples of ``dt`` than ``max_samples`` (ProfileSizeError, as timing would, but at once) or by
+    more than ``max_duration_s`` [s] (a JobFileError); both name the field that sets the bound
+    (tcp_speed_max, or speed_scale for the joints' speeds)."""
+    from .timing.toppra_backend import check_sample_count
+
     bound, tcp, joints = duration_lower_bound(job, solved_q)
-    samples = bound / job.dt + 2.0
-    if bound <= max_duration_s and samples <= max_samples:
-        return
-    too_long = (f"longer than {max_duration_s:g} s (raise it with run --max-duration)" if bound > max_duration_s
-                else f"{samples:,.0f} samples of dt = {job.dt:g} s, above the limit of {max_samples:,}")
     if tcp >= joints:
-        speed = job.tcp_speed_max * job.speed_scale
-        raise job.error(("tcp_speed_max",), f"the job would last at least {bound:.4g} s, {too_long}: its TCP travels "
-                        f"at least {tcp * speed * 1e3:.4g} mm at {speed * 1e3:.4g} mm/s (tcp_speed_max x speed_scale). "
-                        "Is tcp_speed_max in the job's length_unit per second?")
-    raise job.error(("speed_scale",), f"the job would last at least {bound:.4g} s, {too_long}: its joint moves take "
-                    f"{joints:.4g} s at the robot's qd_max x speed_scale {job.speed_scale:g}")
+        field, speed = "tcp_speed_max", job.tcp_speed_max * job.speed_scale
+        why = (f"its TCP travels at least {tcp * speed * 1e3:.4g} mm at {speed * 1e3:.4g} mm/s (tcp_speed_max x "
+               "speed_scale). Is tcp_speed_max in the job's length_unit per second?")
+    else:
+        field, why = "speed_scale", f"its joint moves take {joints:.4g} s at the robot's qd_max x speed_scale"
+    try:
+        check_sample_count(bound, job.dt, max_samples)
+    except ProfileSizeError as exc:
+        raise ProfileSizeError(f"{job.source}: {exc} (at least, found before timing: {job.location((field,))}: "
+                               f"{why})") from None
+    if bound > max_duration_s:
+        raise job.error((field,), f"the job would last at least {bound:.4g} s, longer than {max_duration_s:g} s "
+                        f"(run --max-duration raises the limit): {why}")
 
 
 def package_versions() -> dict[str, str | None]:
