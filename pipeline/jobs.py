@@ -3,8 +3,12 @@
 The format is documented in ``trajectories/README.md``. Degrees and millimetres exist only in the
 file: waypoints, poses and the start configuration are converted here once. Reading is two steps: the
 job's own fields (the schema reader, no robot needed), then its waypoints against the robot it names
-(lengths, limits, and pose targets within the arm's reach, which catches unit mistakes). Every error is
-a ``JobFileError`` naming the file, the line, the field and, for waypoints, the waypoint index.
+(lengths, limits, and pose targets within the arm's reach, which catches unit mistakes). Values that fit
+only another unit are refused with a hint: TCP limits and tool offsets under mm that are m/s, m/s^2 or
+metres, rpy values that are radians under deg or degrees under rad. Every error is a ``JobFileError``
+naming the file, the line, the field and, for waypoints, the waypoint index; a robot file without the
+limits the timing needs is that file's own ``RobotFileError``. ``Job.error`` gives errors found after
+reading (IK, collisions) the line of their field.
 """
 
 from __future__ import annotations

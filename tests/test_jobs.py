@@ -180,7 +180,8 @@ def test_unit_mistakes_are_refused_with_a_hint_and_nothing_written(tmp_path, cap
     out_dir = tmp_path / "out"
     assert main(["run", str(path), "--out", str(out_dir)]) == 2
     message = capsys.readouterr().err
-    line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if text.startswith(field.split(".")[0].split("[")[0]))
+    key = field.split(".")[0].split("[")[0]
+    line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if text.startswith(key))
     assert message.startswith(f"error: {path}:") and f": {field}: " in message and problem in message and fix in message
     assert int(message.split(f"{path}:")[1].split(":")[0]) >= line
     assert not out_dir.exists()
@@ -197,8 +198,8 @@ def test_ordinary_values_near_the_unit_rules_are_accepted(change):
 
 def test_small_values_are_stated_unambiguously_in_the_other_unit():
     """What the hints propose: a 0.1 mm tool and 0.25 mm/s in metres, small degree angles in radians."""
-    job = parse_job({**TOOL_JOB, "length_unit": "m", "angle_unit": "rad", "tool": {"xyz": [0, 0, 0.0001]}, "tcp_speed_max": 0.00025,
-                     "tcp_accel_max": 2.5, "waypoints": [{"xyz": [0.5, 0.35, 0.33], "rpy": [3.14, 0, 0.61]},
+    job = parse_job({**TOOL_JOB, "length_unit": "m", "angle_unit": "rad", "tool": {"xyz": [0, 0, 0.0001]},
+                     "tcp_speed_max": 0.00025, "tcp_accel_max": 2.5, "waypoints": [{"xyz": [0.5, 0.35, 0.33], "rpy": [3.14, 0, 0.61]},
                                                          {"xyz": [0.5, 0.35, 0.2], "rpy": [3.14, 0, 0.61]}]})
     assert job.tcp_speed_max == pytest.approx(0.00025) and job.tool[2, 3] == pytest.approx(1e-4)
     assert parse_job({**TOOL_JOB, "angle_unit": "rad", "waypoints": [
