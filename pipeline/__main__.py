@@ -205,21 +205,24 @@ def cmd_bench(args) -> int:
     return 0
 
 
-def _count(minimum: int):
-    """An argparse type: an integer of at least ``minimum``."""
+def _count(minimum: int, maximum: int | None = None):
+    """An argparse type: an integer of at least ``minimum`` (and at most ``maximum``)."""
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        if value < minimum or (maximum is not None and value > maximum):
+            bound = f"at least {minimum}" if maximum is None else f"in [{minimum}, {maximum:,}]"
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {value}")
         return value
 
     return parse
 
 
 POSITIVE, NON_NEGATIVE = _count(1), _count(0)
+#: Most random configurations of ``check`` (about 1.5 ms each: some 2.5 minutes).
+MAX_CHECK_SAMPLES = 100_000
 
 
 def _positive_number(unit: str):
@@ -324,7 +327,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "central finite differences on random in-limit configurations; exit 1 above tolerance.",
                   ["gp7", "all --samples 50 --out out/check"])
     check.add_argument("robot", help="preset name, robot file path, or 'all'")
-    check.add_argument("--samples", type=POSITIVE, default=200, help="random in-limit configurations (default 200)")
+    check.add_argument("--samples", type=_count(1, MAX_CHECK_SAMPLES), default=200,
+                       help=f"random in-limit configurations (default 200, at most {MAX_CHECK_SAMPLES:,})")
     check.add_argument("--seed", type=NON_NEGATIVE, default=0)
     check.add_argument("--out", help="folder for the JSON reports, replaced whole")
     check.set_defaults(func=cmd_check)

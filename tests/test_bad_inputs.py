@@ -110,3 +110,22 @@ def test_joint_degrees_under_rad(tmp_path, capsys):
     path = job(tmp_path, "arm6", angle_unit="rad", waypoints=[[0, 0, 0, 0, 0, 0], [0, 45, 30, 0, 0, 0]])
     fails_cleanly(capsys, ["run", str(path), "--out", str(tmp_path / "out")], "waypoints[1][1]",
                   "are these degrees?")
+
+
+# -- issue 22: every count a user gives that multiplies work is bounded, refused at once ---------------------
+@pytest.mark.parametrize("args, expected", [
+    (["reach", "gp7", "--orientations", "1000000000", "--out", "never"], "orientations: must be a whole number in"),
+    (["reach", "gp7", "--orientations", "1000", "--out", "never"], "step x orientations: gives 697,036 voxels"),
+    (["reach", "gp7", "--workers", "1000000", "--out", "never"], "--workers: must be a whole number in [1, "),
+    (["batch", str(ROOT / "trajectories" / "jobs"), "--workers", "1000000", "--out", "never"], "--workers: must be"),
+])
+def test_counts_that_multiply_work_are_refused_at_once(capsys, tmp_path, monkeypatch, args, expected):
+    monkeypatch.chdir(tmp_path)
+    fails_cleanly(capsys, args, expected)
+    assert not (tmp_path / "never").exists()
+
+
+def test_check_samples_are_bounded(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["check", "gp7", "--samples", "1000000000"])
+    assert exit_.value.code == 2 and "--samples: must be in [1, 100,000]" in capsys.readouterr().err

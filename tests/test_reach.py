@@ -251,3 +251,41 @@ def test_the_irb1600_reaches_its_datasheet_reach_25_mm_map():
     deviation = 100 * (reach_map.reach_m / IRB1600_DATASHEET_REACH_M - 1)
     print(f"IRB 1600 wrist-centre reach, 25 mm map: {reach_map.reach_m:.5f} m, {deviation:+.3f} % of the datasheet's "
           "1.2 m", file=sys.stderr)
+
+
+# -- fuzz finding 8 of issue 22: the work of a map is bounded, not only its voxels --------------------------
+@pytest.mark.parametrize("kwargs, field, problem", [
+    ({"orientations": 1_000_000_000}, "orientations", "in [1, 10,000]"),     # was a MemoryError at 29.8 GiB
+    ({"orientations": 200_000}, "orientations", "in [1, 10,000]"),           # ran past 60 s
+    ({"orientations": 10_000}, "step x orientations", "more than 250,000,000"),
+    ({"step": 0.01}, "step x orientations", "IK targets, more than 250,000,000"),
+    ({"chunk_poses": 10**9}, "chunk_poses", "in [1, 1,000,000]"),
+])
+def test_a_map_of_too_much_work_is_refused_before_any_is_done(kwargs, field, problem):
+    """Finding 8: the bound covered voxels, not voxels x orientations. The product (IK targets) is
+    bounded by MAX_POSES and counted without building the grid's arrays, so a refusal is immediate."""
+    with pytest.raises(ScaleInputError) as info:
+        reachability_map("irb1600", **kwargs)
+    assert info.value.field == field and problem in str(info.value)
+
+
+def test_the_targets_are_counted_exactly_without_the_grids_arrays():
+    from pipeline.scale.grid import MAX_POSES
+    from pipeline.scale.reach import plan_map
+
+    for name, step in (("irb1600", 0.05), ("arm5", 0.037), ("gp7", 0.1)):
+        robot = load_robot(name)
+        grid = reach_grid(robot, step)
+        assert grid.count_within(robot.spec.reach_bound) == len(grid.within(robot.spec.reach_bound))
+    plan = plan_map("irb1600", step=0.025, orientations=16)
+    assert plan.poses == 24_053_504 and plan.poses * 10 < MAX_POSES       # the default map fits ten times over
+
+
+def test_worker_processes_are_bounded_per_core():
+    """A LocalCluster of a million processes would fork the machine to death: refused at once."""
+    from pipeline.scale import dask_client
+    from pipeline.scale.cluster import max_local_workers
+
+    with pytest.raises(ScaleInputError, match=rf"--workers: must be a whole number in \[1, {max_local_workers()}\]"):
+        with dask_client(workers=10**6):
+            pass

@@ -26,17 +26,28 @@ from ..progress import Progress
 CONNECT_TIMEOUT_S = 10.0
 
 
+#: Worker processes per core a local cluster may start: more only add memory (each loads the models).
+WORKERS_PER_CORE = 4
+
+
+def max_local_workers() -> int:
+    """The most worker processes of a LocalCluster on this machine (WORKERS_PER_CORE per core)."""
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
 @contextmanager
 def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator:
     """None (run in this process) for ``workers == 1``; else a ``distributed.Client`` of a new
     LocalCluster of ``workers`` processes (default ``os.cpu_count()``), or of the scheduler at
     ``scheduler``. The cluster it started is shut down on leaving. ScaleInputError for both or for
-    ``workers < 1``; ClusterError when the scheduler cannot be reached."""
+    ``workers`` outside [1, ``max_local_workers()``]; ClusterError when the scheduler cannot be reached."""
     if workers is not None and scheduler is not None:
         raise ScaleInputError("--workers/--scheduler", "give one of them: workers start a cluster on this machine, "
                               "a scheduler address uses a running one", f"{workers} and {scheduler}")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise ScaleInputError("--workers", "must be a whole number of at least 1", workers)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= max_local_workers()):
+        raise ScaleInputError("--workers", f"must be a whole number in [1, {max_local_workers()}] (worker processes "
+                              f"on this machine of {os.cpu_count() or 1} cores)", workers)
     if scheduler is not None:
         from distributed import Client
 

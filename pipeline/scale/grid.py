@@ -25,6 +25,12 @@ from ..robot import robot_with_tool
 
 #: Most voxels in a grid (each is a few bytes in every map array): a finer step is refused.
 MAX_VOXELS = 50_000_000
+#: Most tool orientations per voxel (each is a 3x3 matrix per roll in every chunk; 16 by default).
+MAX_ORIENTATIONS = 10_000
+#: Most IK targets in a map (voxels in the reach x orientations x rolls): about 10 times the default
+#: map of the largest preset (irb1600, 24 million), some 7 core-hours of closed-form IK at the 9,700
+#: poses/s measured on a shared 2-core machine.
+MAX_POSES = 250_000_000
 #: The cone's axis: the tool pointing down, along the base's -z.
 CONE_AXIS = np.array([0.0, 0.0, -1.0])
 #: Rolls about each tool axis tried by full-pose IK in a cone (every 360 / ROLLS deg).
@@ -58,6 +64,11 @@ class VoxelGrid:
         inside = (x[:, None, None] + y[None, :, None] + z[None, None, :]) <= radius ** 2
         return np.flatnonzero(inside)
 
+    def count_within(self, radius: float) -> int:
+        """How many voxels ``within`` gives, counted slice by slice (no array of the whole grid)."""
+        across = np.sort((self.axes[0][:, None] ** 2 + self.axes[1][None, :] ** 2).ravel())
+        return int(np.searchsorted(across, radius ** 2 - self.axes[2] ** 2, side="right").sum())
+
 
 def check_step(step) -> float:
     """``step`` as a positive finite length [m]; ScaleInputError naming it otherwise."""
@@ -81,13 +92,23 @@ def reach_grid(robot, step: float) -> VoxelGrid:
 
 
 def check_orientations(orientations, tool_axis_cone) -> None:
-    """ScaleInputError unless ``orientations`` is a whole number >= 1 and ``tool_axis_cone`` None or an
-    angle in (0, 180] deg."""
-    if isinstance(orientations, bool) or not isinstance(orientations, (int, np.integer)) or orientations < 1:
-        raise ScaleInputError("orientations", "must be a whole number of at least 1", orientations)
+    """ScaleInputError unless ``orientations`` is a whole number in [1, MAX_ORIENTATIONS] and
+    ``tool_axis_cone`` None or an angle in (0, 180] deg."""
+    if isinstance(orientations, bool) or not isinstance(orientations, (int, np.integer)) \
+            or not 1 <= orientations <= MAX_ORIENTATIONS:
+        raise ScaleInputError("orientations", f"must be a whole number in [1, {MAX_ORIENTATIONS:,}]", orientations)
     if tool_axis_cone is not None and (isinstance(tool_axis_cone, bool) or not isinstance(
             tool_axis_cone, (int, float, np.integer, np.floating)) or not 0 < tool_axis_cone <= 180):
         raise ScaleInputError("tool_axis_cone", "must be a half-angle in (0, 180] deg", tool_axis_cone)
+
+
+def check_poses(voxels: int, per_voxel: int, step: float) -> None:
+    """ScaleInputError unless ``voxels`` x ``per_voxel`` (orientations x rolls) IK targets are at most
+    MAX_POSES (``step`` [m]: for the message)."""
+    if voxels * per_voxel > MAX_POSES:
+        raise ScaleInputError("step x orientations", f"gives {voxels:,} voxels x {per_voxel:,} orientations "
+                              f"= {voxels * per_voxel:,} IK targets, more than {MAX_POSES:,}: choose a larger "
+                              "step or fewer orientations", f"step {step * 1e3:g} mm")
 
 
 def tool_orientations(count: int, tool_axis_cone: float | None, rolls: int, seed: int) -> np.ndarray:

@@ -39,13 +39,15 @@ from ..errors import RobotFileError, ScaleInputError
 from ..robot import Robot, load_robot
 from ..schema import load_document
 from .cluster import map_chunks, worker_count
-from .grid import (POINTS, ROLLS, VoxelGrid, check_orientations, check_step, reach_grid, tool_orientations,
-                   wrist_centre_robot)
+from .grid import (POINTS, ROLLS, VoxelGrid, check_orientations, check_poses, check_step, reach_grid,
+                   tool_orientations, wrist_centre_robot)
 from .result import ReachabilityMap
 
 #: Poses (voxels x orientations x rolls) per chunk: about a second of closed-form IK, so Dask's
 #: per-task cost (a few ms, ``bench scale``) stays below 1 %.
 CHUNK_POSES = 20_000
+#: Most poses per chunk a caller may ask for: a chunk holds a 4x4 target per pose (128 MB at this).
+MAX_CHUNK_POSES = 1_000_000
 #: Orientations per voxel when none are asked for.
 DEFAULT_ORIENTATIONS = 16
 #: Numeric IK: random restarts after the first descent, and a time budget no search reaches [s].
@@ -280,11 +282,13 @@ def plan_map(robot_or_cell, step: float = 0.025, orientations: int | None = None
     plan it, before anything is computed."""
     robot, cell = load_robot_or_cell(robot_or_cell)
     check_step(step)
-    if isinstance(chunk_poses, bool) or not isinstance(chunk_poses, (int, np.integer)) or chunk_poses < 1:
-        raise ScaleInputError("chunk_poses", "must be a whole number of at least 1", chunk_poses)
+    if isinstance(chunk_poses, bool) or not isinstance(chunk_poses, (int, np.integer)) \
+            or not 1 <= chunk_poses <= MAX_CHUNK_POSES:
+        raise ScaleInputError("chunk_poses", f"must be a whole number in [1, {MAX_CHUNK_POSES:,}]", chunk_poses)
     problem = map_problem(robot, cell, orientations, tool_axis_cone, seed, point)
     grid = reach_grid(problem.mapped, step)
     per_voxel = problem.rotations.shape[0] * problem.rotations.shape[1]
+    check_poses(grid.count_within(problem.mapped.spec.reach_bound), per_voxel, grid.step)
     return MapPlan(problem, grid, grid.within(problem.mapped.spec.reach_bound), max(1, chunk_poses // per_voxel),
                    point, tool_axis_cone)
 
