@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: run test test-slow bench clean
+.PHONY: run test test-slow test-kernels bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -34,6 +34,14 @@ test: $(STAMP)
 # The long runs (e.g. 1000 random paths through toppra+Ruckig): CI runs them after `make test`.
 test-slow: $(STAMP)
 	$(PY) -m pytest -m slow
+
+# The golden profiles and the timing tests again under another OpenBLAS kernel (Prescott: no AVX, no FMA;
+# NumPy's OpenBLAS names it Katmai): a tolerance that holds only for one kernel's round-off fails here.
+# CI runs it after `make test-slow`.
+test-kernels: $(STAMP)
+	OPENBLAS_CORETYPE=Prescott $(PY) -m pytest tests/test_runner.py -k golden
+	OPENBLAS_CORETYPE=Prescott $(PY) -m pytest -m "not slow" tests/test_timing.py tests/test_topp3.py \
+		tests/test_ruckig.py tests/test_profile.py
 
 # Benchmarks beside the peers (installs the optional `bench` extra: Robotics Toolbox, Pinocchio).
 bench: $(STAMP)
