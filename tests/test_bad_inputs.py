@@ -115,7 +115,7 @@ def test_joint_degrees_under_rad(tmp_path, capsys):
 # -- issue 22: every count a user gives that multiplies work is bounded, refused at once ---------------------
 @pytest.mark.parametrize("args, expected", [
     (["reach", "gp7", "--orientations", "1000000000", "--out", "never"], "orientations: must be a whole number in"),
-    (["reach", "gp7", "--orientations", "1000", "--out", "never"], "step x orientations: gives 697,036 voxels"),
+    (["reach", "gp7", "--orientations", "2000", "--out", "never"], "step x orientations: gives 697,036 voxels"),
     (["reach", "gp7", "--workers", "1000000", "--out", "never"], "--workers: must be a whole number in [1, "),
     (["batch", str(ROOT / "trajectories" / "jobs"), "--workers", "1000000", "--out", "never"], "--workers: must be"),
 ])

@@ -27,10 +27,10 @@ from ..robot import robot_with_tool
 MAX_VOXELS = 50_000_000
 #: Most tool orientations per voxel (each is a 3x3 matrix per roll in every chunk; 16 by default).
 MAX_ORIENTATIONS = 10_000
-#: Most IK targets in a map (voxels in the reach x orientations x rolls): about 10 times the default
-#: map of the largest preset (irb1600, 24 million), some 7 core-hours of closed-form IK at the 9,700
-#: poses/s measured on a shared 2-core machine.
-MAX_POSES = 250_000_000
+#: Most IK targets in a map (voxels in the reach x orientations x rolls): about 40 times the default
+#: map of the largest preset (irb1600, 24 million; with 10 mm voxels 376 million), some 29 core-hours
+#: of closed-form IK at the 9,700 poses/s measured on a shared 2-core machine: work for a cluster.
+MAX_POSES = 1_000_000_000
 #: The cone's axis: the tool pointing down, along the base's -z.
 CONE_AXIS = np.array([0.0, 0.0, -1.0])
 #: Rolls about each tool axis tried by full-pose IK in a cone (every 360 / ROLLS deg).
