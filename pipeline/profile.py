@@ -6,6 +6,8 @@ acceleration ratios when the limits bound them, the worst sample, and in a cell 
 (``pipeline.clearance``), pass/fail.
 A position ratio is the peak distance from the middle of the range over half the range, so 1 is
 "on a limit" for every quantity; a continuous joint (no position limits) has position ratio 0.
+The columns are also judged against each other between consecutive samples (``ColumnAgreement``): q
+with qd, qd with qdd, qdd with qddd, each within what the limits allow between two samples.
 In JSON (``limit_values``) an infinite limit, a continuous joint's q_min and q_max, is null, as a
 quantity without limits is.
 """
@@ -26,6 +28,13 @@ CERTIFY_TOLERANCE = 1e-6
 QUANTITIES = ("q", "qd", "qdd", "qddd", "tau", "tcp_speed", "tcp_accel")
 #: Quantities of the TCP, not of a joint (their ratios have one entry).
 TCP_QUANTITIES = ("tcp_speed", "tcp_accel")
+#: Each column and its time derivative's column, with the names of the limits that bound the derivative
+#: and the derivative's own derivative (None: no such limit), judged against each other between samples.
+COLUMN_PAIRS = (("q", "qd", "qd_max", "qdd_max"), ("qd", "qdd", "qdd_max", "qddd_max"),
+                ("qdd", "qddd", "qddd_max", None))
+#: The round-off a column agreement allows, in units of the double epsilon x the column's largest magnitude
+#: and the latest time x the derivative column's largest magnitude (a sample's time is rounded too) [1].
+ROUNDOFF_ULPS = 64
 
 
 @dataclass(frozen=True)
@@ -91,10 +100,49 @@ class Profile:
                 f"{len(self.t)} samples")
 
 
+@dataclass(frozen=True)
+class ColumnAgreement:
+    """How the columns agree with each other between consecutive samples k and k + 1 (h = t[k+1] - t[k]
+    [s]), for each pair (x, xd) of ``COLUMN_PAIRS``, where L bounds |xd| and D bounds |d xd/dt| (the
+    limits the profile is judged against; a test whose limit is absent is skipped):
+
+    - ``mean value``: |x[k+1] - x[k]| <= h L (x cannot change faster than its derivative's limit allows);
+    - ``trapezoid``: |x[k+1] - x[k] - h (xd[k] + xd[k+1]) / 2| <= h^2 D / 4 (the trapezoid rule's error
+      bound for an integrand whose slope is at most D: the columns are each other's derivative).
+
+    Each side gets ROUNDOFF_ULPS round-off. ``ratios`` (pair -> peak residual/allowance [1]); the worst:
+    ``pair`` ("qdd/qddd"), ``test``, ``joint`` (0-based), ``sample`` k, ``time`` [s] of sample k,
+    ``ratio`` [1], ``change`` and ``allowed`` [the unit of x] (x[k+1] - x[k], or the trapezoid residual, and
+    its allowance); ``passed`` when ``ratio`` <= 1 + tolerance."""
+
+    ratios: dict[str, float]
+    pair: str
+    test: str
+    joint: int
+    sample: int
+    time: float
+    ratio: float
+    change: float
+    allowed: float
+    passed: bool
+
+    def __str__(self) -> str:
+        verdict = "agree" if self.passed else "disagree"
+        return (f"columns {verdict}: worst {self.pair} ({self.test}) of joint {self.joint + 1} between samples "
+                f"{self.sample} and {self.sample + 1} at t = {self.time:.4f} s: {self.change:.3g} against "
+                f"{self.allowed:.3g} allowed ({self.ratio:.6f})")
+
+    def to_dict(self) -> dict:
+        return {"passed": self.passed, "ratios": dict(self.ratios),
+                "worst": {"pair": self.pair, "test": self.test, "joint": self.joint + 1, "sample": self.sample,
+                          "t_s": self.time, "ratio": self.ratio, "change": self.change, "allowed": self.allowed}}
+
+
 @dataclass(frozen=True, eq=False)
 class LimitReport:
     """Peak/limit ratios per quantity and joint (``ratios[name]`` (dof,), absent when no limit),
-    the worst sample (quantity, joint index, sample index, time [s], ratio), and ``passed``."""
+    the worst sample (quantity, joint index, sample index, time [s], ratio), ``columns`` (how the columns
+    agree with each other between samples), and ``passed``."""
 
     ratios: dict[str, np.ndarray]
     worst_quantity: str
@@ -105,6 +153,7 @@ class LimitReport:
     passed: bool
     tolerance: float
     clearance: ClearanceReport | None = None
+    columns: ColumnAgreement | None = None
 
     def max_ratio(self, quantity: str) -> float:
         return float(self.ratios[quantity].max()) if quantity in self.ratios else float("nan")
@@ -115,6 +164,8 @@ class LimitReport:
         where = "the TCP" if self.worst_quantity in TCP_QUANTITIES else f"joint {self.worst_joint + 1}"
         text = (f"{verdict}: peak/limit {peaks}; worst {self.worst_quantity} of {where} "
                 f"at t = {self.worst_time:.4f} s ({self.worst_ratio:.6f})")
+        if self.columns is not None and not self.columns.passed:
+            text = f"{text}; {self.columns}"
         return text if self.clearance is None else f"{text}; {self.clearance}"
 
     def to_dict(self) -> dict:
@@ -126,6 +177,7 @@ class LimitReport:
             "worst": {"quantity": self.worst_quantity, "joint": self.worst_joint + 1,
                       "sample": self.worst_index, "t_s": self.worst_time, "ratio": self.worst_ratio},
             "clearance": None if self.clearance is None else self.clearance.to_dict(),
+            "columns": None if self.columns is None else self.columns.to_dict(),
         }
 
 
@@ -151,10 +203,11 @@ def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
 
 def certify(profile: Profile, limits: Limits | None = None, tolerance: float = CERTIFY_TOLERANCE,
             scene=None) -> LimitReport:
-    """Judge a profile against limits (default: the ones it was timed against) on all its samples, and
-    with ``scene`` (a ``pipeline.collision.CollisionModel``) its clearance over the whole motion
-    (``pipeline.clearance``; between samples each joint's acceleration is bounded by its limit, or by
-    the largest sampled |qdd| where the limits have none)."""
+    """Judge a profile against limits (default: the ones it was timed against) on all its samples, its
+    columns against each other between samples (``ColumnAgreement``), and with ``scene`` (a
+    ``pipeline.collision.CollisionModel``) its clearance over the whole motion (``pipeline.clearance``;
+    between samples each joint's acceleration is bounded by its limit, or by the largest sampled |qdd|
+    where the limits have none)."""
     limits = profile.limits if limits is None else limits
     clearance = None
     if scene is not None:
@@ -166,9 +219,56 @@ def certify(profile: Profile, limits: Limits | None = None, tolerance: float = C
     worst_quantity = max(normalised, key=lambda name: ratios[name].max())
     index, joint = np.unravel_index(np.argmax(normalised[worst_quantity]), normalised[worst_quantity].shape)
     worst = float(normalised[worst_quantity][index, joint])
-    passed = bool(worst <= 1.0 + tolerance) and (clearance is None or clearance.passed)
+    columns = column_agreement(profile, limits, tolerance)
+    passed = bool(worst <= 1.0 + tolerance) and columns.passed and (clearance is None or clearance.passed)
     return LimitReport(ratios, worst_quantity, int(joint), int(index), float(profile.t[index]), worst, passed,
-                       tolerance, clearance)
+                       tolerance, clearance, columns)
+
+
+def column_agreement(profile: Profile, limits: Limits, tolerance: float = CERTIFY_TOLERANCE) -> ColumnAgreement:
+    """The columns of ``profile`` judged against each other between consecutive samples within ``limits``
+    (see ``ColumnAgreement``)."""
+    tests = _column_tests(profile, limits)
+    ratios = [_safe_ratio(residual, allowance) for _, _, residual, allowance in tests]
+    peaks = [float(ratio.max()) if ratio.size else 0.0 for ratio in ratios]
+    peak_of_pair = {}
+    for (pair, *_), peak in zip(tests, peaks):
+        peak_of_pair[pair] = max(peak_of_pair.get(pair, 0.0), peak)
+    worst = int(np.argmax(peaks))
+    pair, test, residual, allowance = tests[worst]
+    if not ratios[worst].size:                      # a single sample: nothing between samples
+        return ColumnAgreement(peak_of_pair, pair, test, 0, 0, float(profile.t[0]), 0.0, 0.0, 0.0, True)
+    sample, joint = np.unravel_index(np.argmax(ratios[worst]), ratios[worst].shape)
+    ratio = peaks[worst]
+    return ColumnAgreement(peak_of_pair, pair, test, int(joint), int(sample), float(profile.t[sample]), ratio,
+                           float(residual[sample, joint]), float(allowance[sample, joint]),
+                           bool(ratio <= 1.0 + tolerance))
+
+
+def _column_tests(profile: Profile, limits: Limits) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """(pair, test, residual (N-1, dof), allowance (N-1, dof)) of every test ``ColumnAgreement`` names
+    whose limit is given."""
+    t = profile.t[:, None]
+    h = np.diff(t, axis=0)
+    tests = []
+    for low, high, bound, slope_bound in COLUMN_PAIRS:
+        x, xd = getattr(profile, low), getattr(profile, high)
+        change = np.diff(x, axis=0)
+        roundoff = ROUNDOFF_ULPS * np.finfo(float).eps * (np.abs(x).max(axis=0)
+                                                          + np.abs(t).max() * np.abs(xd).max(axis=0))
+        pair = f"{low}/{high}"
+        if getattr(limits, bound) is not None:
+            tests.append((pair, "mean value", np.abs(change), h * getattr(limits, bound) + roundoff))
+        if slope_bound is not None and getattr(limits, slope_bound) is not None:
+            residual = np.abs(change - h * (xd[:-1] + xd[1:]) / 2.0)
+            tests.append((pair, "trapezoid", residual, h**2 * getattr(limits, slope_bound) / 4.0 + roundoff))
+    return tests
+
+
+def _safe_ratio(residual: np.ndarray, allowance: np.ndarray) -> np.ndarray:
+    """residual / allowance elementwise: 0 where both are 0, inf where only the allowance is 0."""
+    ratio = np.divide(residual, allowance, out=np.zeros_like(residual), where=allowance > 0.0)
+    return np.where((allowance <= 0.0) & (residual > 0.0), np.inf, ratio)
 
 
 #: A jerk reversal is a swing from beyond +this fraction of the jerk limit to beyond -this fraction
