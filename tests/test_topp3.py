@@ -4,6 +4,7 @@ than toppra; its own evaluation consistent (q, qd, qdd, qddd agree)."""
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from pipeline.path import make_path
 from pipeline.profile import certify, jerk_reversal_rate
 from pipeline.robot import load_robot
 from pipeline.timing import retime
+from pipeline.timing.topp3_backend import A_ROUNDOFF, without_roundoff
 
 from .conftest import DATA_DIR
 
@@ -103,3 +105,56 @@ def test_refuses_a_path_with_corners():
     robot = load_robot("gp7")
     with pytest.raises(TimingError, match="needs a C2 path"):
         retime(robot, random_waypoints(robot, 3), method="topp3", shape="linear")
+
+
+def a_long_move_then_waypoints_a_hair_apart(count: int) -> tuple:
+    """The fuzz case: gp7, joint 1 moves 2.9 rad, then ``count`` more waypoints 2e-6 rad apart."""
+    robot = load_robot("gp7")
+    start = np.zeros(robot.dof)
+    start[0] = -1.45
+    steps = np.zeros((count + 1, robot.dof))
+    steps[:, 0] = 2.9 + 2e-6 * np.arange(count + 1)
+    return robot, np.vstack([start, start + steps])
+
+
+@pytest.mark.slow
+def test_waypoints_a_hair_apart_after_a_long_move_are_refused_with_what_to_change():
+    """Found by fuzzing: topp3 certified a profile whose qdd jumped 1.97x (and up to 14.3x) what
+    qddd_max x dt allows between two samples while its qddd column stayed within the limit. Its columns
+    now come from one model (copp's), and copp's answer on this path is too inaccurate between its
+    stations to be slowed into the limits: a refusal that says why and what to change."""
+    robot, waypoints = a_long_move_then_waypoints_a_hair_apart(2)
+    with pytest.raises(TimingError) as refused:
+        retime(robot, waypoints, method="topp3", speed_scale=0.0199, shape="spline")
+    message = str(refused.value)
+    assert re.search(r"closest waypoints are [23] and [34], 2e-06 apart", message)
+    assert "another timing method" in message
+    assert "copp" not in message.split("[rad or m]")[0]             # the user's reason first, not the solver's
+
+
+def test_solver_round_off_below_zero_is_a_stop_and_larger_negatives_are_kept():
+    a = np.array([0.0, 0.5, -0.5 * A_ROUNDOFF, -A_ROUNDOFF, -2 * A_ROUNDOFF])
+    np.testing.assert_array_equal(without_roundoff(a), [0.0, 0.5, 0.0, 0.0, -2 * A_ROUNDOFF])
+
+
+def test_copp_failures_say_what_to_change(monkeypatch):
+    import copp_py
+
+    def failing(problem, options=None):
+        raise copp_py.CoppError("Clarabel solver failed: NumericalError")
+
+    monkeypatch.setattr(copp_py.solver.copp3_socp, "solve", failing)
+    robot = load_robot("gp7")
+    with pytest.raises(TimingError, match=r"its solver failed numerically\. Its closest waypoints are .* another "
+                                          r"timing method .*\(copp: Clarabel solver failed: NumericalError\)$"):
+        retime(robot, random_waypoints(robot, 4, 3), method="topp3")
+
+
+def test_the_solve_time_is_bounded_and_running_out_says_what_to_change(monkeypatch):
+    import pipeline.timing.topp3_backend as backend
+
+    monkeypatch.setattr(backend, "SOLVE_BUDGET_S", 1e-3)
+    robot = load_robot("gp7")
+    with pytest.raises(TimingError, match=r"ran out of its 0\.001 s budget\. Its closest waypoints .* use fewer "
+                                          r"waypoints"):
+        retime(robot, random_waypoints(robot, 11), method="topp3")

@@ -53,6 +53,17 @@ SMOOTHING_SHARE = 0.05
 #: than TIGHTEN_EXCESS between stations (each round one more solve) [1].
 TIGHTEN_ROUNDS = 3
 TIGHTEN_EXCESS = 2e-3
+#: The wall-clock budget of copp's solves for one path [s]: a tightening round that would start after it is
+#: skipped (the uniform slow-down then meets the jerk limit), and a first solve that runs out of it is a
+#: TimingError that says what to change (a 30-waypoint path took 43-50 s before this bound).
+SOLVE_BUDGET_S = 20.0
+#: The largest uniform slow-down of copp's solution the back end accepts [1]: beyond it the solution is
+#: not accurate enough between its stations (waypoints very close together), and the path is refused.
+MAX_STRETCH = 4.0
+#: copp's solutions meet their constraints to Clarabel's feasibility tolerance (1e-8) in copp's scaled
+#: units, where a = sd^2 is of order 1: an a down to -this is the round-off of a stop (0), and is set to 0;
+#: below it the solution is refused [1].
+A_ROUNDOFF = 1e-8
 #: The station just before a breakpoint, in units of the smallest station spacing [1].
 BREAKPOINT_GAP = 1e-3
 #: Samples per station interval in the dense limit check; rounds of checking the output samples (a
@@ -118,7 +129,11 @@ class PathTiming:
         return float(self.t[-1])
 
     def at(self, t: np.ndarray, stretch: float = 1.0):
-        """s, sd, sdd, sddd at times t [s] of the profile slowed by ``stretch``."""
+        """s, sd, sdd, sddd at times t [s] of the profile slowed by ``stretch``, all from the one model copp
+        integrates: a = sd^2 is the cubic Hermite interpolant in s of the stations' a with slope da/ds = 2 b
+        there (so sd = sqrt(a), sdd = a'/2, sddd = a'' sd / 2, and copp's s(t) is its time integral), and
+        in the stationary intervals at the ends s moves like c t^3 (``junction_consistent`` makes b meet
+        it)."""
         import copp_py as copp
 
         tau = np.clip(np.asarray(t, dtype=float) / stretch, 0.0, self.duration)
@@ -129,12 +144,10 @@ class PathTiming:
             unique, back = np.unique(tau[inside], return_inverse=True)
             s[inside] = copp.interpolation.t_to_s_topp3_samples(self.s, profile, self.t, unique)[back]
         s = np.clip(s, self.s[0], self.s[-1])
-        k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
-        x = s - self.s[k]
-        slope = (self.b[k + 1] - self.b[k]) / np.diff(self.s)[k]
-        sd = np.sqrt(np.maximum(self.a[k] + 2.0 * self.b[k] * x + slope * x**2, 0.0))
-        sdd = self.b[k] + slope * x
-        sddd = slope * sd
+        a, slope, curvature = hermite_a(self.s, self.a, self.b, s)
+        sd = np.sqrt(np.maximum(a, 0.0))
+        sdd = slope / 2.0
+        sddd = curvature / 2.0 * sd
         head, tail = self.stationary
         if head:                                     # s = s0 + c t^3
             c = (self.s[head] - self.s[0]) / self.t[head] ** 3
@@ -166,9 +179,50 @@ def _peak_ratios(qd, qdd, qddd, limits: Limits) -> tuple[float, float, float]:
             float((np.abs(qddd) / limits.qddd_max).max()))
 
 
-def _profile_timing(copp, s: np.ndarray, profile) -> PathTiming:
+def hermite_a(stations: np.ndarray, a: np.ndarray, b: np.ndarray, s: np.ndarray):
+    """a, da/ds and d2a/ds2 at s of the cubic Hermite interpolant through the stations' a (n,) with slope
+    da/ds = 2 b (n,) there: copp's third-order model of a = sd^2 between stations."""
+    k = np.clip(np.searchsorted(stations, s, side="right") - 1, 0, len(stations) - 2)
+    width = np.diff(stations)[k]
+    u = (s - stations[k]) / width
+    a0, a1, m0, m1 = a[k], a[k + 1], 2.0 * b[k] * width, 2.0 * b[k + 1] * width
+    value = ((2 * u**3 - 3 * u**2 + 1) * a0 + (u**3 - 2 * u**2 + u) * m0 + (3 * u**2 - 2 * u**3) * a1
+             + (u**3 - u**2) * m1)
+    slope = ((6 * u**2 - 6 * u) * (a0 - a1) + (3 * u**2 - 4 * u + 1) * m0 + (3 * u**2 - 2 * u) * m1) / width
+    curvature = ((12 * u - 6) * (a0 - a1) + (6 * u - 4) * m0 + (6 * u - 2) * m1) / width**2
+    return value, slope, curvature
+
+
+def without_roundoff(a: np.ndarray) -> np.ndarray:
+    """a (a copy) with the values in [-A_ROUNDOFF, 0) (round-off of a stop) set to 0; lower ones stay."""
+    a = np.array(a, dtype=float)
+    a[(a < 0.0) & (a >= -A_ROUNDOFF)] = 0.0
+    return a
+
+
+def junction_consistent(s: np.ndarray, a: np.ndarray, b: np.ndarray, stationary: tuple[int, int]) -> np.ndarray:
+    """b (a copy) with the station where each stationary end interval meets the rest given the sdd of
+    copp's motion there (s - s0 = c t^3 has sdd = 2 a / (3 (s - s0)); at the end, minus that with s_end - s):
+    copp fits that motion to a alone, so the solver's b there would make sdd, and so qdd, jump."""
+    b = np.array(b, dtype=float)
+    head, tail = stationary
+    if head:
+        b[head] = 2.0 * a[head] / (3.0 * (s[head] - s[0]))
+    if tail:
+        b[-1 - tail] = -2.0 * a[-1 - tail] / (3.0 * (s[-1] - s[-1 - tail]))
+    return b
+
+
+def _profile_timing(copp, s: np.ndarray, solved) -> PathTiming:
+    """The timing of copp's solution ``solved`` (a Profile3rd) on stations s as one motion: a's round-off
+    below 0 removed, b consistent with the stationary ends, a kept positive between stations (copp's
+    ``force_positive_a``), then the station times."""
+    stationary = tuple(solved.num_stationary)
+    a = without_roundoff(solved.a)
+    profile = copp.Profile3rd(a, junction_consistent(s, a, solved.b, stationary), stationary)
+    profile.force_positive_a(s)
     _, t = copp.interpolation.s_to_t_topp3(s, profile, 0.0)
-    timing = PathTiming(s, profile.a, profile.b, np.asarray(t), tuple(profile.num_stationary))
+    timing = PathTiming(s, profile.a, profile.b, np.asarray(t), stationary)
     if not np.all(np.isfinite(timing.t)) or np.any(np.diff(timing.t) <= 0.0):
         raise TimingError(f"jerk-limited path timing (copp TOPP3) returned station times that do not increase "
                           f"({len(s)} stations)")
@@ -207,7 +261,8 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None, tcp=None
     ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's speed and acceleration
     when ``tcp`` (a TcpMotion) is (``tcp_constraint.add_copp_rows``). copp sees the path in units of its
     length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
-    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. Returns (timing, TOPP2 duration [s]); TimingError when copp fails."""
+    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The solves share SOLVE_BUDGET_S.
+    Returns (timing, TOPP2 duration [s]); TimingError saying what to change when copp fails."""
     import copp_py as copp
 
     distance = max(path.length, 1e-300)
@@ -236,7 +291,17 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None, tcp=None
         return PathTiming(s, timing.a * unit**2, timing.b * unit**2, timing.t / unit, timing.stationary)
 
     constraints = robot.constraints
-    options = copp.solver.copp3_socp.Options(allow_almost_solved=True, allow_insufficient_progress=True)
+    started = time.perf_counter()
+
+    def solved(a_linearization, b_linearization=None):
+        """One COPP3 solve within what is left of SOLVE_BUDGET_S (a_linearization without round-off)."""
+        left = SOLVE_BUDGET_S - (time.perf_counter() - started)
+        options = copp.solver.copp3_socp.Options(
+            allow_almost_solved=True, allow_insufficient_progress=True,
+            clarabel_settings=copp.clarabel.ClarabelSettings(time_limit=max(left, 1e-3)))
+        return copp.solver.copp3_socp.solve(copp.solver.copp3_socp.Problem(
+            robot, objectives, without_roundoff(a_linearization), b_linearization=b_linearization), options)
+
     try:
         a2 = copp.solver.topp2_ra.solve(copp.solver.topp2_ra.Problem(constraints, idx_s_interval=(0, n - 1),
                                                                      a_boundary=(0.0, 0.0)),
@@ -246,20 +311,38 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None, tcp=None
         weight = SMOOTHING_SHARE * topp2_s / (len(path.waypoints) - 1)
         objectives = [copp.objective.Time(1.0),
                       copp.objective.TotalVariationTorque(weight, np.append(1.0 / scaled.qdd_max[:-1], 0.0))]
-        profile = copp.solver.copp3_socp.solve(copp.solver.copp3_socp.Problem(robot, objectives, a2), options)
+        profile = solved(a2)
         jerk_max = np.tile(scaled.qddd_max, (n, 1))
         for _ in range(TIGHTEN_ROUNDS):
             excess = interval_jerk_ratios(real(profile), path, limits)
             station_excess = np.maximum(np.vstack([excess, excess[-1:]]), np.vstack([excess[:1], excess]))
-            if station_excess.max() <= 1.0 + TIGHTEN_EXCESS:
+            if station_excess.max() <= 1.0 + TIGHTEN_EXCESS or time.perf_counter() - started >= SOLVE_BUDGET_S:
                 break
             jerk_max[:, :-1] /= np.maximum(station_excess, 1.0)
             robot.add_jerk_limits(jerk_max, -jerk_max, start_idx_s=0, length=n)
-            profile = copp.solver.copp3_socp.solve(
-                copp.solver.copp3_socp.Problem(robot, objectives, profile.a, b_linearization=profile.b), options)
+            try:
+                profile = solved(profile.a, profile.b)
+            except copp.CoppError:
+                break                                # keep the last solution: the slow-down meets the jerk limit
+        return real(profile), float(topp2_s) / unit
     except copp.CoppError as exc:
-        raise TimingError(f"jerk-limited path timing (copp TOPP3) failed on {n} stations: {exc}") from exc
-    return real(profile), float(topp2_s) / unit
+        spent = time.perf_counter() - started
+        why = (f"its solver ran out of its {SOLVE_BUDGET_S:g} s budget" if spent >= SOLVE_BUDGET_S
+               else "its solver failed numerically")
+        raise TimingError(refusal(path, n, why, str(exc))) from exc
+
+
+def refusal(path: JointPath, stations: int, why: str, solver_message: str = "") -> str:
+    """A user-facing reason the jerk-limited timing of ``path`` failed: ``why``, the path's closest waypoints
+    (the usual cause), what to change, then the solver's own message's first line."""
+    gaps = np.linalg.norm(np.diff(path.waypoints, axis=0), axis=1)
+    k = int(np.argmin(gaps))
+    text = (f"jerk-limited path timing (topp3) found no profile for this path of {len(path.waypoints)} waypoints "
+            f"({stations} stations): {why}. Its closest waypoints are {k + 1} and {k + 2}, {gaps[k]:.3g} apart "
+            "[rad or m]; merge or spread waypoints that are very close together, use fewer waypoints, move them off "
+            "the joint limits, or choose another timing method (toppra: no jerk limit; ruckig: waypoint to waypoint)")
+    first_line = solver_message.strip().splitlines()[0] if solver_message.strip() else ""
+    return f"{text} (copp: {first_line})" if first_line else text
 
 
 def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
@@ -277,6 +360,9 @@ def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
     peaks = _peak_ratios(*joint_motion(path, *timing.at(check_t))[1:], limits)
     stretch = _slowed(timing, path, check_t, limits, torques, 1.0, tcp)
+    if stretch > MAX_STRETCH:
+        raise TimingError(refusal(path, len(timing.s), f"its solution would need slowing down {stretch:.3g} times "
+                                  f"(at most {MAX_STRETCH:g}) to meet the limits between its stations"))
     t = sample_times(timing.duration * stretch, dt, max_samples)
     for _ in range(OUTPUT_ROUNDS):             # the output samples are judged too: slow a little more
         output_stretch = _slowed(timing, path, t, limits, torques, stretch, tcp)
