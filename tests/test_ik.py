@@ -251,3 +251,20 @@ def test_drake_round_trip(name):
     strict = [strict_in_limits(robot, r, x) for r, x in zip(results, X)]
     assert all(s for r, s in zip(results, strict) if r.success)
     assert np.mean(strict) >= 0.99
+
+
+def test_jacobian_answer_is_the_representative_nearest_the_seed():
+    """Found by fuzzing: a restart's answer came back 2 pi away from the seed's representative on gp7's
+    wide joints 4 and 6, although both are inside the limits."""
+    robot = load_robot("gp7")
+    rng = np.random.default_rng(1)
+    q, seed = robot.random_configurations(rng, 1)[0], robot.random_configurations(rng, 1)[0]
+    result = robot.ik(robot.fk(q), seed, method="jacobian", rng=np.random.default_rng(0))
+    assert result.success and result.details["restarts"] >= 1
+    limits = robot.limits
+    for j in range(robot.dof):
+        for shift in (-2 * np.pi, 2 * np.pi):
+            other = result.q[j] + shift
+            if limits.q_min[j] <= other <= limits.q_max[j]:
+                assert abs(result.q[j] - seed[j]) <= abs(other - seed[j]), (j, result.q[j], seed[j])
+    np.testing.assert_allclose(robot.fk(result.q), robot.fk(q), atol=1e-9)

@@ -15,7 +15,7 @@ from ..choices import FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY
 from .. import compiled
 from . import descent
 from .branches import configuration_labels
-from .result import MATCHED_COMPONENTS, IkResult, IkTarget, Solution, check_search_budget
+from .result import MATCHED_COMPONENTS, IkResult, IkTarget, Solution, check_search_budget, wrap_into_limits
 
 #: The kernel's code of each target kind.
 KIND_CODES = {FULL_POSE: compiled.POSE, POSITION_AND_AXIS: compiled.POSITION_AND_AXIS, POSITION_ONLY: compiled.POSITION}
@@ -29,12 +29,19 @@ def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int):
                            KIND_CODES[target.kind], q, max_iterations)
 
 
+def _nearest_the_seed(robot, q: np.ndarray, q_seed: np.ndarray) -> np.ndarray:
+    """q with each revolute joint shifted by 2 pi to the in-limit representative nearest the seed."""
+    revolute = np.array([joint.is_revolute for joint in robot.spec.joints])
+    return wrap_into_limits(q, revolute, robot.limits.q_min, robot.limits.q_max, q_seed)
+
+
 def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.Generator | None = None,
                    max_restarts: int = 50, max_iterations: int = 100, time_budget: float = 0.5) -> IkResult:
     """Damped least-squares IK from the seed, then from seeded random in-limit restarts.
 
     ``max_restarts`` random restarts after the seed, ``max_iterations`` per descent, ``time_budget`` [s]
-    for the whole solve. The answer is judged by our FK: strict errors and every joint in limits.
+    for the whole solve. The answer is judged by our FK: strict errors and every joint in limits; each
+    revolute joint is the in-limit representative (by 2 pi) nearest the seed (a restart starts elsewhere).
     """
     check_search_budget(max_restarts, time_budget, max_iterations)
     deadline = time.perf_counter() + time_budget
@@ -48,6 +55,7 @@ def solve_jacobian(robot, target: IkTarget, q_seed: np.ndarray, rng: np.random.G
             rng = np.random.default_rng(0) if rng is None else rng      # made only when a restart needs it
             start = robot.random_configurations(rng, 1)[0]
         q, iterations, position_error, rotation_error, strict = _descend(robot, target, start, max_iterations)
+        q = _nearest_the_seed(robot, q, q_seed)
         total_iterations += iterations
         if best is None or position_error + rotation_error < best[1] + best[2]:
             best = (q, position_error, rotation_error)
