@@ -438,6 +438,8 @@ def _one_line(text: str) -> str:
 def main(argv: list[str] | None = None, prog: str = "python -m pipeline") -> int:
     args = build_parser(prog).parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    # toppra logs its own failures (INFO, WARNING) before ours is raised: without -v only our error line.
+    logging.getLogger("toppra").setLevel(logging.DEBUG if args.verbose else logging.ERROR)
     # Dask's own loggers (read when ``distributed`` is first imported, here and in its worker processes):
     # its routine INFO lines only with -v.
     os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "info" if args.verbose else "warning")

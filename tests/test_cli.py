@@ -4,6 +4,7 @@ for internal errors (exit 1), interrupts (exit 130), help texts."""
 from __future__ import annotations
 
 import json
+import logging
 import re
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import pytest
 import pipeline.__main__
 import pipeline.runner
 from pipeline.__main__ import build_parser, main
+from pipeline.errors import TimingError
 from pipeline.io import OWNER_MARKER
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -159,3 +161,18 @@ def test_a_job_names_a_demo_cell_from_any_directory(tmp_path, monkeypatch):
     assert job.cell.name == "gp7_wall_cell" and job.robot.name == "gp7"
     with pytest.raises(JobFileError, match=r"job.yaml:.*cell: .*demo cells: gp7_shelf_cell, gp7_wall_cell"):
         parse_job({**doc, "cell": "gp7_wal"}, "job.yaml", base_dir=tmp_path)
+
+
+def test_toppra_own_log_lines_show_only_with_v(monkeypatch, capsys, caplog):
+    """toppra logs its failures itself before ours is raised: without -v only our one error line."""
+    def failing(name):
+        logging.getLogger("toppra.algorithm.algorithm").warning("Fail to parametrize path. Return code: 1")
+        raise TimingError("toppra found no profile")
+
+    monkeypatch.setattr(pipeline.__main__, "load_robot", failing)
+    assert main(["show", "gp7"]) == 2
+    assert capsys.readouterr().err == "error: toppra found no profile\n"
+    assert not [r for r in caplog.records if r.name.startswith("toppra")]
+    assert main(["-v", "show", "gp7"]) == 2
+    assert [r.getMessage() for r in caplog.records if r.name.startswith("toppra")] == [
+        "Fail to parametrize path. Return code: 1"]
