@@ -31,7 +31,7 @@ run: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -m "not slow"
 
-# The long runs (e.g. 1000 random paths through toppra+Ruckig): CI runs them after `make test`.
+# The long runs (e.g. thousands of random paths through toppra, topp3 and Ruckig): CI runs them after `make test`.
 test-slow: $(STAMP)
 	$(PY) -m pytest -m slow
 

@@ -112,7 +112,7 @@ def test_a_killed_run_leaves_the_previous_complete_output(tmp_path):
 
 @pytest.mark.slow
 def test_many_killed_runs_never_mix_outputs(tmp_path):
-    kill_trials(tmp_path, trials=20, seed=2)
+    kill_trials(tmp_path, trials=10, seed=2)
 
 
 @pytest.mark.parametrize("where", ["file", "under_a_file", "proc"])

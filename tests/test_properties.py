@@ -35,7 +35,7 @@ from pipeline.singularity import compute_singularity
 CALL_LIMIT_S = 5.0
 #: The sample limit of the jobs run here: writing the default limit's CSV alone takes seconds.
 MAX_SAMPLES = 20_000
-QUICK, LONG = 60, 1000
+QUICK, LONG = 60, 300
 
 ROBOT_DOC = {
     "name": "fuzz_arm", "convention": "standard", "length_unit": "mm", "angle_unit": "deg",
@@ -171,7 +171,7 @@ def check_job_file(content) -> None:
 
 
 JOB_FILES = st.one_of(mutated(JOINT_JOB), mutated(POSE_JOB), corrupted_text(JOINT_JOB), corrupted_text(POSE_JOB))
-test_job_files, test_job_files_long = both(check_job_file, JOB_FILES, quick=40, long=600)
+test_job_files, test_job_files_long = both(check_job_file, JOB_FILES, quick=40, long=300)
 
 
 @st.composite
@@ -190,7 +190,7 @@ def plausible_jobs(draw):
     return doc
 
 
-test_plausible_jobs, test_plausible_jobs_long = both(check_job_file, plausible_jobs(), quick=12, long=300)
+test_plausible_jobs, test_plausible_jobs_long = both(check_job_file, plausible_jobs(), quick=12, long=100)
 
 
 def check_document(content: bytes) -> None:
@@ -210,7 +210,7 @@ def check_document(content: bytes) -> None:
 
 DOCUMENTS = st.one_of(st.binary(max_size=300), st.text(max_size=300).map(str.encode),
                       VALUES.map(lambda v: yaml.safe_dump(v).encode()), corrupted_text(ROBOT_DOC))
-test_documents, test_documents_long = both(check_document, DOCUMENTS, quick=150, long=3000)
+test_documents, test_documents_long = both(check_document, DOCUMENTS, quick=150, long=1000)
 
 
 # -- arrays handed to the public API ------------------------------------------------------------
@@ -237,7 +237,7 @@ def check_api_array(value) -> None:
     timed(quaternion_position_to_pose, value, [0.0, 0.0, 0.0])
 
 
-test_api_arrays, test_api_arrays_long = both(check_api_array, ARRAYS, quick=80, long=1500)
+test_api_arrays, test_api_arrays_long = both(check_api_array, ARRAYS, quick=80, long=500)
 
 
 @st.composite

@@ -53,6 +53,19 @@ def client():
 
 
 @pytest.fixture(scope="module")
+def serial_runs(tmp_path_factory):
+    """``serial_runs(files)``: the folder holding each job file's output in <stem>/, each job run by
+    ``run_serially`` once per module (the batch tests compare against the same runs)."""
+    folder = tmp_path_factory.mktemp("serial")
+
+    def run(files: list[Path]) -> Path:
+        run_serially([path for path in files if not (folder / path.stem).exists()], folder)
+        return folder
+
+    return run
+
+
+@pytest.fixture(scope="module")
 def serial_map():
     return reachability_map("irb1600", **MAP)
 
@@ -91,17 +104,16 @@ def run_serially(files: list[Path], out: Path) -> None:
                        check=True, capture_output=True)
 
 
-def check_batch_equals_serial_runs(client, files: list[Path], tmp_path: Path) -> None:
-    """The job files run one by one by `python -m pipeline run`, then as a batch on the client's workers:
-    the same files, and summary rows that say what each job's own report says."""
-    run_serially(files, tmp_path / "serial")
+def check_batch_equals_serial_runs(client, files: list[Path], serial: Path, tmp_path: Path) -> None:
+    """The job files run one by one by `python -m pipeline run` (their outputs in ``serial``), then as a
+    batch on the client's workers: the same files, and summary rows that say what each job's own report says."""
     outcome = run_batch(files, tmp_path / "batch", client=client)
     assert outcome.workers == 2 and not outcome.failed
     batch = tmp_path / "batch"
     assert sorted(p.name for p in batch.iterdir()) == sorted([OWNER_MARKER, SUMMARY_CSV, SUMMARY_JSON,
                                                               *(p.stem for p in files)])
     for path in files:
-        assert_same_job_output(tmp_path / "serial" / path.stem, batch / path.stem)
+        assert_same_job_output(serial / path.stem, batch / path.stem)
     rows = (batch / SUMMARY_CSV).read_text().splitlines()
     assert rows[0] == ",".join(COLUMNS) and len(rows) == len(files) + 1
     summary = json.loads((batch / SUMMARY_JSON).read_text())
@@ -115,15 +127,16 @@ def check_batch_equals_serial_runs(client, files: list[Path], tmp_path: Path) ->
         assert row["clearance_m"] == ("" if clearance is None else clearance["min_distance_m"])
 
 
-def test_demo_jobs_on_two_workers_equal_their_serial_runs_file_for_file(client, tmp_path):
+def test_demo_jobs_on_two_workers_equal_their_serial_runs_file_for_file(client, serial_runs, tmp_path):
     """A cell with planning, numeric IK with topp3, tool moves with TCP limits: the most varied three."""
-    names = ("gp7_cell_pick_place", "arm5_position_axis", "irb1600_tool_moves")
-    check_batch_equals_serial_runs(client, [JOBS / f"{name}.yaml" for name in names], tmp_path)
+    files = [JOBS / f"{name}.yaml" for name in ("gp7_cell_pick_place", "arm5_position_axis", "irb1600_tool_moves")]
+    check_batch_equals_serial_runs(client, files, serial_runs(files), tmp_path)
 
 
 @pytest.mark.slow
-def test_all_demo_jobs_on_two_workers_equal_their_serial_runs_file_for_file(client, tmp_path):
-    check_batch_equals_serial_runs(client, sorted(JOBS.glob("*.yaml")), tmp_path)
+def test_all_demo_jobs_on_two_workers_equal_their_serial_runs_file_for_file(client, serial_runs, tmp_path):
+    files = sorted(JOBS.glob("*.yaml"))
+    check_batch_equals_serial_runs(client, files, serial_runs(files), tmp_path)
 
 
 def test_the_summary_csv_is_the_same_byte_for_byte_in_this_process_and_on_workers(client, tmp_path):
@@ -198,15 +211,15 @@ def test_a_worker_killed_during_a_map_loses_nothing(client, serial_map):
 
 
 @pytest.mark.slow
-def test_a_worker_killed_during_a_batch_loses_nothing(client, tmp_path):
-    run_serially(sorted(JOBS.glob("*.yaml")), tmp_path / "serial")
+def test_a_worker_killed_during_a_batch_loses_nothing(client, serial_runs, tmp_path):
+    serial = serial_runs(sorted(JOBS.glob("*.yaml")))
     running, outcome = _in_a_thread(lambda: run_batch(JOBS, tmp_path / "batch", client=client))
     _kill_a_busy_worker(client, running)
     running.join(timeout=600)
     assert not running.is_alive() and "error" not in outcome, outcome.get("error")
     assert not outcome["result"].failed
     for path in sorted(JOBS.glob("*.yaml")):
-        assert_same_job_output(tmp_path / "serial" / path.stem, tmp_path / "batch" / path.stem)
+        assert_same_job_output(serial / path.stem, tmp_path / "batch" / path.stem)
 
 
 def test_importing_the_package_starts_no_dask_and_no_drake():

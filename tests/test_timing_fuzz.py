@@ -98,17 +98,17 @@ OWN_LIMITS_EVERY = 8
 
 #: (method, shape, default count, slow count): topp3 is ~0.1-1 s a path, toppra ~0.05-0.5 s, ruckig fast.
 RUNS = [
-    ("toppra", "monotone", 150, 1500),
-    ("toppra", "spline", 40, 500),
-    ("toppra", "linear", 40, 500),
-    ("ruckig", "monotone", 300, 3000),       # ruckig goes waypoint to waypoint: the shape does not apply
-    ("topp3", "monotone", 30, 300),
-    ("topp3", "spline", 12, 120),
-    ("topp3", "linear", 12, 60),            # always the documented refusal (a C1 path)
+    ("toppra", "monotone", 50, 500),
+    ("toppra", "spline", 40, 250),
+    ("toppra", "linear", 40, 250),
+    ("ruckig", "monotone", 300, 1500),       # ruckig goes waypoint to waypoint: the shape does not apply
+    ("topp3", "monotone", 12, 100),
+    ("topp3", "spline", 12, 60),
+    ("topp3", "linear", 12, 24),            # always the documented refusal (a C1 path)
 ]
 #: The slow run's seeds start here (the default run's at 0), so it adds cases rather than repeating them.
 SLOW_SEED_BASE = 1_000_000
-TORQUE_COUNTS = (4, 40)
+TORQUE_COUNTS = (4, 20)
 
 _ROBOTS: dict = {}
 
