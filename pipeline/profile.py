@@ -35,6 +35,10 @@ COLUMN_PAIRS = (("q", "qd", "qd_max", "qdd_max"), ("qd", "qdd", "qdd_max", "qddd
 #: The round-off a column agreement allows, in units of the double epsilon x the column's largest magnitude
 #: and the latest time x the derivative column's largest magnitude (a sample's time is rounded too) [1].
 ROUNDOFF_ULPS = 64
+#: A change of q between two samples that qd need not explain [rad or m]: twice the precision with which a
+#: timing back end meets a waypoint (Ruckig ends a segment within 1e-8 of its target, and the profile then
+#: holds the target itself: measured 6.8e-9 rad on 1e-9..1e-5 rad moves). Far below any physical meaning.
+POSITION_PRECISION = 2e-8
 
 
 @dataclass(frozen=True)
@@ -110,8 +114,9 @@ class ColumnAgreement:
     - ``trapezoid``: |x[k+1] - x[k] - h (xd[k] + xd[k+1]) / 2| <= h^2 D / 4 (the trapezoid rule's error
       bound for an integrand whose slope is at most D: the columns are each other's derivative).
 
-    Each side gets ROUNDOFF_ULPS round-off. ``ratios`` (pair -> peak residual/allowance [1]); the worst:
-    ``pair`` ("qdd/qddd"), ``test``, ``joint`` (0-based), ``sample`` k, ``time`` [s] of sample k,
+    Each side gets ROUNDOFF_ULPS round-off (q's changes also POSITION_PRECISION). ``ratios`` (pair -> peak
+    residual/allowance [1]); the worst: ``pair`` ("qdd/qddd"), ``test``, ``joint`` (0-based), ``sample`` k,
+    ``time`` [s] of sample k,
     ``ratio`` [1], ``change`` and ``allowed`` [the unit of x] (x[k+1] - x[k], or the trapezoid residual, and
     its allowance); ``passed`` when ``ratio`` <= 1 + tolerance."""
 
@@ -256,6 +261,8 @@ def _column_tests(profile: Profile, limits: Limits) -> list[tuple[str, str, np.n
         change = np.diff(x, axis=0)
         roundoff = ROUNDOFF_ULPS * np.finfo(float).eps * (np.abs(x).max(axis=0)
                                                           + np.abs(t).max() * np.abs(xd).max(axis=0))
+        if low == "q":
+            roundoff = roundoff + POSITION_PRECISION
         pair = f"{low}/{high}"
         if getattr(limits, bound) is not None:
             tests.append((pair, "mean value", np.abs(change), h * getattr(limits, bound) + roundoff))

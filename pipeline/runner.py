@@ -186,7 +186,7 @@ def check_duration(job: Job, solved_q: list[np.ndarray], max_samples: int, max_d
     from .timing.toppra_backend import check_sample_count
 
     bound, tcp, joints = duration_lower_bound(job, solved_q)
-    if tcp >= joints:
+    if job.tcp_speed_max is not None and tcp >= joints:
         field, speed = "tcp_speed_max", job.tcp_speed_max * job.speed_scale
         why = (f"its TCP travels at least {tcp * speed * 1e3:.4g} mm at {speed * 1e3:.4g} mm/s (tcp_speed_max x "
                "speed_scale). Is tcp_speed_max in the job's length_unit per second?")

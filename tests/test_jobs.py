@@ -13,6 +13,7 @@ import yaml
 from pipeline.__main__ import main
 from pipeline.errors import JobFileError, ProfileSizeError, RobotFileError
 from pipeline.jobs import JointWaypoint, PoseWaypoint, load_job, parse_job
+from pipeline.path import PathError
 from pipeline.runner import run_job, run_job_file
 
 JOBS_DIR = Path(__file__).resolve().parent.parent / "trajectories" / "jobs"
@@ -265,4 +266,13 @@ def test_a_tiny_speed_scale_is_refused_naming_it(tmp_path):
     with pytest.raises(JobFileError) as error:
         run_job_file(path, tmp_path / "out")
     assert error.value.field == "speed_scale" and "joint moves take" in str(error.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_job_without_motion_gets_its_path_error_not_a_crash_in_the_duration_bound(tmp_path):
+    """Two equal waypoints and no TCP limit: the duration bound is 0 for the TCP and the joints alike
+    (it once multiplied the absent tcp_speed_max); the path's own error says there is nothing to time."""
+    path = write_job(tmp_path, changed(ARM5_JOB, waypoints=[[0, 30, 30, 30, 0]] * 2))
+    with pytest.raises(PathError, match="no motion to time"):
+        run_job_file(path, tmp_path / "out")
     assert not (tmp_path / "out").exists()

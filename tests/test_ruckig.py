@@ -160,3 +160,17 @@ def test_exact_boundary_case_is_retried_and_certified():
     profile = retime(robot, waypoints, method="ruckig")
     assert profile.details.ruckig_boundary_retries == 1
     assert certify(profile).passed
+
+
+@pytest.mark.parametrize("seed", [1000130, 1000677])
+def test_ruckigs_position_precision_at_a_waypoint_is_not_a_column_disagreement(seed):
+    """Tiny motions (fuzz seeds, arm5 and irb1600): Ruckig ends a segment 6.8e-9 rad from its target and the
+    profile holds the target itself; certify's q/qd agreement allows that POSITION_PRECISION (it refused both)."""
+    from tests.test_timing_fuzz import make_case, robot_named, unscaled_limits
+
+    case = make_case(seed)
+    robot = robot_named(case.robot)
+    profile = retime(robot, case.waypoints, method="ruckig", speed_scale=case.speed_scale, dt=case.dt,
+                     limits=unscaled_limits(robot, False))
+    assert profile.certificate.passed and profile.certificate.columns.ratios["q/qd"] <= 1.0
+    assert np.abs(np.diff(profile.q, axis=0)).max() > 0.0        # there is motion to judge
