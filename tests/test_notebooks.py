@@ -32,6 +32,8 @@ NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 SEEDS = ("seed000", "seed001", "seed002", "seed003", "seed004")
 #: Notebooks that follow a feature rather than a paper (their first cell is a "# title").
 TOPICS = ("cells_and_planning", "reachability_irb1600")
+#: Notebooks whose run takes long enough (a Dask map, 15 s) to run in the slow suite only.
+SLOW_NOTEBOOKS = ("reachability_irb1600",)
 KEY_TAG = "key-numbers"
 #: Per cell; the slowest cell (three timings of one path) takes a few seconds [s].
 CELL_TIMEOUT_S = 300
@@ -130,7 +132,8 @@ def stdout_json(cell) -> dict:
     return json.loads(text)
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", [pytest.param(p, id=p.stem, marks=[pytest.mark.slow] if p.stem in SLOW_NOTEBOOKS
+                                                else []) for p in NOTEBOOKS])
 def test_notebook_runs_and_its_key_numbers_hold(path, kernel_env):
     nb = execute(path, kernel_env)
     kernel = stdout_json(nb.cells[-1])

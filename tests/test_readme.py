@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 
@@ -45,6 +47,7 @@ def test_the_quick_start_comes_first_and_runs_as_pasted(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["my_arm.yaml", "my_job.yaml", "out"]
 
 
+@pytest.mark.slow                                  # a Dask map and a cell job: about 18 s
 def test_the_readme_python_examples_run_as_pasted(tmp_path):
     blocks = python_blocks()
     assert blocks, "the README has no Python example"

@@ -127,6 +127,7 @@ def check_batch_equals_serial_runs(client, files: list[Path], serial: Path, tmp_
         assert row["clearance_m"] == ("" if clearance is None else clearance["min_distance_m"])
 
 
+@pytest.mark.slow                                  # every demo job on two workers: about 19 s
 def test_demo_jobs_on_two_workers_equal_their_serial_runs_file_for_file(client, serial_runs, tmp_path):
     """A cell with planning, numeric IK with topp3, tool moves with TCP limits: the most varied three."""
     files = [JOBS / f"{name}.yaml" for name in ("gp7_cell_pick_place", "arm5_position_axis", "irb1600_tool_moves")]
@@ -229,6 +230,7 @@ def test_importing_the_package_starts_no_dask_and_no_drake():
     assert not [name for name in loaded if name.split(".")[0] in ("dask", "distributed", "pydrake", "matplotlib")]
 
 
+@pytest.mark.slow                                  # planned jobs in fresh processes: about 15 s
 def test_a_job_that_plans_gets_the_plans_of_its_own_run_whatever_ran_before_it(tmp_path):
     """OMPL takes one seed per process: two copies of the demo cell job in one batch (in this process,
     which has planned before) plan as a fresh `python -m pipeline run` of it does, byte for byte."""

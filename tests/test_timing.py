@@ -70,7 +70,7 @@ def test_robustness_suite(case, method):
 #: their number): Ruckig ~5 ms a path takes all of them; toppra ~0.1-0.3 s a path TOPPRA_COUNT in the
 #: default run (test_timing_fuzz times thousands more in the slow run); topp3 ~0.3-3 s a path
 #: QUICK_COUNT, and SLOW_COUNT in the slow run.
-TOPPRA_COUNT = 50
+TOPPRA_COUNT = 20
 QUICK_COUNT = 5
 SLOW_COUNT = 50
 RANDOM_RUNS = [
@@ -187,10 +187,10 @@ def test_an_oversized_profile_is_refused_before_it_is_made(method):
     knows the duration (today's measurement: 0.01-0.3 s), naming duration, dt, count and limit."""
     robot = robot_named("gp7")
     waypoints = robot.random_configurations(np.random.default_rng(1), 4, 0.2)
-    began = time.perf_counter()
+    began = time.process_time()                 # CPU time: other work on the machine does not count
     with pytest.raises(ProfileSizeError) as error:
         retime(robot, waypoints, method=method, speed_scale=0.001, dt=1e-4)
-    assert time.perf_counter() - began < 3.0
+    assert time.process_time() - began < 3.0
     match = re.fullmatch(r"the profile.* would last ([\d.]+) s; sampled every dt = 0.0001 s that is ([\d,]+) "
                          r"samples, above the limit of 500,000: raise the limit \(--max-samples.*", str(error.value))
     assert match and float(match.group(1)) > 1000.0

@@ -98,11 +98,11 @@ OWN_LIMITS_EVERY = 8
 
 #: (method, shape, default count, slow count): topp3 is ~0.1-1 s a path, toppra ~0.05-0.5 s, ruckig fast.
 RUNS = [
-    ("toppra", "monotone", 50, 500),
-    ("toppra", "spline", 40, 250),
-    ("toppra", "linear", 40, 250),
+    ("toppra", "monotone", 18, 500),
+    ("toppra", "spline", 18, 250),
+    ("toppra", "linear", 18, 250),
     ("ruckig", "monotone", 300, 1500),       # ruckig goes waypoint to waypoint: the shape does not apply
-    ("topp3", "monotone", 12, 100),
+    ("topp3", "monotone", 9, 100),
     ("topp3", "spline", 12, 60),
     ("topp3", "linear", 12, 24),            # always the documented refusal (a C1 path)
 ]
