@@ -73,6 +73,7 @@ def test_the_report_has_every_figure_and_goal(report):
     assert report.to_dict()["cells"][0]["cell"] == "gp7_wall_cell"
 
 
+@pytest.mark.slow                                  # the whole suite through the CLI: about 6 s
 def test_the_cli_runs_the_suite_and_writes_json(tmp_path, capsys):
     out = tmp_path / "plan.json"
     assert main(["bench", "plan", "--pairs", "1", "--seed", "2", "--out", str(out)]) == 0

@@ -101,6 +101,7 @@ def test_bad_arguments():
         run_timing_benchmark(robots=("gp7",), paths=0)
 
 
+@pytest.mark.slow                                  # the suite through the CLI: about 5 s
 def test_cli_bench_timing(tmp_path, capsys):
     from pipeline.__main__ import main
 

@@ -159,6 +159,7 @@ def test_a_map_on_two_workers_equals_the_map_in_this_process(client, serial_map)
     assert parallel.summary()["volume_m3"] == serial_map.summary()["volume_m3"]
 
 
+@pytest.mark.slow                                  # the cell's checker on each worker: about 6 s
 def test_a_map_in_a_cell_on_two_workers_equals_the_map_in_this_process(client):
     kwargs = dict(step=0.2, orientations=2, tool_axis_cone=30.0)
     serial = reachability_map(CELL, **kwargs)

@@ -68,18 +68,16 @@ def test_robustness_suite(case, method):
 
 #: The first paths of the suite each method takes (the robots take turns, so every count is a multiple of
 #: their number): Ruckig ~5 ms a path takes all of them; toppra ~0.1-0.3 s a path TOPPRA_COUNT in the
-#: default run (test_timing_fuzz times thousands more in the slow run); topp3 ~0.3-3 s a path
-#: QUICK_COUNT, and SLOW_COUNT in the slow run.
+#: default run (test_timing_fuzz times thousands more in the slow run); topp3 ~0.3-3 s a path SLOW_COUNT in
+#: the slow run only (the default run times topp3 in test_topp3 and test_timing_fuzz).
 TOPPRA_COUNT = 20
-QUICK_COUNT = 5
 SLOW_COUNT = 50
 RANDOM_RUNS = [
     pytest.param(method, shape, count, id=f"{method}-{shape}-{count}",
-                 marks=[pytest.mark.slow] if method == "topp3" and count > QUICK_COUNT else [])
+                 marks=[pytest.mark.slow] if method == "topp3" else [])
     for method, shapes in (("toppra", PATH_SHAPES), ("ruckig", ("monotone",)), ("topp3", ("monotone", "spline")))
     for shape in shapes
-    for count in {"topp3": (QUICK_COUNT, SLOW_COUNT), "toppra": (TOPPRA_COUNT,)}.get(
-        method, (SUITE["random_paths"]["count"],))
+    for count in ({"topp3": SLOW_COUNT, "toppra": TOPPRA_COUNT}.get(method, SUITE["random_paths"]["count"]),)
 ]
 
 
