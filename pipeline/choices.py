@@ -15,6 +15,8 @@ TARGET_KINDS = (FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY)
 TIMING_METHODS = ("toppra", "ruckig", "topp3")
 #: Older names still accepted for a timing method -> the method they now mean.
 TIMING_ALIASES = {"toppra+ruckig": "topp3"}
+#: The limits each timing method needs beyond qd_max, for every joint.
+TIMING_LIMITS = {"toppra": ("qdd_max",), "ruckig": ("qdd_max", "qddd_max"), "topp3": ("qdd_max", "qddd_max")}
 #: Geometric joint path shapes through waypoints (``pipeline.path``).
 PATH_SHAPES = ("monotone", "spline", "linear")
 #: The path shape unless a job or call says otherwise: it never leaves the limits the waypoints keep.

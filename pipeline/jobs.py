@@ -27,7 +27,7 @@ import numpy as np
 from .cell import Cell, cell_names, load_cell, resolve_cell_path
 from .choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FULL_POSE, IK_METHODS, MOVES, PATH_SHAPES,
                       PLAN_MODES, PLAN_TIME_BUDGET_S, PLANNERS, SINGULARITY_POLICIES, TARGET_KINDS, TIMING_ALIASES,
-                      TIMING_METHODS)
+                      TIMING_LIMITS, TIMING_METHODS)
 from .errors import ConfigurationError, JobFileError, MissingFieldError, RobotNotFoundError
 from .configurations import parse_configuration
 from .robot import Robot, load_robot, robot_with_tool
@@ -68,8 +68,6 @@ MIN_TOOL_OFFSET_MM = 1.0
 #: RADIAN_LIKE_TOLERANCE of a nonzero multiple of pi/4 (3.14, 1.5708, 0.785, ...); [180, 0, 90],
 #: [0, 0, 0] and whole angles are degrees.
 RADIAN_LIKE_TOLERANCE = 0.01
-#: The limits each timing method needs beyond qd_max (from the robot file).
-TIMING_NEEDS = {"toppra": ("qdd_max",), "ruckig": ("qdd_max", "qddd_max"), "topp3": ("qdd_max", "qddd_max")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -386,9 +384,9 @@ class _JobReader(Reader):
                           f"angle_unit: rad: {_listed(np.radians(rpy))}.)", self.get(path))
 
     def check_timing_limits(self, robot: Robot, timing: str) -> None:
-        """The robot file gives the limits ``timing`` needs (TIMING_NEEDS): a RobotFileError naming the
+        """The robot file gives the limits ``timing`` needs (TIMING_LIMITS): a RobotFileError naming the
         robot file, the joint and its line otherwise."""
-        for key in TIMING_NEEDS[timing]:
+        for key in TIMING_LIMITS[timing]:
             if getattr(robot.limits, key) is None:
                 raise missing_limit_error(robot.spec, key, f"timing {timing} (the job {self.source})")
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..choices import DEFAULT_MAX_SAMPLES
+from ..choices import DEFAULT_MAX_SAMPLES, TIMING_LIMITS
 from ..errors import TimingError
 from ..path import NO_MOTION_DISTANCE, check_waypoints
 from ..profile import CERTIFY_TOLERANCE, Profile, TimingDetails
@@ -146,8 +146,8 @@ def profile_from_segments(trajectories, dt: float, method: str, limits: Limits, 
 
 
 def require_jerk_limits(limits: Limits, method: str) -> None:
-    """Ruckig needs acceleration and jerk limits for every joint."""
-    missing = [name for name in ("qdd_max", "qddd_max") if getattr(limits, name) is None]
+    """The jerk-limited ``method`` (ruckig, topp3) needs its TIMING_LIMITS, acceleration and jerk, for every joint."""
+    missing = [name for name in TIMING_LIMITS[method] if getattr(limits, name) is None]
     if missing:
         raise TimingError(f"{method} needs {' and '.join(missing)} for every joint (jerk-limited timing); "
                           "add the missing limits to the robot file or pass limits=... with them")
