@@ -14,6 +14,13 @@ from .errors import ConfigurationError, shown
 MAX_MAGNITUDE = 1e6
 
 
+def is_whole_number(value, low: int, high: int | None = None) -> bool:
+    """True when ``value`` is an integer (Python or NumPy, not a bool) in [``low``, ``high``] (``high``
+    None: no upper bound): the check of a count handed to the public API."""
+    return (not isinstance(value, bool) and isinstance(value, (int, np.integer)) and low <= value
+            and (high is None or value <= high))
+
+
 def float_array(value, what: str, shape: tuple[int | None, ...] | None = None,
                 max_abs: float = sys.float_info.max) -> np.ndarray:
     """``value`` as a finite float array; ``shape`` entries of None match any size; every entry within

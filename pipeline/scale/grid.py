@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..arrays import is_whole_number
 from ..errors import ConfigurationError, ScaleInputError
 from ..robot import robot_with_tool
 
@@ -94,8 +95,7 @@ def reach_grid(robot, step: float) -> VoxelGrid:
 def check_orientations(orientations, tool_axis_cone) -> None:
     """ScaleInputError unless ``orientations`` is a whole number in [1, MAX_ORIENTATIONS] and
     ``tool_axis_cone`` None or an angle in (0, 180] deg."""
-    if isinstance(orientations, bool) or not isinstance(orientations, (int, np.integer)) \
-            or not 1 <= orientations <= MAX_ORIENTATIONS:
+    if not is_whole_number(orientations, 1, MAX_ORIENTATIONS):
         raise ScaleInputError("orientations", f"must be a whole number in [1, {MAX_ORIENTATIONS:,}]", orientations)
     if tool_axis_cone is not None and (isinstance(tool_axis_cone, bool) or not isinstance(
             tool_axis_cone, (int, float, np.integer, np.floating)) or not 0 < tool_axis_cone <= 180):

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import is_whole_number
 from ..cell import Cell, load_cell
 from ..choices import FULL_POSE, POSITION_AND_AXIS
 from ..errors import RobotFileError, ScaleInputError
@@ -215,7 +216,7 @@ def map_problem(robot: Robot, cell: Cell | None, orientations: int | None, tool_
 
     orientations = DEFAULT_ORIENTATIONS if orientations is None else orientations
     check_orientations(orientations, tool_axis_cone)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+    if not is_whole_number(seed, 0):
         raise ScaleInputError("seed", "must be a whole number >= 0", seed)
     if point not in POINTS:
         raise ScaleInputError("point", f"must be one of {', '.join(POINTS)}", point)
@@ -282,8 +283,7 @@ def plan_map(robot_or_cell, step: float = 0.025, orientations: int | None = None
     plan it, before anything is computed."""
     robot, cell = load_robot_or_cell(robot_or_cell)
     check_step(step)
-    if isinstance(chunk_poses, bool) or not isinstance(chunk_poses, (int, np.integer)) \
-            or not 1 <= chunk_poses <= MAX_CHUNK_POSES:
+    if not is_whole_number(chunk_poses, 1, MAX_CHUNK_POSES):
         raise ScaleInputError("chunk_poses", f"must be a whole number in [1, {MAX_CHUNK_POSES:,}]", chunk_poses)
     problem = map_problem(robot, cell, orientations, tool_axis_cone, seed, point)
     grid = reach_grid(problem.mapped, step)

@@ -15,6 +15,7 @@ import dataclasses
 
 import numpy as np
 
+from ..arrays import is_whole_number
 from ..choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, DEFAULT_PATH_SHAPE, TIMING_ALIASES, TIMING_METHODS
 from ..errors import ConfigurationError, TimingError
 from ..path import JointPath, make_path
@@ -46,7 +47,7 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
         raise ConfigurationError(f"unknown timing method {method!r}; choose one of {', '.join(METHODS)}")
     if not np.isfinite(dt) or dt <= 0.0:
         raise ConfigurationError(f"dt must be a positive number of seconds, got {dt}")
-    if isinstance(max_samples, bool) or not isinstance(max_samples, (int, np.integer)) or max_samples < 2:
+    if not is_whole_number(max_samples, 2):
         raise ConfigurationError(f"max_samples must be an integer of at least 2, got {max_samples!r}")
     unscaled = robot.limits if limits is None else limits
     limits = scale_limits(unscaled, speed_scale)
