@@ -81,7 +81,12 @@ class JointWaypoint:
 class PoseWaypoint:
     """A waypoint given as an end-frame pose: ``X_BE`` (4, 4), base frame [m]; ``target``: what IK must
     match (pose, position+axis, position); ``config``: the configuration it must have (parts of
-    shoulder/elbow/wrist; None: the rule of ``pipeline.ik.branches`` picks)."""
+    shoulder/elbow/wrist; None: the rule of ``pipeline.ik.branches`` picks); ``move``: how the TCP gets
+    there (joint, linear, circular through ``via`` (3,) [m]); ``zone`` [m]: the waypoint is passed
+    without stopping, the TCP leaving the programmed path at most this far before it and rejoining it at
+    most this far after (0: an exact stop, except between two joint moves, which a joint path passes
+    through); ``speed``: the move's own speed, a TCP speed [m/s] for a tool move, a fraction in (0, 1]
+    of the joint speed limits for a joint move (None: the job's ``tcp_speed_max``, or 1)."""
 
     X_BE: np.ndarray
     target: str = FULL_POSE
@@ -89,6 +94,7 @@ class PoseWaypoint:
     move: str = "joint"
     via: np.ndarray | None = None
     zone: float = 0.0
+    speed: float | None = None
 
     @property
     def is_tool_move(self) -> bool:
@@ -108,7 +114,10 @@ class Job:
     ``allow_branch_change``: a change of IK branch between consecutive pose waypoints is reported
     instead of refused. ``tool``: X_ET (4, 4) [m], the TCP in the robot's end frame, or None (then
     ``robot`` is the robot as its file gives it; with a tool, ``robot``'s end frame is the TCP and every
-    pose is a TCP pose); ``tcp_speed_max`` [m/s], ``tcp_accel_max`` [m/s^2] or None; ``singularity``:
+    pose is a TCP pose); ``tcp_speed_max`` [m/s]: the default speed of tool moves, ``tcp_accel_max``
+    [m/s^2]: the TCP's acceleration limit on tool moves, or None (neither limits joint moves);
+    ``tcp_speed_limit`` [m/s] or None: a TCP speed limit that holds everywhere (a safety-rated reduced
+    speed), certified on the whole profile; ``singularity``:
     what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
     none; then nothing is checked for collision); ``plan``: direct or collision_free (joint moves
     replaced by planned ones where the direct path comes too close); ``planner`` (an OMPL planner name)
@@ -139,6 +148,7 @@ class Job:
     planner: str = DEFAULT_PLANNER
     plan_time_budget: float = PLAN_TIME_BUDGET_S
     document: Document | None = None
+    tcp_speed_limit: float | None = None
 
     def location(self, path: tuple) -> str:
         """``file:line: field`` of the field at ``path`` (``file: field`` where the line is unknown)."""

@@ -22,6 +22,7 @@ import numpy as np
 from .clearance import ClearanceReport, certify_clearance
 from .errors import ConfigurationError
 from .robot_spec import Limits
+from .schedule import LimitSchedule
 
 #: A peak/limit ratio up to 1 + this passes (round-off of the samples) [1].
 CERTIFY_TOLERANCE = 1e-6
@@ -72,7 +73,8 @@ class Profile:
     ``certificate``: the ``certify`` verdict ``retime`` attached (None on a profile made otherwise);
     ``speed_scale`` and ``unscaled_limits``: the limits before the speed scale (the robot's own, unless
     the caller gave others; None on a profile made otherwise); ``tcp``: the TCP's motion at the samples,
-    when the profile was timed with TCP limits or for a tool.
+    when the profile was timed with TCP limits or for a tool; ``schedule``: the limits that change move by
+    move (``pipeline.schedule.LimitSchedule`` over t [s], on top of ``limits``; None: none).
     """
 
     t: np.ndarray
@@ -89,6 +91,7 @@ class Profile:
     speed_scale: float = 1.0
     unscaled_limits: Limits | None = None
     tcp: "TcpSamples | None" = None
+    schedule: LimitSchedule | None = None
 
     @property
     def duration(self) -> float:
