@@ -72,9 +72,15 @@ RADIAN_LIKE_TOLERANCE = 0.01
 
 @dataclass(frozen=True, eq=False)
 class JointWaypoint:
-    """A waypoint given in joint space: ``q`` (dof,) [rad or m]."""
+    """A waypoint given in joint space: ``q`` (dof,) [rad or m], reached by a joint move at ``speed`` (a
+    fraction in (0, 1] of the joint speed limits; None: 1) and passed with ``zone`` [m] (as a
+    PoseWaypoint's)."""
 
     q: np.ndarray
+    zone: float = 0.0
+    speed: float | None = None
+    move: str = "joint"
+    is_tool_move = False
 
 
 @dataclass(frozen=True, eq=False)
