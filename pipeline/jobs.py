@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 import os
 from dataclasses import dataclass
@@ -50,10 +51,13 @@ REACH_SAMPLES = 4096
 _REQUIRED = ("waypoints",)
 _OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
              "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
-             "plan", "planner", "plan_time_budget")
+             "plan", "planner", "plan_time_budget", "tcp_speed_limit")
 #: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have, and
-#: how the TCP gets there (move, via point, zone).
-_POSE_EXTRA = ("target", "config", "move", "via", "zone")
+#: how the TCP gets there (move, via point, zone, speed).
+_POSE_EXTRA = ("target", "config", "move", "via", "zone", "speed")
+#: The keys of a joint waypoint written as a mapping (a plain list is its joint values alone).
+_JOINT_REQUIRED = ("joints",)
+_JOINT_OPTIONAL = ("speed", "zone")
 #: Largest TCP speed [m/s] and acceleration [m/s^2] a job may ask for: beyond any arm (unit mistakes).
 MAX_TCP_SPEED = 20.0
 MAX_TCP_ACCEL = 1000.0
@@ -63,6 +67,13 @@ MAX_TCP_ACCEL = 1000.0
 MIN_TCP_SPEED_MM = 1.0
 MIN_TCP_ACCEL_MM = 10.0
 MIN_TOOL_OFFSET_MM = 1.0
+#: The TCP quantities a job may give -> (largest [SI], smallest under mm [mm/s^k], SI unit), by the rules above.
+_TCP_BOUNDS = {"speed": (MAX_TCP_SPEED, MIN_TCP_SPEED_MM, "m/s"),
+               "acceleration": (MAX_TCP_ACCEL, MIN_TCP_ACCEL_MM, "m/s^2")}
+#: A joint move's ``speed`` is a percentage of the joint speed limits, at most this.
+MAX_JOINT_SPEED_PERCENT = 100.0
+
+_log = logging.getLogger(__name__)
 #: Under ``angle_unit: deg``, rpy values are radians written under deg when every rpy value of the
 #: waypoints (or of the tool, judged apart) is within a turn (2 pi) and one of them is a fraction within
 #: RADIAN_LIKE_TOLERANCE of a nonzero multiple of pi/4 (3.14, 1.5708, 0.785, ...); [180, 0, 90],
@@ -158,8 +169,7 @@ class Job:
 
     def location(self, path: tuple) -> str:
         """``file:line: field`` of the field at ``path`` (``file: field`` where the line is unknown)."""
-        line = None if self.document is None else self.document.line(path)
-        return f"{self.source}{'' if line is None else f':{line}'}: {field_name(path)}"
+        return f"{self.source if self.document is None else _where(self.document, path)}: {field_name(path)}"
 
     def error(self, path: tuple, problem: str, value: Any = None) -> JobFileError:
         """The JobFileError of a problem found after reading, naming this file, the field at ``path``
@@ -236,14 +246,16 @@ class _JobReader(Reader):
 
     def units(self, robot: Robot) -> tuple[float | None, float | None]:
         """(angle, length) SI factors; each required when the waypoints use it."""
-        raw = self.sequence(("waypoints",), min_items=2, what="waypoints (joint lists or pose mappings)")
-        poses = [w for w in raw if isinstance(w, dict)]
+        raw = self.sequence(("waypoints",), min_items=2, what="waypoints (joint lists or mappings, pose mappings)")
+        poses = [w for w in raw if _is_pose(w)]
         joints_given = len(poses) < len(raw) or self.has(("start",))
         revolute = np.array([j.is_revolute for j in robot.spec.joints])
         angle_reason = ("joint values are given" if joints_given and revolute.any()
                         else "pose waypoints use rpy" if any("rpy" in w for w in poses) else None)
         length_reason = ("pose waypoints are given" if poses
-                         else "prismatic joint values are given" if joints_given and not revolute.all() else None)
+                         else "prismatic joint values are given" if joints_given and not revolute.all()
+                         else "a joint waypoint gives a zone" if any(isinstance(w, dict) and "zone" in w for w in raw)
+                         else None)
         return (self.unit(("angle_unit",), ANGLE_UNITS, angle_reason),
                 self.unit(("length_unit",), LENGTH_UNITS, length_reason))
 
@@ -286,8 +298,39 @@ class _JobReader(Reader):
             self.fail((*path, "via"), f"is the via point of a circular move; this move is {move}")
         if move != "joint" and target != FULL_POSE:
             self.fail((*path, "target"), f"a {move} move follows the full TCP pose: target must be {FULL_POSE}", target)
-        zone = self.number((*path, "zone"), 0.0, low=0.0, unit=self.get(("length_unit",))) * length_scale
-        return PoseWaypoint(X, target, config, move, via, zone)
+        speed = self.joint_speed(path, pose=True) if move == "joint" else \
+            self.tcp_value((*path, "speed"), length_scale, "speed")
+        return PoseWaypoint(X, target, config, move, via, self.zone(path, length_scale), speed)
+
+    def joint_waypoint(self, path, robot: Robot, scales: np.ndarray, length_scale: float | None) -> JointWaypoint:
+        """A joint waypoint: its joint values (a list), or ``{joints, speed, zone}`` (``speed`` a
+        percentage of the joint speed limits, ``zone`` in length_unit)."""
+        if not isinstance(self.get(path), dict):
+            return JointWaypoint(self.joint_values(path, robot, scales))
+        self.mapping(path, _JOINT_REQUIRED, _JOINT_OPTIONAL)
+        q = self.joint_values((*path, "joints"), robot, scales)
+        return JointWaypoint(q, self.zone(path, length_scale), self.joint_speed(path, pose=False))
+
+    def zone(self, path, length_scale: float | None) -> float:
+        """A waypoint's ``zone`` in length_unit -> [m] (0 when absent: an exact stop)."""
+        if not self.has((*path, "zone")):
+            return 0.0
+        return self.number((*path, "zone"), low=0.0, unit=self.get(("length_unit",))) * length_scale
+
+    def joint_speed(self, path, pose: bool) -> float | None:
+        """A joint move's ``speed``, a percentage of the joint speed limits in (0, 100] -> a fraction
+        (None when absent). ``pose``: the waypoint is a pose, whose tool moves take a TCP speed instead
+        (the hint for a value above 100)."""
+        speed_path = (*path, "speed")
+        if not self.has(speed_path):
+            return None
+        percent = self.positive(speed_path, unit="%")
+        if percent > MAX_JOINT_SPEED_PERCENT:
+            unit = self.get(("length_unit",))
+            hint = (f"; {percent:g} looks like a TCP speed in {unit}/s: give the move `move: linear` or write a "
+                    "percentage") if pose else ", in (0, 100]"
+            self.fail(speed_path, f"joint moves take a percentage of the joint speed limits{hint}", percent)
+        return percent / 100.0
 
     def pose_target(self, path, robot: Robot, length_scale: float, angle_scale: float | None,
                     reach: tuple[float, float]) -> np.ndarray:
@@ -311,27 +354,31 @@ class _JobReader(Reader):
         revolute = np.array([j.is_revolute for j in robot.spec.joints])
         scales = np.where(revolute, angle_scale or 1.0, length_scale or 1.0)
         raw = self.get(("waypoints",))
-        reach = _reach_interval(robot) if any(isinstance(w, dict) for w in raw) else (0.0, math.inf)
+        reach = _reach_interval(robot) if any(_is_pose(w) for w in raw) else (0.0, math.inf)
         waypoints = tuple(
             self.pose_waypoint(("waypoints", k), robot, length_scale, angle_scale, reach)
-            if isinstance(w, dict) else JointWaypoint(self.joint_values(("waypoints", k), robot, scales))
+            if _is_pose(w) else self.joint_waypoint(("waypoints", k), robot, scales, length_scale)
             for k, w in enumerate(raw))
         self.check_moves(waypoints)
         start = self.joint_values(("start",), robot, scales) if self.has(("start",)) else None
         return waypoints, start
 
     def check_moves(self, waypoints) -> None:
-        """A tool move needs a waypoint before it; a zone rounds the corner into a next tool move."""
-        tool_moves = [isinstance(w, PoseWaypoint) and w.is_tool_move for w in waypoints]
-        if tool_moves[0]:
+        """The first waypoint is where the motion starts (no move to it, so no tool move and no speed);
+        a zone joins the move to its waypoint and the next one, of any kinds, so neither the first
+        waypoint nor the last (where the motion ends at rest) has one."""
+        if waypoints[0].is_tool_move:
             self.fail(("waypoints", 0, "move"), "the first waypoint is where the motion starts: it has no move "
                       "to it", waypoints[0].move)
-        for k, w in enumerate(waypoints):
-            if isinstance(w, PoseWaypoint) and w.zone > 0.0 and not (w.is_tool_move and k + 1 < len(waypoints)
-                                                                     and tool_moves[k + 1]):
-                self.fail(("waypoints", k, "zone"), "rounds the corner between two tool moves (linear or "
-                          "circular): this waypoint and the next must both be reached by one", self.get(
-                              ("waypoints", k, "zone")))
+        if waypoints[0].speed is not None:
+            self.fail(("waypoints", 0, "speed"), "the first waypoint is where the motion starts: it has no move "
+                      "to it to give a speed", self.get(("waypoints", 0, "speed")))
+        ends = {0: "the motion starts at rest on the first waypoint: there is no move into it to blend",
+                len(waypoints) - 1: "the motion ends at rest on the last waypoint: there is no next move to blend "
+                                    "into (a zone joins the move to its waypoint and the next one)"}
+        for k, reason in ends.items():
+            if waypoints[k].zone > 0.0:
+                self.fail(("waypoints", k, "zone"), reason, self.get(("waypoints", k, "zone")))
 
     def tool(self, robot: Robot, length_scale: float | None, angle_scale: float | None) -> np.ndarray | None:
         """The job's ``tool`` -> X_ET (4, 4) [m] (None when absent)."""
@@ -349,22 +396,25 @@ class _JobReader(Reader):
                       f"length_unit: m: {_listed(np.array(xyz) * 1e-3)}; none at all is [0, 0, 0].)", xyz)
         return X_ET
 
-    def tcp_limit(self, key: str, length_scale: float | None, high: float, low_mm: float,
-                  unit: str) -> float | None:
-        """``tcp_speed_max`` or ``tcp_accel_max`` in length_unit/s^k -> SI (None when absent), at most
-        ``high`` [``unit``, SI] and, under mm, at least ``low_mm`` [mm/s^k] (below: SI written under mm)."""
-        if not self.has((key,)):
+    def tcp_value(self, path, length_scale: float | None, quantity: str) -> float | None:
+        """A TCP ``quantity`` (speed or acceleration, _TCP_BOUNDS) at ``path`` in length_unit/s^k -> SI
+        (None when absent): ``tcp_speed_max``, ``tcp_accel_max``, ``tcp_speed_limit`` or a tool move's
+        ``speed``. At most the largest [SI] and, under mm, at least the smallest [mm/s^k] (below: SI
+        written under mm)."""
+        if not self.has(path):
             return None
+        high, low_mm, unit = _TCP_BOUNDS[quantity]
         if length_scale is None:
-            self.fail(("length_unit",), f"required because {key} is given (length_unit/s^k)", kind=MissingFieldError)
-        written = self.positive((key,))
+            self.fail(("length_unit",), f"required because {field_name(path)} is given "
+                      f"({unit.replace('m', 'length_unit', 1)})", kind=MissingFieldError)
+        written = self.positive(path)
         if self.get(("length_unit",)) == "mm" and written < low_mm:
-            self.fail((key,), f"is this {unit}? Under length_unit: mm, {written:g} is {written:g} m{unit}, below any "
-                      f"TCP limit ({low_mm:g} m{unit}): for {written:g} {unit} write {written * 1e3:g}. (A limit this "
-                      f"low is stated unambiguously with length_unit: m: {written * 1e-3:g}.)", written)
+            self.fail(path, f"is this {unit}? Under length_unit: mm, {written:g} is {written:g} m{unit}, below any "
+                      f"TCP {quantity} ({low_mm:g} m{unit}): for {written:g} {unit} write {written * 1e3:g}. (A value "
+                      f"this low is stated unambiguously with length_unit: m: {written * 1e-3:g}.)", written)
         value = written * length_scale
         if value > high:
-            self.fail((key,), f"is {value:.4g} {unit}, above any arm ({high:g} {unit}): is length_unit right?", written)
+            self.fail(path, f"is {value:.4g} {unit}, above any arm ({high:g} {unit}): is length_unit right?", written)
         return value
 
     def check_rpy_unit(self) -> None:
@@ -417,8 +467,42 @@ class _JobReader(Reader):
             if value.index(item) != i:
                 self.fail((*path, i), "listed twice", item)
             if item == "tcp_png" and not has_tcp:
-                self.fail((*path, i), "the TCP figure needs tool moves or TCP limits (tcp_speed_max) in the job", item)
+                self.fail((*path, i), "the TCP figure needs tool moves or TCP limits (tcp_speed_max, tcp_accel_max, "
+                          "tcp_speed_limit) in the job", item)
         return tuple(value)
+
+    def tcp_limits(self, waypoints, length_scale: float | None) -> dict:
+        """``tcp_speed_max`` [m/s] (the default speed of tool moves: required when one gives no ``speed``),
+        ``tcp_accel_max`` [m/s^2] (the TCP's acceleration on tool moves) and ``tcp_speed_limit`` [m/s] (a
+        TCP speed limit everywhere), each None when absent. The first two without tool moves limit
+        nothing: a warning says so, naming the file and line."""
+        limits = {"tcp_speed_max": self.tcp_value(("tcp_speed_max",), length_scale, "speed"),
+                  "tcp_accel_max": self.tcp_value(("tcp_accel_max",), length_scale, "acceleration"),
+                  "tcp_speed_limit": self.tcp_value(("tcp_speed_limit",), length_scale, "speed")}
+        unset = next((k for k, w in enumerate(waypoints) if w.is_tool_move and w.speed is None), None)
+        if unset is not None and limits["tcp_speed_max"] is None:
+            self.fail(("tcp_speed_max",), f"required because waypoint {unset} is a {waypoints[unset].move} move and "
+                      "gives no speed of its own (the TCP's default speed along tool moves, length_unit/s; or give "
+                      "every linear and circular waypoint its `speed`)", kind=MissingFieldError)
+        if not any(w.is_tool_move for w in waypoints):
+            for key in ("tcp_speed_max", "tcp_accel_max"):
+                if limits[key] is not None:
+                    _log.warning("%s: %s: no longer limits anything in a job without tool moves (linear or circular): "
+                                 "it applies to tool moves only, and joint moves run at their joint speed limits; for "
+                                 "a TCP speed limit everywhere use tcp_speed_limit", _where(self.document, (key,)), key)
+        return limits
+
+    def check_ruckig(self, waypoints, tcp_speed_limit: float | None) -> None:
+        """ruckig times waypoint to waypoint, at rest at each, off the path: no tool moves, TCP limits,
+        zones or per-move speeds."""
+        if tcp_speed_limit is not None or any(w.is_tool_move for w in waypoints):
+            self.fail(("timing",), "ruckig times waypoint to waypoint and leaves the path: tool moves and TCP limits "
+                      "need toppra or topp3", "ruckig")
+        for k, w in enumerate(waypoints):
+            for key, given in (("zone", w.zone > 0.0), ("speed", w.speed is not None)):
+                if given:
+                    self.fail(("waypoints", k, key), "timing ruckig times waypoint to waypoint, at rest at each: zones "
+                              "and per-move speeds need toppra or topp3", self.get(("waypoints", k, key)))
 
     def job(self, robot: Robot, name: str, inputs_sha256: str) -> Job:
         angle_scale, length_scale = self.units(robot)
@@ -430,15 +514,9 @@ class _JobReader(Reader):
         timing = TIMING_ALIASES.get(timing, timing)
         self.check_rpy_unit()
         self.check_timing_limits(robot, timing)
-        tcp_speed_max = self.tcp_limit("tcp_speed_max", length_scale, MAX_TCP_SPEED, MIN_TCP_SPEED_MM, "m/s")
-        tcp_accel_max = self.tcp_limit("tcp_accel_max", length_scale, MAX_TCP_ACCEL, MIN_TCP_ACCEL_MM, "m/s^2")
-        tool_move = next((k for k, w in enumerate(waypoints) if isinstance(w, PoseWaypoint) and w.is_tool_move), None)
-        if tool_move is not None and tcp_speed_max is None:
-            self.fail(("tcp_speed_max",), f"required because waypoint {tool_move} is a {waypoints[tool_move].move} move "
-                      "(the TCP's speed along it, length_unit/s)", kind=MissingFieldError)
-        if timing == "ruckig" and (tool_move is not None or tcp_speed_max is not None):
-            self.fail(("timing",), "ruckig times waypoint to waypoint and leaves the path: tool moves and TCP limits "
-                      "need toppra or topp3", timing)
+        tcp = self.tcp_limits(waypoints, length_scale)
+        if timing == "ruckig":
+            self.check_ruckig(waypoints, tcp["tcp_speed_limit"])
         if timing == "ruckig" and self.has(("path",)):
             self.fail(("path",), "has no effect with timing ruckig, which times waypoint to waypoint; remove it")
         path = None if timing == "ruckig" else self.choice(("path",), PATH_SHAPES, DEFAULT_PATH_SHAPE)
@@ -456,13 +534,12 @@ class _JobReader(Reader):
             path=path,
             speed_scale=self.number(("speed_scale",), 1.0, low=0.0, high=1.0, low_open=True),
             dt=self.number(("dt",), DEFAULT_DT, *DT_RANGE, unit="s"),
-            outputs=self.outputs(tool_move is not None or tcp_speed_max is not None or tcp_accel_max is not None),
+            outputs=self.outputs(any(w.is_tool_move for w in waypoints) or any(v is not None for v in tcp.values())),
             inputs_sha256=inputs_sha256,
             description=self.text(("description",), max_chars=10_000) if self.has(("description",)) else "",
             allow_branch_change=self.flag(("allow_branch_change",)),
             tool=tool,
-            tcp_speed_max=tcp_speed_max,
-            tcp_accel_max=tcp_accel_max,
+            **tcp,
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
             cell=self.cell,
             document=self.document,
@@ -482,6 +559,17 @@ class _JobReader(Reader):
         return {"plan": plan, "planner": self.choice(("planner",), PLANNERS, DEFAULT_PLANNER),
                 "plan_time_budget": self.number(("plan_time_budget",), PLAN_TIME_BUDGET_S, low=0.0, high=600.0,
                                                 low_open=True, unit="s")}
+
+
+def _is_pose(raw_waypoint) -> bool:
+    """Whether a waypoint as written is a pose (a mapping without ``joints``), not joint values."""
+    return isinstance(raw_waypoint, dict) and "joints" not in raw_waypoint
+
+
+def _where(document: Document, path: tuple) -> str:
+    """``file:line`` of the field at ``path`` in ``document`` (``file`` where the line is unknown)."""
+    line = document.line(path)
+    return f"{document.source}{'' if line is None else f':{line}'}"
 
 
 def _listed(values) -> str:
