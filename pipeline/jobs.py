@@ -4,11 +4,12 @@ The format is documented in ``trajectories/README.md``. Degrees and millimetres 
 file: waypoints, poses and the start configuration are converted here once. Reading is two steps: the
 job's own fields (the schema reader, no robot needed), then its waypoints against the robot it names
 (lengths, limits, and pose targets within the arm's reach, which catches unit mistakes). Values that fit
-only another unit are refused with a hint: TCP limits and tool offsets under mm that are m/s, m/s^2 or
-metres, rpy values that are radians under deg or degrees under rad. Every error is a ``JobFileError``
-naming the file, the line, the field and, for waypoints, the waypoint index; a robot file without the
-limits the timing needs is that file's own ``RobotFileError``. ``Job.error`` gives errors found after
-reading (IK, collisions) the line of their field.
+only another unit are refused with a hint: TCP speeds (limits and tool moves' own), accelerations and
+tool offsets under mm that are m/s, m/s^2 or metres, rpy values that are radians under deg or degrees
+under rad. Every error is a ``JobFileError`` naming the file, the line, the field and, for waypoints,
+the waypoint index; a robot file without the limits the timing needs is that file's own
+``RobotFileError``. ``Job.error`` gives errors found after reading (IK, collisions) the line of their
+field.
 """
 
 from __future__ import annotations
@@ -67,18 +68,18 @@ MAX_TCP_ACCEL = 1000.0
 MIN_TCP_SPEED_MM = 1.0
 MIN_TCP_ACCEL_MM = 10.0
 MIN_TOOL_OFFSET_MM = 1.0
-#: The TCP quantities a job may give -> (largest [SI], smallest under mm [mm/s^k], SI unit), by the rules above.
+#: Under ``angle_unit: deg``, rpy values are radians written under deg when every rpy value of the
+#: waypoints (or of the tool, judged apart) is within a turn (2 pi) and one of them is a fraction within
+#: RADIAN_LIKE_TOLERANCE of a nonzero multiple of pi/4 (3.14, 1.5708, 0.785, ...); [180, 0, 90],
+#: [0, 0, 0] and whole angles are degrees.
+RADIAN_LIKE_TOLERANCE = 0.01
+#: The TCP quantities a job may give -> (largest [SI], smallest under mm [mm/s^k], SI unit): the bounds above.
 _TCP_BOUNDS = {"speed": (MAX_TCP_SPEED, MIN_TCP_SPEED_MM, "m/s"),
                "acceleration": (MAX_TCP_ACCEL, MIN_TCP_ACCEL_MM, "m/s^2")}
 #: A joint move's ``speed`` is a percentage of the joint speed limits, at most this.
 MAX_JOINT_SPEED_PERCENT = 100.0
 
 _log = logging.getLogger(__name__)
-#: Under ``angle_unit: deg``, rpy values are radians written under deg when every rpy value of the
-#: waypoints (or of the tool, judged apart) is within a turn (2 pi) and one of them is a fraction within
-#: RADIAN_LIKE_TOLERANCE of a nonzero multiple of pi/4 (3.14, 1.5708, 0.785, ...); [180, 0, 90],
-#: [0, 0, 0] and whole angles are degrees.
-RADIAN_LIKE_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True, eq=False)
