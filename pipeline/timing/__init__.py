@@ -1,9 +1,10 @@
-"""Time parameterisation behind one function: ``retime(robot, path_or_waypoints, method=...)``.
+"""Time parameterisation behind two functions: ``retime(robot, path_or_waypoints, method=...)`` and
+``time_path`` (the same without the certification, for callers that join timed pieces and certify once).
 
 Methods: ``toppra`` (time-optimal along the path, velocity and acceleration limits), ``ruckig``
 (jerk-limited, waypoint to waypoint, exact), ``topp3`` (jerk-limited path following: a third-order
 time parameterisation of the path itself, so every sample is on the path; ``toppra+ruckig`` is its
-older name). Every profile is certified by ``pipeline.profile.certify`` before it is
+older name). Every profile ``retime`` returns is certified by ``pipeline.profile.certify`` before it is
 returned, with the verdict attached (``profile.certificate``): a profile that fails is an error,
 never a result. A profile that would have more than ``max_samples`` samples is refused before they
 are made (ProfileSizeError).
@@ -21,26 +22,33 @@ from ..errors import ConfigurationError, TimingError
 from ..path import JointPath, make_path
 from ..profile import Profile, certify, scale_limits
 from ..robot_spec import Limits
+from ..schedule import LimitSchedule
 
 METHODS = TIMING_METHODS
 
 
-def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
-           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = DEFAULT_PATH_SHAPE,
-           max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, tcp=None, **options) -> Profile:
-    """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits.
+def time_path(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
+              limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = DEFAULT_PATH_SHAPE,
+              max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, tcp=None, schedule: LimitSchedule | None = None,
+              **options) -> Profile:
+    """Time a joint path (a JointPath, or waypoints (K, dof) [rad or m]) within the robot's limits, without
+    certifying it (``retime`` certifies; a caller joining several timed pieces certifies the whole once).
 
     ``speed_scale`` in (0, 1] scales qd, qdd, qddd limits by s, s^2, s^3; ``limits`` replaces the
     robot's; ``dt`` [s] is the sample time of the returned profile; ``shape`` (``spline`` or
     ``linear``) builds the path from waypoints. The profile starts and ends at rest. When the
     limits bound joint torques (``tau_max``, robot files with inertias), the torques come from
-    Drake's inverse dynamics: toppra limits them, and every method's profile is judged on them.
+    Drake's inverse dynamics: toppra limits them, and every method's profile carries them (``tau``).
     ``max_samples``: a profile with more samples is refused (ProfileSizeError) as soon as its
     duration is known, before they are made. ``drake``: the robot's DrakeRobot for the inverse
     dynamics (built here when torques are limited and none is given; pass one to reuse it). ``tcp``: a
     TcpMotion of the robot whose end frame is the TCP: the profile then carries the TCP's samples
-    (``profile.tcp``), and the limits' ``tcp_speed_max`` and ``tcp_accel_max`` are met (toppra: as
-    constraints; topp3: by a uniform slow-down) and certified.
+    (``profile.tcp``), and the limits' ``tcp_speed_max`` and ``tcp_accel_max`` are met (toppra and topp3:
+    as constraints at their grid points, checked densely between them). ``schedule``: a LimitSchedule over
+    the path's parameter s in [0, 1] (toppra and topp3 only): on each of its intervals the joint speed
+    limits x its ``joint_speed`` and the TCP's speed and acceleration within its ``tcp_speed`` x
+    speed_scale and ``tcp_accel`` x speed_scale^2, on top of the limits; the profile carries it mapped
+    to time (``profile.schedule``).
     """
     method = TIMING_ALIASES.get(method, method)
     if method not in METHODS:
@@ -63,10 +71,15 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
     if method == "ruckig":
         from .ruckig_backend import retime_ruckig
 
+        if schedule is not None:
+            raise ConfigurationError("zones and per-move speeds (a LimitSchedule) need a path-following timing: "
+                                     "toppra or topp3 (ruckig times waypoint to waypoint, off the path)")
         waypoints = path_or_waypoints.waypoints if isinstance(path_or_waypoints, JointPath) else path_or_waypoints
         profile = retime_ruckig(np.asarray(waypoints, dtype=float), limits, dt, names, max_samples=max_samples,
                                 **options)
     else:
+        if schedule is not None:
+            raise ConfigurationError("a LimitSchedule is not supported by the path-following back ends yet")
         path = (path_or_waypoints if isinstance(path_or_waypoints, JointPath)
                 else make_path(path_or_waypoints, limits.q_min, limits.q_max, shape))
         if method == "toppra":
@@ -83,10 +96,21 @@ def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float 
         profile = dataclasses.replace(profile, tau=inverse_dynamics(profile.q, profile.qd, profile.qdd))
     if tcp is not None:
         profile = dataclasses.replace(profile, tcp=tcp.samples(profile.q, profile.qd, profile.qdd))
+    return dataclasses.replace(profile, speed_scale=float(speed_scale), unscaled_limits=unscaled)
+
+
+def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,
+           limits: Limits | None = None, dt: float = DEFAULT_DT, shape: str = DEFAULT_PATH_SHAPE,
+           max_samples: int = DEFAULT_MAX_SAMPLES, drake=None, tcp=None, schedule: LimitSchedule | None = None,
+           **options) -> Profile:
+    """``time_path`` (see there for the arguments) and ``certify``: the certified profile, with the verdict
+    attached (``profile.certificate``); TimingError when it fails."""
+    profile = time_path(robot, path_or_waypoints, method, speed_scale, limits, dt, shape, max_samples, drake, tcp,
+                        schedule, **options)
     report = certify(profile)
     if not report.passed:
-        raise TimingError(f"{method} profile failed certification: {report}")
-    return dataclasses.replace(profile, certificate=report, speed_scale=float(speed_scale), unscaled_limits=unscaled)
+        raise TimingError(f"{profile.method} profile failed certification: {report}")
+    return dataclasses.replace(profile, certificate=report)
 
 
-__all__ = ["DEFAULT_MAX_SAMPLES", "METHODS", "retime"]
+__all__ = ["DEFAULT_MAX_SAMPLES", "METHODS", "retime", "time_path"]
