@@ -58,10 +58,11 @@ class Clearance:
 
 
 class CollisionModel:
-    """A robot (``pipeline.robot.Robot``, its end frame as its file gives it) in a cell
-    (``pipeline.cell.Cell``, or None: the robot alone, self-collision only)."""
+    """A robot (``pipeline.robot.Robot``, its end frame the flange F: as its file gives it) in a cell
+    (``pipeline.cell.Cell``, or None: the robot alone, self-collision only), carrying the shapes of ``tool``
+    (a ``pipeline.tool.Tool``, shapes posed in F; None: the cell's tool shapes)."""
 
-    def __init__(self, robot, cell=None):
+    def __init__(self, robot, cell=None, tool=None):
         self.robot = robot
         self.cell = cell
         self.clearance_m = 0.0 if cell is None else cell.clearance
@@ -75,7 +76,7 @@ class CollisionModel:
         self.bodies = [base, *links]
         capsules = link_capsules(robot)
         self._add_capsules(capsules)
-        tool_shapes = () if cell is None else cell.tool_shapes
+        tool_shapes = tool.shapes if tool is not None else () if cell is None else cell.tool_shapes
         self.tool_reach = max((np.linalg.norm(s.X[:3, 3]) + s.bounding_radius for s in tool_shapes), default=0.0)
         if tool_shapes:
             self._add_tool(instance, tool_shapes)

@@ -19,6 +19,7 @@ import numpy as np
 from .errors import ConfigurationError
 from .geometry import compute_arm_path, robot_size, shape_outline, visual_radius
 from .profile import Profile
+from .tool import Tool
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +50,30 @@ TRACE_PATH = "/tcp_trace"
 TRACE_RGBA = (0.90, 0.10, 0.70, 1.0)
 TRACE_WIDTH_PX = 3.0
 TRACE_MAX_POINTS = 2000
+#: A tool handed to a view with a cell must agree with the TCP the robot's end frame implies (``view_tool``)
+#: within this, in each entry of X_FT [m, or a rotation entry].
+TOOL_AGREEMENT = 1e-9
+
+
+def view_tool(robot, cell=None, tool: Tool | np.ndarray | None = None) -> Tool:
+    """The tool a view draws on ``robot`` (its end frame the TCP: a job's robot). ``tool``: a Tool, or as
+    before a job's X_FT (4, 4) [m] or None (``Tool.coerce``). With a ``cell`` the flange is its robot file's
+    end frame, so the robot's end frame fixes X_FT (``Tool.of_robot_in_cell``): a missing tool is that one,
+    and a tool that disagrees with it (by more than TOOL_AGREEMENT) is refused (ConfigurationError)."""
+    if cell is None:
+        return Tool.coerce(tool)
+    implied = Tool.of_robot_in_cell(robot, cell)
+    if tool is None:
+        return implied
+    tool = Tool.coerce(tool, cell)
+    if np.abs(tool.X_FT - implied.X_FT).max() > TOOL_AGREEMENT:
+        gap_mm = 1e3 * np.linalg.norm(tool.X_FT[:3, 3] - implied.X_FT[:3, 3])
+        raise ConfigurationError(
+            f"tool: its X_FT puts the TCP {gap_mm:.6g} mm from the end frame of robot {robot.spec.name!r} (position "
+            f"{np.round(implied.X_FT[:3, 3] * 1e3, 3).tolist()} mm from the flange of cell {cell.name!r}'s robot, "
+            f"the tool's {np.round(tool.X_FT[:3, 3] * 1e3, 3).tolist()} mm): pass the job's robot (its end frame the "
+            "TCP) with its own tool, e.g. Tool.of_job(job)")
+    return tool
 
 
 # -- matplotlib -------------------------------------------------------------------------------------
@@ -153,11 +178,22 @@ def _draw_cell(ax, robot, cell, drawn: np.ndarray) -> np.ndarray:
     return np.vstack(lines) if lines else np.zeros((0, 3))
 
 
+def _draw_tool(ax, tool: Tool, X_BF: np.ndarray, colour, label: str | None) -> np.ndarray:
+    """Draw the tool's shapes on the flange at X_BF (4, 4) [m]; returns the drawn points (k, 3) [m]."""
+    lines = [points for shape, X_BS in zip(tool.shapes, tool.shape_poses(X_BF))
+             for points in shape_outline(shape.kind, shape.size, X_BS)]
+    for k, points in enumerate(lines):
+        ax.plot(points[:, 0], points[:, 1], points[:, 2], color=colour, linewidth=0.8,
+                label=label if k == 0 else None)
+    return np.vstack(lines) if lines else np.zeros((0, 3))
+
+
 def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, title: str | None = None,
-                  cell=None):
+                  cell=None, tool: Tool | np.ndarray | None = None):
     """The arm along a profile -> matplotlib Figure: ``poses`` configurations evenly spaced in time,
-    coloured by time (the first with its joint axes and frames), the end frame's path dashed, and the
-    obstacles of ``cell`` (a Cell) in grey."""
+    coloured by time (the first with its joint axes and frames), the end frame's path dashed, the tool's
+    shapes on the flange at each pose, and the obstacles of ``cell`` (a Cell) in grey. ``robot``'s end frame
+    is the TCP (a job's robot); ``tool``: a Tool, a job's X_FT (4, 4) [m] or None (``view_tool``)."""
     from matplotlib import colormaps
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
@@ -166,15 +202,21 @@ def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, 
     indices = np.unique(np.linspace(0, len(profile.t) - 1, max(poses, 1)).round().astype(int))
     norm = Normalize(float(profile.t[0]), float(profile.t[-1]) if profile.duration > 0 else float(profile.t[0]) + 1)
     cmap = colormaps["viridis"]
+    tool = view_tool(robot, cell, tool)
+    X_BE = robot.fk_batch(profile.q)
+    X_BF = tool.X_BF(X_BE)
     drawn = []
     for k in (*indices[1:], indices[0]):        # the first pose last, on top (a motion often ends there)
         first = k == indices[0]
         drawn.append(_draw_arm(ax, robot, profile.q[k], colour=cmap(norm(profile.t[k])),
                                linewidth=4.0 if first else 2.5, alpha=1.0 if first else 0.75, details=first,
                                label=f"t = {profile.t[k]:.2f} s"))
-    flange = robot.fk_batch(profile.q)[:, :3, 3]
-    ax.plot(flange[:, 0], flange[:, 1], flange[:, 2], "k--", linewidth=1.0, label="end-frame path")
-    drawn.append(flange)
+    for k in indices:
+        drawn.append(_draw_tool(ax, tool, X_BF[k], cmap(norm(profile.t[k])),
+                                "tool shapes" if k == indices[0] else None))
+    end = X_BE[:, :3, 3]
+    ax.plot(end[:, 0], end[:, 1], end[:, 2], "k--", linewidth=1.0, label="end-frame path")
+    drawn.append(end)
     if cell is not None:
         drawn.append(_draw_cell(ax, robot, cell, np.vstack(drawn)))
     handles, labels = ax.get_legend_handles_labels()
@@ -186,9 +228,10 @@ def motion_figure(robot, profile: Profile, poses: int = DEFAULT_POSES, ax=None, 
     return figure
 
 
-def plot_arm_motion(path: str | Path, robot, profile: Profile, title: str | None = None, cell=None) -> None:
-    """Write ``motion_figure(robot, profile, cell=cell)`` as a PNG at ``path``."""
-    motion_figure(robot, profile, title=title, cell=cell).savefig(path, dpi=100, format="png")
+def plot_arm_motion(path: str | Path, robot, profile: Profile, title: str | None = None, cell=None,
+                    tool: Tool | np.ndarray | None = None) -> None:
+    """Write ``motion_figure(robot, profile, cell=cell, tool=tool)`` as a PNG at ``path``."""
+    motion_figure(robot, profile, title=title, cell=cell, tool=tool).savefig(path, dpi=100, format="png")
 
 
 # -- Meshcat ----------------------------------------------------------------------------------------
@@ -204,28 +247,22 @@ def sample_profile(profile: Profile, fps: float = DEFAULT_FPS) -> tuple[np.ndarr
     return t, q
 
 
-def flange_robot(robot, tool: np.ndarray | None):
-    """The robot whose end frame is the flange (its file's end frame): ``robot`` (whose end frame is the
-    TCP) without the job's ``tool`` X_ET (4, 4) [m]; ``robot`` itself without a tool."""
-    if tool is None:
-        return robot
-    return type(robot)(dataclasses.replace(robot.spec, X_DnE=robot.spec.X_DnE @ np.linalg.inv(tool)))
-
-
-def scene_spheres(robot, Q: np.ndarray, cell=None, tool: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def scene_spheres(robot, Q: np.ndarray, cell=None, tool: Tool | np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Spheres that hold what a view shows over the configurations Q (N, dof): centres (k, 3) [m] in the
     base frame and radii (k,) [m]. The arm's visual geometry (its stick figure from the base to the TCP,
-    through which the TCP's trace runs, widened by VISUAL_REACH_RADII link radii), the cell's tool shapes,
-    and the cell's obstacles within CELL_MARGIN_FRACTION of the robot's size around them (a floor would
-    dwarf the arm). ``robot``'s end frame is the TCP, ``tool`` X_ET (4, 4) [m] or None (``show_profile``)."""
-    flange = flange_robot(robot, tool)
+    through which the TCP's trace runs, widened by VISUAL_REACH_RADII link radii), the tool's shapes on
+    the flange, and the cell's obstacles within CELL_MARGIN_FRACTION of the robot's size around them (a
+    floor would dwarf the arm). ``robot``'s end frame is the TCP, ``tool`` as ``show_profile`` takes it."""
+    tool = view_tool(robot, cell, tool)
+    flange = tool.flange_robot(robot)
     centres = [np.vstack([compute_arm_path(robot, q) for q in Q])]
     radii = [np.full(len(centres[0]), VISUAL_REACH_RADII * visual_radius(flange))]
+    X_BS = tool.shape_poses(tool.X_BF(robot.fk_batch(Q)))         # (N, shapes, 4, 4)
+    for k, shape in enumerate(tool.shapes):
+        centres.append(X_BS[:, k, :3, 3])
+        radii.append(np.full(len(Q), shape.bounding_radius))
     if cell is not None:
-        X_BE = flange.fk_batch(Q)
-        for shape in cell.tool_shapes:
-            centres.append((X_BE @ shape.X)[:, :3, 3])
-            radii.append(np.full(len(Q), shape.bounding_radius))
         shown = np.vstack(centres)
         margin = CELL_MARGIN_FRACTION * robot_size(flange)
         obstacles = cell_outlines(cell, shown.min(axis=0) - margin, shown.max(axis=0) + margin)
@@ -282,16 +319,29 @@ def show_tcp_trace(meshcat, tcp: np.ndarray) -> None:
     meshcat.SetLine(TRACE_PATH, np.asfortranarray(tcp[keep].T), TRACE_WIDTH_PX, Rgba(*TRACE_RGBA))
 
 
+def _visual_cell(cell, tool: Tool):
+    """The cell the visual model draws: ``cell`` carrying the tool's shapes (a cell of only those
+    shapes when there is no cell and the tool has shapes; None when neither)."""
+    if cell is not None:
+        return dataclasses.replace(cell, tool_shapes=tool.shapes)
+    if not tool.shapes:
+        return None
+    from .cell import Cell
+
+    return Cell(name=tool.name or "tool", source="<tool>", robot="", X_WB=np.eye(4), clearance=0.0, objects=(),
+                tool_shapes=tool.shapes)
+
+
 def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cell=None,
-                 tool: np.ndarray | None = None):
+                 tool: Tool | np.ndarray | None = None):
     """Play a profile in a running Meshcat (e.g. ``pydrake.geometry.StartMeshcat()`` in a notebook): the
     arm (replacing one shown before under the visualizer's path) is drawn at the first sample and the
     motion published as an animation sampled at ``fps`` [1/s] (play, pause, scrub in Meshcat's
-    Animations controls), with the obstacles and tool shapes of ``cell`` (a Cell) if given, the job's
-    ``tool`` X_ET (4, 4) [m] (a stem from the flange to the TCP and the TCP's axes) if given, and the
-    TCP's trace; the camera frames all of it (``scene_spheres``, ``camera_pose``). ``robot``'s end frame is
-    the TCP (a job's robot: the robot file's with ``tool``). Returns the VisualModel (diagram, plant,
-    scene graph, visualizer)."""
+    Animations controls), with the obstacles of ``cell`` (a Cell) if given, the ``tool`` (a Tool: a stem
+    from the flange to the TCP, the TCP's axes, and its shapes on the flange; or, as before, a job's X_FT
+    (4, 4) [m] or None: ``view_tool``), and the TCP's trace; the camera frames all of it (``scene_spheres``,
+    ``camera_pose``). ``robot``'s end frame is the TCP (a job's robot: the robot file's with the tool's
+    X_FT). Returns the VisualModel (diagram, plant, scene graph, visualizer)."""
     from pydrake.geometry import MeshcatVisualizerParams
 
     from .drake_model import build_visual_diagram
@@ -299,7 +349,9 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cel
     params = MeshcatVisualizerParams()
     params.publish_period = 1.0 / fps          # the visualizer records at 1 / publish_period frames/s
     params.delete_on_initialization_event = False
-    model = build_visual_diagram(flange_robot(robot, tool).spec, meshcat, params, cell, tool)
+    tool = view_tool(robot, cell, tool)
+    stem = None if tool.at_flange else tool.X_FT            # no stem nor TCP axes without a job tool
+    model = build_visual_diagram(tool.flange_robot(robot).spec, meshcat, params, _visual_cell(cell, tool), stem)
     times, Q = sample_profile(profile, fps)
     context = model.diagram.CreateDefaultContext()
     plant_context = model.plant.GetMyMutableContextFromRoot(context)
@@ -320,7 +372,8 @@ def show_profile(robot, profile: Profile, meshcat, fps: float = DEFAULT_FPS, cel
     return model
 
 
-def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None, tool: np.ndarray | None = None) -> str:
+def profile_html(robot, profile: Profile, fps: float = DEFAULT_FPS, cell=None,
+                 tool: Tool | np.ndarray | None = None) -> str:
     """A standalone HTML page (its JavaScript inlined, no server needed) of a Meshcat animation of the
     profile (``show_profile``: the arm with its visual geometry, the cell, the tool, the TCP's trace, the
     camera framing them), ``fps`` frames per second, played once on opening (replay it from the
