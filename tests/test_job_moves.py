@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from pipeline.errors import JobFileError
 from pipeline.jobs import JointWaypoint, PoseWaypoint, load_job, parse_job
@@ -189,3 +190,17 @@ def test_a_pose_joint_move_at_100_percent_is_the_whole_joint_speed():
     job = parse_job(gp7_job([ABOVE, {**OVER, "speed": 100}, {**DOWN, "speed": 0.5}]))
     assert [w.speed for w in job.waypoints[1:]] == [1.0, pytest.approx(0.005)]
     assert all(isinstance(w, PoseWaypoint) and w.move == "joint" for w in job.waypoints)
+
+
+def test_the_job_format_examples_in_the_readme_read():
+    """The first two YAML blocks of trajectories/README.md (the job keys, then the tool moves in the first
+    block's robot and units) are jobs the reader takes, with the speeds and zones their comments say."""
+    text = (Path(__file__).resolve().parent.parent / "trajectories" / "README.md").read_text()
+    keys, tool_moves = (yaml.safe_load(block.split("```")[0]) for block in text.split("```yaml\n")[1:3])
+    job = parse_job(keys, base_dir=Path(__file__).resolve().parent.parent / "trajectories" / "jobs")
+    assert (job.waypoints[1].speed, job.waypoints[1].zone) == (pytest.approx(0.5), pytest.approx(0.04))
+    units = {key: keys[key] for key in ("robot", "length_unit", "angle_unit")}
+    job = parse_job({**units, **tool_moves})
+    assert [w.speed for w in job.waypoints] == [None, pytest.approx(0.25), None, None, None, pytest.approx(0.8)]
+    assert [w.zone for w in job.waypoints] == [0.0, 0.0, pytest.approx(0.05), pytest.approx(0.06), 0.0, 0.0]
+    assert job.tcp_speed_limit == pytest.approx(1.0)
