@@ -1,11 +1,12 @@
-"""A job's motion in a cell: IK answers that collide are skipped, joint moves are planned around
-obstacles (``plan: collision_free``), tool moves are checked, and every profile carries its clearance
-certificate (``certify(..., scene=model)``); a profile below the clearance is an error, never a file.
+"""Motion in a cell: IK answers that collide are skipped (``collision_free_ik``), configurations
+checked (``check_samples``), and a planned path timed through its vertices with its clearance
+certified (``time_clear``); a profile below the clearance is an error (``ClearanceError``), never a file.
 
-Planned joint pieces are timed through the planner's vertices with the job's path shape, which bends
-the polyline between them; where the certificate then finds the profile too close, the polyline edge
-nearest the failing configuration gets its midpoint as one more vertex and the piece is timed again
-(at most MAX_REFINEMENTS times), so the timed path hugs the checked polyline where it must.
+``time_clear`` times the path shape through the planner's vertices, which bends the polyline between
+them; where the certificate then finds the profile too close, the polyline edge nearest the failing
+configuration gets its midpoint as one more vertex and the path is timed again (at most
+MAX_REFINEMENTS times), so the timed path hugs the checked polyline where it must. (A job's program
+rounds the planner's vertices with blends instead: ``pipeline.program``.)
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ import dataclasses
 import numpy as np
 
 from .errors import CollisionError
-from .planning import plan_joint_path
 from .profile import Profile, certify
 
 class ClearanceError(CollisionError):
@@ -63,17 +63,6 @@ def collision_free_ik(robot, model, X_target, q_seed, method: str, target_kind: 
     return free, ""
 
 
-def planned_waypoints(model, waypoints: np.ndarray, planner: str, time_budget: float) -> tuple[np.ndarray, list]:
-    """The waypoints (k, dof) with every edge that is not collision-free replaced by a planned path;
-    returns (vertices, one PlannedPath per edge)."""
-    vertices, plans = [waypoints[0]], []
-    for k in range(len(waypoints) - 1):
-        plan = plan_joint_path(model, waypoints[k], waypoints[k + 1], planner, time_budget, seed=k)
-        plans.append(plan)
-        vertices += list(plan.waypoints[1:])
-    return np.array(vertices), plans
-
-
 def _refined(vertices: np.ndarray, q_fail: np.ndarray) -> np.ndarray:
     """``vertices`` with the midpoint of the edge nearest ``q_fail`` added."""
     a, b = vertices[:-1], vertices[1:]
@@ -106,19 +95,6 @@ def time_clear(model, vertices: np.ndarray, time, refine: bool, t_start: float =
 def _shifted(profile: Profile, t_start: float) -> Profile:
     """``profile`` with its times starting at ``t_start`` [s]."""
     return profile if t_start == 0.0 else dataclasses.replace(profile, t=profile.t + t_start)
-
-
-def time_joint_moves(model, waypoints: np.ndarray, timed, plan: str, planner: str,
-                     time_budget: float, t_start: float = 0.0) -> tuple[Profile, list, int, int]:
-    """Joint moves through ``waypoints`` (k, dof) in a cell, starting at ``t_start`` [s] of the job:
-    planned first with ``plan`` "collision_free" (``planned_waypoints``), then ``timed`` and certified
-    clear (``time_clear``, which refines planned paths only). Returns (profile, the PlannedPaths,
-    vertices timed, vertices added)."""
-    plans = []
-    if plan == "collision_free":
-        waypoints, plans = planned_waypoints(model, waypoints, planner, time_budget)
-    profile, added = time_clear(model, waypoints, timed, refine=plan == "collision_free", t_start=t_start)
-    return profile, plans, len(waypoints), added
 
 
 def check_samples(model, Q: np.ndarray) -> int | None:

@@ -251,12 +251,13 @@ def write_profile_csv(path: str | Path, profile: Profile, revolute: Sequence[boo
     np.savetxt(path, table, fmt="%.12g", delimiter=",", header=header, comments="")
 
 
-def write_profile_npz(path: str | Path, profile: Profile) -> None:
+def write_profile_npz(path: str | Path, profile: Profile, extra: dict | None = None) -> None:
     """The profile as NPZ: ``t`` (N,) [s], ``q``, ``qd``, ``qdd``, ``qddd`` (N, dof) [SI], ``joint_names``,
-    ``tau`` (N, dof) [N m or N] when the profile carries torques, and ``tcp_position`` (N, 3) [m],
-    ``tcp_speed`` [m/s], ``tcp_accel`` [m/s^2] (N,) when it carries the TCP."""
+    ``tau`` (N, dof) [N m or N] when the profile carries torques, ``tcp_position`` (N, 3) [m],
+    ``tcp_speed`` [m/s], ``tcp_accel`` [m/s^2] (N,) when it carries the TCP, and the ``extra`` arrays
+    (the program's, ``pipeline.program.model.program_arrays``)."""
     arrays = {"t": profile.t, "q": profile.q, "qd": profile.qd, "qdd": profile.qdd, "qddd": profile.qddd,
-              "joint_names": np.array(profile.joint_names)}
+              "joint_names": np.array(profile.joint_names), **(extra or {})}
     if profile.tau is not None:
         arrays["tau"] = profile.tau
     if profile.tcp is not None:

@@ -1,7 +1,8 @@
 """Collision-free joint paths: OMPL's sampling planners with Drake's checker as their validity checker.
 
-``plan_joint_path(model, q_start, q_goal)``: the straight joint-space edge when it is free, else a
-search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``: a
+``plan_joint_path(model, q_start, q_goal)``: the straight joint-space edge when it is free, else the
+lowest lift over the obstacles that is free (``lifted_path``: a via point or two above the ends, the
+motion a programmer would teach, found without randomness), else a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``: a
 continuous joint searches half a turn beyond its start and goal values), each state checked by
 Drake's checker and each edge by Drake's parallel edge check, then OMPL's ``PathSimplifier`` on the
 result (vertex reduction, then rope shortcutting at ROPE_STEP). While planning, obstacles are kept
@@ -28,6 +29,8 @@ SELF_PLANNING_MARGIN_M = 0.005
 #: 0.55 of the raw length in 56 ms median, 3 to 0.74 in 27 ms, vertex reduction alone to 0.87 in 11 ms
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
 ROPE_STEP = 3.0
+#: Height steps of the lift tried before a search (``lifted_path``) [m].
+LIFT_STEP_M = 0.05
 #: OMPL's random generator takes one seed per process (before its first sample).
 _seeded: list[int] = []
 
@@ -102,7 +105,61 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
         straight = np.array([q_start, q_goal])
         length = path_length(straight)
         return PlannedPath(straight, "direct", 0.0, 0.0, length, length)
+    began = time.perf_counter()
+    lifted = lifted_path(model, checks, q_start, q_goal)
+    if lifted is not None:
+        length = path_length(lifted)
+        return PlannedPath(lifted, "lift", time.perf_counter() - began, 0.0, length, length)
     return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
+
+
+def lifted_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
+    """The quickest of the lowest free lifts over the obstacles, or None. Two shapes, each at heights
+    LIFT_STEP_M, 2 LIFT_STEP_M, ... above the higher end (up to the arm's reach), the lowest whose
+    vertices and edges are free: one via point (the flange midway between the ends, raised, its
+    orientation halfway) and two (each end raised: up, across, down), each solved by IK nearest the
+    joint values it lies between; of the two, the one whose edges the joints cover sooner at their
+    speed limits. Deterministic: the same ends give the same path in any process."""
+    robot = model.robot
+    X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
+    top = max(X_a[2, 3], X_b[2, 3])
+    shapes = (([interpolated_pose(X_a, X_b, 0.5)], [(q_start + q_goal) / 2.0]), ([X_a, X_b], [q_start, q_goal]))
+    found = []
+    for poses, seeds in shapes:
+        for height in np.arange(LIFT_STEP_M, robot.spec.reach_bound + LIFT_STEP_M, LIFT_STEP_M):
+            vias = [_via(robot, _raised(X, top + height), seed) for X, seed in zip(poses, seeds)]
+            if any(v is None for v in vias):
+                continue
+            vertices = np.array([q_start, *vias, q_goal])
+            if all(checks.state(v) for v in vias) and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
+                found.append(vertices)
+                break
+    qd_max = robot.limits.qd_max
+    return min(found, key=lambda v: float(np.abs(np.diff(v, axis=0) / qd_max).max(axis=1).sum()), default=None)
+
+
+def interpolated_pose(X_a: np.ndarray, X_b: np.ndarray, f: float) -> np.ndarray:
+    """The pose a fraction ``f`` of the way from X_a to X_b (position linear, orientation slerp)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    X = np.eye(4)
+    X[:3, :3] = Slerp([0.0, 1.0], Rotation.from_matrix([X_a[:3, :3], X_b[:3, :3]]))(f).as_matrix()
+    X[:3, 3] = (1.0 - f) * X_a[:3, 3] + f * X_b[:3, 3]
+    return X
+
+
+def _raised(X: np.ndarray, z: float) -> np.ndarray:
+    lifted = X.copy()
+    lifted[2, 3] = z
+    return lifted
+
+
+def _via(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
+    """The IK solution of X nearest ``seed`` (None: out of reach)."""
+    result = robot.ik(X, q_seed=seed)
+    if not result.success:
+        return None
+    return min((s.q for s in result.solutions), key=lambda q: float(np.linalg.norm(q - seed)), default=result.q)
 
 
 def planning_box(limits, q_start: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

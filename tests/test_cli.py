@@ -90,7 +90,7 @@ def test_an_interrupt_exits_130_and_removes_the_staging(tmp_path, monkeypatch, c
     def interrupted(job, scene=None):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline.runner, "solve_waypoints", interrupted)
+    monkeypatch.setattr(pipeline.runner, "compile_job", interrupted)
     assert main(["run", str(ROOT / "trajectories" / "jobs" / "arm5_joint_spline.yaml"), "--out",
                  str(tmp_path / "out")]) == 130
     assert capsys.readouterr().err.count("\n") == 1 and list(tmp_path.iterdir()) == []

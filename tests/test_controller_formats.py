@@ -142,7 +142,7 @@ def test_samples_closer_than_1_ns_are_refused_and_nothing_is_written(arm6, tmp_p
 
 def test_a_job_whose_times_collide_fails_and_leaves_no_output(arm6, tmp_path, monkeypatch):
     bad = sub_ns_profile(arm6[1].profile)
-    monkeypatch.setattr(pipeline.runner, "_timed", lambda job, waypoints, max_samples, scene=None: (bad, []))
+    monkeypatch.setattr(pipeline.runner, "time_program", lambda program, scene=None, max_samples=0: bad)
     job = load_job(write_job(tmp_path, {**yaml.safe_load(ARM6_JOB.read_text()), "outputs": ["csv", "ros2_yaml"]},
                              "arm6"))
     with pytest.raises(OutputError, match="strictly increase"):

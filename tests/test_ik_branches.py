@@ -15,7 +15,8 @@ from pipeline.configurations import matches, parse_configuration
 from pipeline.ik.branches import configuration_labels
 from pipeline.jobs import load_job
 from pipeline.robot import load_robot
-from pipeline.runner import run_job, run_job_file, solve_waypoints
+from pipeline.program import solve_waypoints
+from pipeline.runner import run_job, run_job_file
 
 from .conftest import DATA_DIR
 

@@ -128,10 +128,10 @@ def test_bad_out_exits_2_at_once_with_one_line_and_creates_nothing(tmp_path, whe
 
 
 def test_the_output_folder_is_checked_before_any_work(tmp_path, monkeypatch):
-    def never(job):
+    def never(job, scene=None):
         pytest.fail("IK ran before the output folder was checked")
 
-    monkeypatch.setattr(pipeline.runner, "solve_waypoints", never)
+    monkeypatch.setattr(pipeline.runner, "compile_job", never)
     (tmp_path / "afile").write_text("mine")
     with pytest.raises(OutputError, match="is a file"):
         run_job(load_job(GP7_JOB), tmp_path / "afile")

@@ -19,7 +19,8 @@ from pipeline.__main__ import main
 from pipeline.errors import JobFileError
 from pipeline.io import OWNER_MARKER, profile_columns
 from pipeline.jobs import load_job, parse_job
-from pipeline.runner import FILE_NAMES, run_job, run_job_file, solve_waypoints
+from pipeline.program import solve_waypoints
+from pipeline.runner import FILE_NAMES, run_job, run_job_file
 from pipeline.timing.topp3_backend import STATIONS_PER_SEGMENT
 
 ROOT = Path(__file__).resolve().parent.parent

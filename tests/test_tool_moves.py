@@ -15,7 +15,6 @@ from pipeline import load_robot
 from pipeline.errors import ConfigurationError, JobFileError
 from pipeline.jobs import load_job, parse_job
 from pipeline.kinematics import rotation_log
-from pipeline.motion import pieces_of
 from pipeline.poses import rpy_position_to_pose
 from pipeline.profile import certify
 from pipeline.runner import run_job
@@ -224,11 +223,11 @@ def test_demo_tool_jobs_on_dense_samples(name, tmp_path):
     for k, waypoint in enumerate(job.waypoints[1:], start=1):
         distance = np.linalg.norm(positions - waypoint.X_BE[:3, 3], axis=1).min()
         assert distance <= (waypoint.zone if waypoint.zone > 0 else 1e-6), k
-    stops = [piece.last for piece in pieces_of(job)]
-    assert len(outcome.report["timing_details"]["pieces"]) == len(stops)
-    for piece in outcome.report["timing_details"]["pieces"]:
-        if piece["kind"] == "tool":
-            assert piece["max_position_error_m"] <= POSITION_TOLERANCE_M
+    stops = outcome.report["program"]["stops"]
+    assert len(outcome.report["timing_details"]["stretches"]) == len(stops) - 1
+    for move in outcome.report["program"]["moves"]:
+        if move["kind"] != "joint":
+            assert move["track"]["max_position_error_m"] <= POSITION_TOLERANCE_M
 
 
 def tool_job(**changes) -> dict:
@@ -249,7 +248,7 @@ def tool_job(**changes) -> dict:
                     {"xyz": [500, -300, 330], "rpy": [180, 0, 0]}]}, r"waypoints\[0\]\.move", "has no move to it"),
     ({"waypoints": [{"xyz": [500, 300, 330], "rpy": [180, 0, 0]},
                     {"xyz": [500, -300, 330], "rpy": [180, 0, 0], "move": "linear", "zone": 50}]},
-     r"waypoints\[1\]\.zone", "rounds the corner between two tool moves"),
+     r"waypoints\[1\]\.zone", "the motion ends at rest on the last waypoint"),
     ({"waypoints": [{"xyz": [500, 300, 330], "rpy": [180, 0, 0]},
                     {"xyz": [500, -300, 330], "rpy": [180, 0, 0], "move": "circular"}]},
      r"waypoints\[1\]\.via", "required"),

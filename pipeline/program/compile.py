@@ -1,0 +1,163 @@
+"""``compile_job(job, scene=None) -> Program``: a validated job's waypoints solved, its tool moves tracked
+and its joint moves planned, before any timing.
+
+Steps: IK for pose waypoints (``solve_waypoints``: each seeded with the previous solution, one branch
+kept by the rule of ``pipeline.ik.branches``; in a cell, answers that collide are skipped), then the
+joint path along each run of tool moves (the moves the TCP follows without stopping: tool moves joined
+by zones; ``pipeline.tool_moves``; in a cell its IK samples are checked), then, in a cell with
+``plan: collision_free``, each joint move planned around the obstacles (``pipeline.planning``). A
+waypoint is a stop when it has no zone, except between two joint moves of a job that does not plan
+them: a joint path passes through those (the job's path shape), as it always did.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+
+import numpy as np
+
+from ..cell_motion import check_samples, collision_free_ik
+from ..ik import with_drake_model
+from ..ik.branches import branch_change_reason, choose_solution, configuration_labels
+from ..jobs import Job, JointWaypoint
+from ..planning import plan_joint_path
+from ..tool import Tool
+from ..tool_moves import ToolMoveError, joint_path_along
+from ..tool_path import ToolMove, ToolPath
+from .model import JOINT, Move, Program, ToolTrack, WaypointSolution
+
+log = logging.getLogger(__name__)
+
+
+def compile_job(job: Job, scene=None) -> Program:
+    """The job as a Program (see the module docstring). ``scene``: the job's CollisionModel (None: no
+    cell). Errors: JobFileError naming the waypoint (unreachable, branch change, collision),
+    ToolMoveError naming the tool move and sample, PlanningError / CollisionError from the planner."""
+    solved = solve_waypoints(job, scene)
+    targets = [w.q for w in solved]
+    tracks = _tool_tracks(job, targets, scene)
+    moves = []
+    for k in range(1, len(job.waypoints)):
+        waypoint = job.waypoints[k]
+        track = next((t for t in tracks if t.first <= k <= t.last), None)
+        if track is not None and k == track.last:
+            targets[k] = track.along.samples[-1]        # where the IK along the track ends
+        planned = None
+        if not waypoint.is_tool_move and scene is not None and job.plan == "collision_free":
+            planned = plan_joint_path(scene, targets[k - 1], targets[k], job.planner, job.plan_time_budget, seed=k)
+        moves.append(Move(k, waypoint.move, targets[k], job.robot.fk(targets[k]), _speed(job, waypoint),
+                          waypoint.zone if k + 1 < len(job.waypoints) else 0.0, getattr(waypoint, "via", None),
+                          planned, track))
+    limits = dataclasses.replace(job.robot.limits, tcp_speed_max=job.tcp_speed_limit, tcp_accel_max=None)
+    return Program(job.name, job.robot, Tool.of_job(job), job.cell, limits, job.tcp_accel_max, job.speed_scale, job.timing,
+                   job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan)
+
+
+def _speed(job: Job, waypoint) -> float:
+    """A move's speed: its own, else the job's tcp_speed_max (tool moves) or 1 (joint moves)."""
+    if waypoint.speed is not None:
+        return waypoint.speed
+    return job.tcp_speed_max if waypoint.is_tool_move else 1.0
+
+
+def _stops(job: Job, moves: list[Move]) -> tuple[int, ...]:
+    """The waypoints where the motion rests: the first, the last, and every one without a zone except
+    between two joint moves that are not planned (a joint path passes through those)."""
+    stops = [0]
+    for k in range(1, len(moves)):
+        before, after = moves[k - 1], moves[k]
+        passed = before.kind == JOINT and after.kind == JOINT and job.plan != "collision_free"
+        if before.zone <= 0.0 and not passed:
+            stops.append(k)
+    return (*stops, len(moves))
+
+
+def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
+    """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
+    previous waypoint's joint values (the first: ``job.start`` or the middle of the limits, 0 for a
+    continuous joint), and of its in-limit solutions one is kept by the rule of ``pipeline.ik.branches``
+    (of the configuration the waypoint names, the one nearest the previous joint values; a joint
+    waypoint's own configuration counts as the previous branch). A JobFileError names the waypoint when
+    a pose is unreachable, has no solution of the configuration asked for, or changes branch from the
+    previous pose waypoint (naming both branches and the joint that forces it) unless the job allows
+    branch changes. With ``scene`` (a CollisionModel) a joint waypoint that collides is an error naming
+    the pair, and IK answers that collide are skipped (``cell_motion``)."""
+    robot = job.robot
+    previous = job.start if job.start is not None else robot.limits.q_middle
+    previous_branch = ""
+    options = with_drake_model(robot, job.ik, {}) if job.has_poses else {}
+    solved = []
+    for k, waypoint in enumerate(job.waypoints):
+        field = ("waypoints", k)
+        if isinstance(waypoint, JointWaypoint):
+            if scene is not None and not scene.is_free(waypoint.q):
+                raise job.error(field, f"is not collision-free: {scene.why_not_free(waypoint.q)}")
+            solved.append(WaypointSolution(waypoint.q))
+            previous, previous_branch = waypoint.q, configuration_labels(robot, waypoint.q[None])[0]
+            continue
+        if scene is None:
+            result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, target_kind=waypoint.target, **options)
+        else:
+            result, collides = collision_free_ik(robot, scene, waypoint.X_BE, previous, job.ik, waypoint.target,
+                                                 options, np.random.default_rng(k))
+            if result is None:
+                raise job.error(field, collides)
+        if not result.success:
+            raise job.error(field, f"pose is unreachable with IK method {job.ik!r} ({result.method}, "
+                               f"target {waypoint.target}): {result.reason}")
+        choice = choose_solution(robot, result, previous, previous_branch, waypoint.config)
+        if choice.q is None:
+            raise job.error((*field, "config"), choice.reason)
+        if choice.changed and not job.allow_branch_change:
+            raise job.error(field, f"the IK branch changes from '{choice.previous}' to '{choice.branch}': "
+                               f"{branch_change_reason(robot, choice, waypoint.X_BE, previous)}. Name the configuration "
+                               "(config:), add waypoints, or allow the change (allow_branch_change: true)")
+        if choice.changed:
+            log.warning("%s: branch changes from %s to %s (allowed)", job.location(field), choice.previous,
+                        choice.branch)
+        solved.append(WaypointSolution(choice.q, result.method, result.position_error, result.rotation_error,
+                                       choice.solutions, waypoint.target, result.matched, waypoint.config,
+                                       choice.branch, choice.changed))
+        previous, previous_branch = choice.q, choice.branch
+    return solved
+
+
+def _tool_runs(job: Job) -> list[tuple[int, int]]:
+    """(first, last) waypoint indices of each run of tool moves the TCP follows without stopping (tool
+    moves joined by zones)."""
+    runs, first = [], None
+    for k, waypoint in enumerate(job.waypoints):
+        if not waypoint.is_tool_move:
+            continue
+        first = k if first is None else first
+        next_is_tool = k + 1 < len(job.waypoints) and job.waypoints[k + 1].is_tool_move
+        if not (next_is_tool and waypoint.zone > 0.0):
+            runs.append((first, k))
+            first = None
+    return runs
+
+
+def _tool_tracks(job: Job, targets: list[np.ndarray], scene) -> list[ToolTrack]:
+    """The joint path along each run of tool moves, from the joint values where the run starts (those
+    of the waypoint before it, or where the previous run's IK ended); in a cell its IK samples are
+    checked (ToolMoveError naming the move, the sample and the pair)."""
+    robot, tracks = job.robot, []
+    for first, last in _tool_runs(job):
+        q_start = targets[first - 1]
+        if tracks and tracks[-1].last == first - 1:
+            q_start = tracks[-1].along.samples[-1]
+        waypoints = job.waypoints[first: last + 1]
+        moves = [ToolMove(w.move, w.X_BE, w.via, w.zone if k < last else 0.0)
+                 for k, w in enumerate(waypoints, start=first)]
+        tool_path = ToolPath(robot.fk(q_start), moves, first_index=first)
+        slowest = min(_speed(job, w) for w in waypoints) * job.speed_scale
+        along = joint_path_along(robot, tool_path, q_start, slowest, job.singularity, job.ik)
+        if scene is not None:
+            k = check_samples(scene, along.samples)
+            if k is not None:
+                move = int(tool_path.move_of(along.sigma[k])[0])
+                raise ToolMoveError(move, k, robot.fk(along.samples[k]),
+                                    f"not collision-free: {scene.why_not_free(along.samples[k])}")
+        tracks.append(ToolTrack(first, last, along))
+    return tracks

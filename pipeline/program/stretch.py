@@ -1,0 +1,331 @@
+"""One stretch of a program (from one stop to the next) as one joint path with its limits move by move.
+
+The stretch is a chain of segments, each a JointPath: a run of tool moves (the C2 spline through its
+IK samples), a run of unplanned joint moves (the job's path shape through their targets), or an edge
+of a planned move (straight in joint space between two of the planner's vertices). Where two segments
+meet, the corner is rounded in joint space by a septic Hermite blend that matches both segments'
+first three derivatives where it leaves and joins them (so the path stays C2 or better and toppra and
+topp3 see no jump): at a waypoint with a zone R, the blend leaves the segment before where the TCP is
+R from the waypoint (on a tool move: R along its line or arc) and joins the next one likewise, each
+at most half of the move's last or first edge; at a planner's inner vertex the blend takes
+AUTO_BLEND of each edge. A blend that leaves the joint limits, or, in a cell, comes closer to
+an obstacle than the clearance (checked at configurations CHECK_STEP_RAD apart), is narrowed
+(halved) until it does not; ``narrowed`` counts that.
+
+Each segment is parameterised by its joint-space length u (so |dq/du| is about 1 everywhere and the
+blends, whose parameter width is the length they replace, neither loop nor stall); the stretch's s in
+[0, 1] is u over the total. The ``schedule`` (``pipeline.schedule``) gives each part its limits: a
+tool move's line or arc outside its zones its TCP speed and the job's TCP acceleration; a joint move
+and a blend the joint speed fraction of its move (a blend between two moves the smaller).
+``passages`` are the s at which the stretch passes its waypoints (a blend's middle at a zone).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..path import SEPTIC, JointPath, make_path
+from ..schedule import LimitSchedule
+from .model import JOINT, Move, Program
+
+#: Fraction of each edge a blend at a planner's inner vertex takes [1].
+AUTO_BLEND = 0.45
+#: Blend check resolution in a cell: configurations at most this far apart [rad]; blend narrowing rounds.
+CHECK_STEP_RAD = 0.01
+NARROW_ROUNDS = 12
+#: TCP samples on a joint segment's end half when finding where the TCP is R from the corner.
+ZONE_SAMPLES = 200
+
+
+@dataclass
+class Segment:
+    """A JointPath ``path`` of joint-space length ``length`` [rad or m] and the moves it carries:
+    ``moves`` (the program's Move values), ``kind`` ("track", "joint" or "edge"), and the parts cut
+    off at its ends for blends, ``cut_in`` and ``cut_out`` [same units]."""
+
+    path: JointPath
+    moves: tuple[Move, ...]
+    kind: str
+    cut_in: float = 0.0
+    cut_out: float = 0.0
+
+    @property
+    def length(self) -> float:
+        return max(self.path.length, 1e-12)
+
+    def local(self, u: np.ndarray, order: int) -> np.ndarray:
+        """d^order q / du^order at the segment's own u [0, length]."""
+        return self.path(np.clip(u / self.length, 0.0, 1.0), order) / self.length**order
+
+
+@dataclass
+class Blend:
+    """The blend between segments ``before`` and ``after`` (indices), its ``zone`` [m] (None: at a
+    planner's vertex), the ``waypoint`` it rounds (None at a planner's vertex) and the coefficients of
+    its septic polynomial in tau = (u - start) / width (set by ``StretchPath``)."""
+
+    before: int
+    after: int
+    zone: float | None
+    waypoint: int | None
+    coefficients: np.ndarray | None = None
+    narrowed: int = 0
+
+
+class StretchPath:
+    """The joint path of stretch ``first`` .. ``last`` (waypoint indices) of ``program``; see the module
+    docstring. ``path``: the JointPath (shape "program"); ``schedule``: its LimitSchedule over s;
+    ``passages``: s of each waypoint first+1 .. last; ``blends``."""
+
+    def __init__(self, program: Program, first: int, last: int, scene=None):
+        self.program, self.first, self.last, self.scene = program, first, last, scene
+        self.segments, self.blends = _segments(program, first, last)
+        for blend in self.blends:
+            self._place_blend(blend)
+        self.rebuild()
+
+    # -- geometry -------------------------------------------------------------------------------------
+    def _cut(self, segment: Segment, zone: float, at_end: bool) -> float:
+        """The joint-space length [rad or m] cut off ``segment`` at its end (or start) for a zone of
+        ``zone`` [m]: where the TCP is ``zone`` from the corner, at most half the move there."""
+        if segment.kind == "track":
+            along = segment.moves[0].track.along
+            tool_path = along.tool_path
+            edge = np.diff(tool_path.starts)[-1 if at_end else 0]
+            return min(zone, edge / 2.0) / tool_path.length * segment.length
+        robot = self.program.robot
+        if segment.kind == "joint" and len(segment.path.s_waypoints) > 2:
+            s_edge = segment.path.s_waypoints[-2] if at_end else segment.path.s_waypoints[1]
+            half = (1.0 - s_edge) / 2.0 if at_end else s_edge / 2.0
+        else:
+            half = 0.5
+        s = 1.0 - np.linspace(0.0, half, ZONE_SAMPLES) if at_end else np.linspace(0.0, half, ZONE_SAMPLES)
+        tcp = robot.fk_batch(segment.path(s))[:, :3, 3]
+        distance = np.linalg.norm(tcp - tcp[0], axis=1)
+        beyond = np.flatnonzero(distance >= zone)
+        reach = half if beyond.size == 0 else float(np.abs(s[beyond[0]] - s[0]))
+        return reach * segment.length
+
+    def _place_blend(self, blend: Blend) -> None:
+        before, after = self.segments[blend.before], self.segments[blend.after]
+        if blend.zone is None:
+            before.cut_out, after.cut_in = AUTO_BLEND * before.length, AUTO_BLEND * after.length
+        else:
+            before.cut_out = self._cut(before, blend.zone, at_end=True)
+            after.cut_in = self._cut(after, blend.zone, at_end=False)
+
+    def rebuild(self) -> None:
+        """Make the path (and check the blends, narrowing those that fail) from the segments' cuts."""
+        for _ in range(NARROW_ROUNDS):
+            self._assemble()
+            failing = [b for b in self.blends if not self._blend_ok(b)]
+            if not failing:
+                return
+            for blend in failing:
+                self.narrow(blend)
+        self._assemble()
+
+    def narrow(self, blend: Blend) -> None:
+        """Halve the parts ``blend`` replaces."""
+        self.segments[blend.before].cut_out /= 2.0
+        self.segments[blend.after].cut_in /= 2.0
+        blend.narrowed += 1
+
+    def _assemble(self) -> None:
+        """Pieces in order: (kind, index, u_start, u_end) with u the stretch's joint-space length."""
+        pieces, u = [], 0.0
+        for i, segment in enumerate(self.segments):
+            kept = segment.length - segment.cut_in - segment.cut_out
+            pieces.append(("segment", i, u, u + kept))
+            u += kept
+            blend = next((b for b in self.blends if b.before == i), None)
+            if blend is not None:
+                width = segment.cut_out + self.segments[blend.after].cut_in
+                blend.coefficients = self._coefficients(blend, width)
+                pieces.append(("blend", self.blends.index(blend), u, u + width))
+                u += width
+        self.pieces, self.total = pieces, u
+        self.path = self._joint_path()
+
+    def _coefficients(self, blend: Blend, width: float) -> np.ndarray:
+        """The blend's septic coefficients (8, dof) in tau: values and first three derivatives of both
+        segments where it leaves and joins them (derivatives in tau = u / width)."""
+        before, after = self.segments[blend.before], self.segments[blend.after]
+        u_out, u_in = before.length - before.cut_out, after.cut_in
+        ends = [before.local(np.array([u_out]), d)[0] * width**d for d in range(4)]
+        ends += [after.local(np.array([u_in]), d)[0] * width**d for d in range(4)]
+        return SEPTIC @ np.array(ends)
+
+    def _piece_values(self, u: np.ndarray, order: int) -> np.ndarray:
+        """d^order q / du^order at the stretch's u (n,)."""
+        out = np.empty((u.size, self.program.robot.dof))
+        starts = np.array([p[2] for p in self.pieces])
+        index = np.clip(np.searchsorted(starts, u, side="right") - 1, 0, len(self.pieces) - 1)
+        for k, (kind, i, u0, u1) in enumerate(self.pieces):
+            mask = index == k
+            if not mask.any():
+                continue
+            if kind == "segment":
+                segment = self.segments[i]
+                out[mask] = segment.local(u[mask] - u0 + segment.cut_in, order)
+            else:
+                width = u1 - u0
+                coefficients = self.blends[i].coefficients
+                poly = np.polynomial.polynomial.polyder(coefficients, order) if order else coefficients
+                out[mask] = np.polynomial.polynomial.polyval((u[mask] - u0) / width, poly).T / width**order
+        return out
+
+    def _joint_path(self) -> JointPath:
+        total = self.total
+
+        def pieces(s, order):
+            s = np.asarray(s, dtype=float)
+            values = self._piece_values(np.atleast_1d(s) * total, order) * total**order
+            return values[0] if s.ndim == 0 else values
+
+        bounds = np.array([p[2] for p in self.pieces] + [total]) / total
+        inner = [self._segment_breakpoints(k) for k in range(len(self.pieces))]
+        breakpoints = np.unique(np.concatenate([bounds, *inner]))
+        waypoints = self._piece_values(bounds * total, 0)
+        continuity = min([3] + [s.path.continuity for s in self.segments])
+        return JointPath(waypoints, bounds, breakpoints, "program", total, continuity, pieces)
+
+    def _segment_breakpoints(self, k: int) -> np.ndarray:
+        """The inner breakpoints of piece k's segment, in the stretch's s."""
+        kind, i, u0, u1 = self.pieces[k]
+        if kind != "segment":
+            return np.empty(0)
+        segment = self.segments[i]
+        u = segment.path.breakpoints * segment.length - segment.cut_in + u0
+        return u[(u > u0) & (u < u1)] / self.total
+
+    def _blend_ok(self, blend: Blend) -> bool:
+        """The blend stays inside the joint limits and, in a cell, keeps the clearance."""
+        k = next(j for j, p in enumerate(self.pieces) if p[0] == "blend" and self.blends[p[1]] is blend)
+        _, _, u0, u1 = self.pieces[k]
+        step = CHECK_STEP_RAD if self.scene is not None else (u1 - u0) / 50.0
+        u = np.linspace(u0, u1, max(3, int(np.ceil((u1 - u0) / max(step, 1e-12))) + 1))
+        q = self._piece_values(u, 0)
+        limits = self.program.robot.limits
+        if np.any(q < limits.q_min) or np.any(q > limits.q_max):
+            return False
+        return self.scene is None or all(self.scene.is_free(x) for x in q)
+
+    # -- limits and passages ----------------------------------------------------------------------------
+    def s_of(self, k: int, u_local: float) -> float:
+        """The stretch's s of piece k's segment at its own u."""
+        kind, i, u0, _ = self.pieces[k]
+        return (u0 + u_local - self.segments[i].cut_in) / self.total
+
+    @property
+    def schedule(self) -> LimitSchedule:
+        """The limits along s (see the module docstring), with a bound at every passage."""
+        rows = []            # (s_start, s_end, joint_speed, tcp_speed, tcp_accel)
+        accel = np.inf if self.program.tcp_accel_max is None else self.program.tcp_accel_max
+        for k, (kind, i, u0, u1) in enumerate(self.pieces):
+            s0, s1 = u0 / self.total, u1 / self.total
+            if kind == "blend":
+                blend = self.blends[i]
+                speeds = [m.speed for j in (blend.before, blend.after) for m in self.segments[j].moves
+                          if m.kind == JOINT]
+                rows.append((s0, s1, min(speeds + [1.0]), np.inf, np.inf))
+                continue
+            segment = self.segments[i]
+            if segment.kind == "track":
+                rows += self._track_rows(k, segment, accel)
+            else:
+                rows.append((s0, s1, min(m.speed for m in segment.moves), np.inf, np.inf))
+        cuts = sorted(set([r[0] for r in rows] + [rows[-1][1]] + list(self.passages)))
+        bounds = np.array(cuts)
+        mids = (bounds[:-1] + bounds[1:]) / 2.0
+        values = np.array([[r[2], r[3], r[4]] for r in rows])
+        owner = np.clip(np.searchsorted([r[0] for r in rows], mids, side="right") - 1, 0, len(rows) - 1)
+        return LimitSchedule(bounds, *values[owner].T)
+
+    def _track_rows(self, k: int, segment: Segment, accel: float) -> list[tuple]:
+        """Schedule rows of a track's kept part: per tool move its speed; in a zone between two tool
+        moves the smaller of theirs."""
+        along = segment.moves[0].track.along
+        tool_path = along.tool_path
+        points = np.unique(np.concatenate([tool_path.starts, *[[b.start, b.end] for b in tool_path.blends]]))
+        speeds = {m.end: m.speed for m in segment.moves}
+        rows = []
+        for a, b in zip(points[:-1], points[1:]):
+            middle = (a + b) / 2.0
+            inside = [blend for blend in tool_path.blends if blend.start <= middle <= blend.end]
+            ends = (tool_path.move_of(middle - (b - a) / 2.0 + 1e-12)[0], tool_path.move_of(b - 1e-12)[0])
+            speed = min(speeds[int(e)] for e in ends) if inside else speeds[int(tool_path.move_of(middle)[0])]
+            s0, s1 = (self.s_of(k, x / tool_path.length * segment.length) for x in (a, b))
+            lo, hi = self.pieces[k][2] / self.total, self.pieces[k][3] / self.total
+            if s1 > lo and s0 < hi:
+                rows.append((max(s0, lo), min(s1, hi), 1.0, speed, accel))
+        return rows
+
+    @property
+    def passages(self) -> list[float]:
+        """s at which the stretch passes waypoints first+1 .. last."""
+        out = []
+        for end in range(self.first + 1, self.last + 1):
+            blend = next((b for b in self.blends if b.waypoint == end), None)
+            if blend is not None:
+                k = next(j for j, p in enumerate(self.pieces) if p[0] == "blend" and self.blends[p[1]] is blend)
+                out.append((self.pieces[k][2] + self.pieces[k][3]) / 2.0 / self.total)
+            elif end == self.last:
+                out.append(1.0)
+            else:
+                out.append(self._inner_passage(end))
+        return out
+
+    def _inner_passage(self, end: int) -> float:
+        """s of a waypoint inside a segment (a joint path through several targets, a track's corner)."""
+        for k, (kind, i, u0, u1) in enumerate(self.pieces):
+            segment = self.segments[i] if kind == "segment" else None
+            if segment is None or end not in [m.end for m in segment.moves]:
+                continue
+            if segment.kind == "track":
+                tool_path = segment.moves[0].track.along.tool_path
+                x = tool_path.starts[[m.end for m in segment.moves].index(end) + 1] / tool_path.length
+            else:
+                x = segment.path.s_waypoints[min([m.end for m in segment.moves].index(end) + 1,
+                                                 len(segment.path.s_waypoints) - 1)]
+            return float(np.clip(self.s_of(k, x * segment.length), u0 / self.total, u1 / self.total))
+        return 1.0
+
+
+def _segments(program: Program, first: int, last: int) -> tuple[list[Segment], list[Blend]]:
+    """The segments of the stretch and the blends between them (see the module docstring)."""
+    moves = program.moves[first: last]
+    limits = program.robot.limits
+    segments: list[Segment] = []
+    blends: list[Blend] = []
+    k = 0
+    while k < len(moves):
+        move = moves[k]
+        start = program.targets[move.end - 1]
+        if move.track is not None:
+            run = [m for m in moves[k:] if m.track is move.track]
+            segments.append(Segment(move.track.along.path, tuple(run), "track"))
+            k += len(run)
+        elif move.planned is not None:
+            vertices = move.planned.waypoints
+            for j in range(len(vertices) - 1):
+                if j:
+                    blends.append(Blend(len(segments) - 1, len(segments), None, None))
+                segments.append(Segment(make_path(vertices[j: j + 2], limits.q_min, limits.q_max, "monotone"),
+                                        (move,), "edge"))
+            k += 1
+        else:
+            run = [move]
+            while k + len(run) < len(moves) and run[-1].zone <= 0.0 and moves[k + len(run)].kind == JOINT \
+                    and moves[k + len(run)].planned is None:
+                run.append(moves[k + len(run)])
+            points = np.array([start] + [m.target for m in run])
+            segments.append(Segment(make_path(points, limits.q_min, limits.q_max, program.path or "monotone"),
+                                    tuple(run), "joint"))
+            k += len(run)
+        if k < len(moves):
+            ending = moves[k - 1]
+            blends.append(Blend(len(segments) - 1, len(segments), ending.zone, ending.end))
+    return segments, blends

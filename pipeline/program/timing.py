@@ -1,0 +1,141 @@
+"""``time_program(program, scene=None) -> Profile``: every stretch timed as one path, joined at its stops,
+certified once.
+
+Each stretch (``StretchPath``) is timed by the program's method (``pipeline.timing.time_path``) with
+the robot's limits, the job's safety TCP limit everywhere and the moves' own speeds on their parts
+(``LimitSchedule``), and starts and ends at rest; the stretches are joined one after the other and the
+whole profile is certified once (``pipeline.profile.certify``: joint limits, the schedule, and in a
+cell the clearance). When the clearance fails inside a blend, that blend is narrowed and its stretch
+timed again (at most MAX_REFINEMENTS times); a failure elsewhere is a ClearanceError with the job time.
+``ruckig`` (waypoint to waypoint, off the path) times each stretch through its targets and planned
+vertices.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cell_motion import ClearanceError
+from ..choices import DEFAULT_MAX_SAMPLES
+from ..errors import TimingError
+from ..profile import Profile, TcpSamples, TimingDetails, certify
+from ..schedule import joined_schedules
+from ..tcp import TcpMotion
+from ..timing import time_path
+from .model import Program
+from .stretch import StretchPath
+
+#: Blends narrowed (one per round) to bring the profile within the clearance before giving up.
+MAX_REFINEMENTS = 8
+
+
+@dataclass(frozen=True)
+class ProgramDetails(TimingDetails):
+    """What timing a program did: per stretch its waypoints ``first``..``last``, ``duration_s``, its
+    back end's ``timing`` details and the blends narrowed for the limits or the clearance; ``passages_s``:
+    the time [s] at which the motion passes (or stops at) each waypoint."""
+
+    stretches: tuple[dict, ...]
+    passages_s: tuple[float, ...]
+
+
+def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
+    """The certified profile of ``program`` (see the module docstring); TimingError when the joined
+    profile fails its certificate, ClearanceError (with the job time) when it comes too close."""
+    paths = [None if program.timing == "ruckig" else StretchPath(program, first, last, scene)
+             for first, last in program.stretches()]
+    profiles = [_time_stretch(program, path, k, max_samples) for k, path in enumerate(paths)]
+    for _ in range(MAX_REFINEMENTS + 1):
+        joined = _joined(program, paths, profiles)
+        certificate = certify(joined, scene=scene)
+        clearance = certificate.clearance
+        if clearance is None or clearance.passed:
+            break
+        k, blend = _blend_at(paths, profiles, clearance.failed_at_s)
+        if blend is None:
+            hint = "" if program.plan == "collision_free" else " (plan: collision_free plans joint moves around obstacles)"
+            first, last = program.stretches()[k]
+            raise ClearanceError(clearance, joined, hint, first, last)
+        paths[k].narrow(blend)
+        paths[k].rebuild()
+        profiles[k] = _time_stretch(program, paths[k], k, max_samples)
+    else:
+        raise ClearanceError(clearance, joined, "", *program.stretches()[k])
+    if not certificate.passed:
+        raise TimingError(f"{program.timing} profile failed certification: {certificate}")
+    return dataclasses.replace(joined, certificate=certificate)
+
+
+def _time_stretch(program: Program, path: StretchPath | None, k: int, max_samples: int) -> Profile:
+    """Stretch k timed from rest to rest (uncertified)."""
+    common = {"method": program.timing, "speed_scale": program.speed_scale, "limits": program.limits,
+              "dt": program.dt, "max_samples": max_samples}
+    if path is None:
+        first, last = program.stretches()[k]
+        vertices = [program.targets[first]]
+        for move in program.moves[first: last]:
+            vertices += list(move.planned.waypoints[1:]) if move.planned is not None else [move.target]
+        return time_path(program.robot, np.array(vertices), **common)
+    return time_path(program.robot, path.path, tcp=TcpMotion(program.robot), schedule=path.schedule, **common)
+
+
+def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
+    """The stretches' profiles one after the other, with their schedules and the passage times."""
+    offsets = np.cumsum([0.0] + [p.duration for p in profiles[:-1]])
+    passages, stretches = [], []
+    for path, profile, offset, (first, last) in zip(paths, profiles, offsets, program.stretches()):
+        if path is None:
+            times = [offset + profile.duration] * (last - first)
+        else:
+            bounds = profile.schedule.bounds
+            schedule_s = path.schedule.bounds
+            times = [offset + float(np.interp(s, schedule_s, bounds)) for s in path.passages]
+        passages += times
+        stretches.append({"first": first, "last": last, "duration_s": profile.duration,
+                          "timing": profile.details.to_dict() if profile.details else None,
+                          "blends_narrowed": 0 if path is None else sum(b.narrowed for b in path.blends)})
+    joined = join_profiles(profiles, ProgramDetails(tuple(stretches), (0.0, *passages)))
+    schedules = [p.schedule.shifted(offset) for p, offset in zip(profiles, offsets) if p.schedule is not None]
+    return dataclasses.replace(joined, schedule=joined_schedules(schedules) if len(schedules) == len(profiles)
+                               else None)
+
+
+def _blend_at(paths: list, profiles: list[Profile], t: float | None):
+    """(stretch index, the blend whose configurations come nearest the profile's at job time ``t``, or
+    None when the nearest part of the path is not a blend)."""
+    offsets = np.cumsum([0.0] + [p.duration for p in profiles])
+    k = int(np.clip(np.searchsorted(offsets, t if t is not None else 0.0, side="right") - 1, 0, len(profiles) - 1))
+    path, profile = paths[k], profiles[k]
+    if path is None or t is None:
+        return k, None
+    q = np.array([np.interp(t - offsets[k], profile.t, column) for column in profile.q.T])
+    s = np.linspace(0.0, 1.0, 4001)
+    nearest = s[int(np.argmin(np.linalg.norm(path.path(s) - q, axis=1)))] * path.total
+    for kind, i, u0, u1 in path.pieces:
+        if kind == "blend" and u0 <= nearest <= u1:
+            return k, path.blends[i]
+    return k, None
+
+
+def join_profiles(profiles: list[Profile], details: TimingDetails) -> Profile:
+    """Profiles that each end at rest where the next begins, one after the other (the joint sample of
+    two pieces once)."""
+    first = profiles[0]
+    offsets = np.cumsum([0.0] + [p.duration for p in profiles[:-1]])
+    keep = [slice(None)] + [slice(1, None)] * (len(profiles) - 1)
+
+    def joined(arrays) -> np.ndarray:
+        return np.concatenate([array[k] for array, k in zip(arrays, keep)])
+
+    def stacked(name: str):
+        return None if getattr(first, name) is None else joined([getattr(p, name) for p in profiles])
+
+    tcp = None if first.tcp is None else TcpSamples(*(joined([getattr(p.tcp, field) for p in profiles])
+                                                      for field in ("position", "speed", "accel")))
+    t = joined([p.t + offset for p, offset in zip(profiles, offsets)])
+    return Profile(t, stacked("q"), stacked("qd"), stacked("qdd"), stacked("qddd"), first.method, first.limits,
+                   first.joint_names, details, tau=stacked("tau"), speed_scale=first.speed_scale,
+                   unscaled_limits=first.unscaled_limits, tcp=tcp)
