@@ -51,6 +51,7 @@ bench: $(STAMP)
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench timing
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cartesian
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench plan
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cycle
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench scale
 
 clean:

@@ -186,6 +186,10 @@ def cmd_bench(args) -> int:
         from .bench.plan import run_plan_benchmark
 
         report = run_plan_benchmark(pairs=args.pairs, seed=args.seed)
+    elif args.suite == "cycle":
+        from .bench.cycle import CELLS, run_cycle_benchmark
+
+        report = run_cycle_benchmark(_names(args.cells, CELLS), programs=args.programs, seed=args.seed)
     elif args.suite == "scale":
         from .bench.scale import run_scale_benchmark
 
@@ -371,7 +375,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "Time one part of the pipeline beside the libraries it is compared with, in the same run (the\n"
                   "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
                   ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "scale"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -382,6 +386,9 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                        "timing: rows to run (default toppra,raw,drake,topp3,ruckig; toppra always)")
     bench.add_argument("--pairs", type=POSITIVE, default=100, metavar="N",
                        help="plan only: seeded random start/goal pairs per cell (default 100)")
+    bench.add_argument("--programs", type=POSITIVE, default=20, metavar="N",
+                       help="cycle only: seeded random pick-and-place programs per cell (default 20)")
+    bench.add_argument("--cells", help="cycle only: comma-separated demo cells (default gp7_wall_cell,gp7_shelf_cell)")
     bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")
     bench.add_argument("--poses", type=POSITIVE, default=1_000_000, metavar="N",
                        help="scale only: poses of the timed map (default 1,000,000)")

@@ -19,11 +19,11 @@ with its own approach length of LINE_MM (100-200 mm). The program, in TCP poses 
     6 above the pick  joint  (planned)                stop (the end)
 
 ``plan: collision_free``, ``allow_branch_change: true`` (in the shelf, the two cubbies want different wrist
-branches; a joint move may change it, a tool move cannot); ``tcp_speed_max`` drawn from TCP_SPEED_MM_S (every tool move's speed),
-``tcp_accel_max`` TCP_ACCEL_MM_S2; each zone drawn from ZONE_MM and at most half the line it rounds into
-or out of. A draw is kept when our compiler accepts it (``compile_job``: every pose reachable with a
-collision-free answer, every tool move's IK samples free, every joint move planned); otherwise the whole
-program is drawn again, at most MAX_DRAWS times per program. The report says how many were drawn.
+branches; a joint move may change it, a tool move cannot); ``tcp_speed_max`` drawn from TCP_SPEED_MM_S
+(every tool move's speed), ``tcp_accel_max`` TCP_ACCEL_MM_S2; each zone drawn from ZONE_MM and at most half
+the line it rounds into or out of. A draw is kept when our compiler accepts it (``compile_job``: every pose
+reachable with a collision-free answer, every tool move's IK samples free, every joint move planned);
+otherwise the whole program is drawn again, at most MAX_DRAWS times per program. The report says how many were drawn.
 
 Beside them, the demo cell jobs (DEMO_JOBS, in the cells measured).
 
@@ -56,22 +56,36 @@ certified; our median cycle below the peer's on every cell; ``time_stretch`` <= 
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from ..errors import PipelineError
+from ..errors import ConfigurationError, PipelineError
+from ..jobs import load_job, parse_job
 from ..planning import plan_joint_path
-from ..profile import Profile, scale_limits
+from ..profile import Profile, certify, scale_limits
+from ..program import compile_job, lower_bound, time_program
+from ..progress import Progress
 from ..robot_spec import Limits
+from ..runner import collision_model
 from ..schedule import LimitSchedule
 from ..tcp import TcpMotion
 from ..timing.toppra_backend import sample_times
+from ..versions import version_table
+from .goals import Goal, GoalReport, fmt, goal_lines
 
-#: The demo cells and the demo cell jobs (trajectories/jobs/) measured beside them.
+log = logging.getLogger(__name__)
+
+#: The demo cells, and the demo cell jobs (in the checkout's trajectories/jobs/) with their cells.
 CELLS = ("gp7_wall_cell", "gp7_shelf_cell")
 DEMO_JOBS = {"gp7_cell_pick_place": "gp7_wall_cell"}
+DEMO_JOB_DIR = Path(__file__).resolve().parents[2] / "trajectories" / "jobs"
+#: The goals (issue 23): median and max cycle / bound, the largest time_stretch [1].
+MEDIAN_GOAL, MAX_GOAL, STRETCH_GOAL = 1.6, 2.0, 1.01
 #: Draws of a whole program before one is given up [1].
 MAX_DRAWS = 50
 #: The programs' tool [mm, deg], TCP speed range [mm/s], TCP acceleration [mm/s^2], approach and retreat
@@ -131,16 +145,21 @@ def _station(rng: np.random.Generator, box, direction: np.ndarray, pitch_deg: fl
     return target, above, _tool_rpy(pitch_deg, _uniform(rng, SPIN_DEG)), line
 
 
-def _stations(cell: str, rng: np.random.Generator) -> tuple[tuple, tuple]:
-    """(pick, place) stations of one program in ``cell`` (see ``_station``)."""
-    if cell == "gp7_wall_cell":
-        down = np.array([0.0, 0.0, -1.0])
-        return (_station(rng, WALL_SIDES["pick"], down, 0.0), _station(rng, WALL_SIDES["place"], down, 0.0))
-    if cell == "gp7_shelf_cell":
-        into = np.array([1.0, 0.0, 0.0])
-        order = rng.permutation(2)
-        return tuple(_station(rng, SHELF_CUBBIES[k], into, 90.0 + _uniform(rng, SHELF_TILT_DEG)) for k in order)
-    raise ValueError(f"bench cycle draws programs in {', '.join(CELLS)}, not in {cell!r}")
+def _wall_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
+    """(pick, place) stations of one program in the wall cell (see ``_station``)."""
+    down = np.array([0.0, 0.0, -1.0])
+    return _station(rng, WALL_SIDES["pick"], down, 0.0), _station(rng, WALL_SIDES["place"], down, 0.0)
+
+
+def _shelf_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
+    """(pick, place) stations of one program in the shelf cell, in the two cubbies in a drawn order."""
+    into = np.array([1.0, 0.0, 0.0])
+    order = rng.permutation(2)
+    return tuple(_station(rng, SHELF_CUBBIES[k], into, 90.0 + _uniform(rng, SHELF_TILT_DEG)) for k in order)
+
+
+#: How each demo cell draws its stations.
+STATIONS = {"gp7_wall_cell": _wall_stations, "gp7_shelf_cell": _shelf_stations}
 
 
 def _zone(rng: np.random.Generator, line_mm: float) -> float:
@@ -150,7 +169,7 @@ def _zone(rng: np.random.Generator, line_mm: float) -> float:
 
 def draw_document(cell: str, rng: np.random.Generator) -> dict:
     """One pick-and-place job document in ``cell`` (see the module docstring) [mm, deg]."""
-    (pick, above_pick, rpy_pick, d_pick), (place, above_place, rpy_place, d_place) = _stations(cell, rng)
+    (pick, above_pick, rpy_pick, d_pick), (place, above_place, rpy_place, d_place) = STATIONS[cell](rng)
     speed = round(float(rng.uniform(*TCP_SPEED_MM_S)), -1)
     zones = [_zone(rng, d_pick), _zone(rng, d_place), _zone(rng, d_place)]
     return {
@@ -172,8 +191,6 @@ def draw_document(cell: str, rng: np.random.Generator) -> dict:
 
 def parsed_job(document: dict, name: str):
     """The job of a drawn document (``parse_job``; the cell named by its name)."""
-    from ..jobs import parse_job
-
     return parse_job(document, source=f"<bench cycle {name}>", name=name)
 
 
@@ -267,12 +284,17 @@ def peer_piece(program, scene, k: int, limits: Limits, tcp: TcpMotion, budget: f
 
 
 def joined_at_rest(pieces: list[PeerPiece]) -> tuple[np.ndarray, ...]:
-    """(t, q, qd, qdd) of the pieces one after the other, each junction sample once, and the times the
-    pieces begin and end (m + 1,) [s]."""
+    """(t, q, qd, qdd) of the pieces one after the other and the times the pieces begin and end (m + 1,)
+    [s]. Two pieces meet at rest at the same q, so their junction is one sample: the one of the piece
+    whose TCP limits are stricter (a tool move's, whose limits hold at its ends), else the earlier's."""
     bounds = np.concatenate([[0.0], np.cumsum([piece.t[-1] for piece in pieces])])
-    keep = [slice(None)] + [slice(1, None)] * (len(pieces) - 1)
-    t = np.concatenate([piece.t[s] + start for piece, s, start in zip(pieces, keep, bounds)])
-    q, qd, qdd = (np.vstack([getattr(piece, name)[s] for piece, s in zip(pieces, keep)])
+    keep = [np.ones(len(piece.t), dtype=bool) for piece in pieces]
+    for k in range(1, len(pieces)):
+        before, after = pieces[k - 1], pieces[k]
+        later = (after.tcp_speed, after.tcp_accel) < (before.tcp_speed, before.tcp_accel)
+        keep[k - 1 if later else k][-1 if later else 0] = False
+    t = np.concatenate([piece.t[mask] + start for piece, mask, start in zip(pieces, keep, bounds)])
+    q, qd, qdd = (np.vstack([getattr(piece, name)[mask] for piece, mask in zip(pieces, keep)])
                   for name in ("q", "qd", "qdd"))
     return t, q, qd, qdd, bounds
 
@@ -292,3 +314,304 @@ def peer_profile(program, scene=None, budget: float = PEER_PLAN_BUDGET_S) -> Pro
     return Profile(t, q, qd, qdd, np.gradient(qdd, t, axis=0), PEER_METHOD, limits, tuple(robot.joint_names),
                    speed_scale=program.speed_scale, unscaled_limits=program.limits, tcp=tcp.samples(q, qd, qdd),
                    schedule=schedule)
+
+
+# -- the contestants --------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Outcome:
+    """One contestant on one program: ``cycle_s`` (its profile's duration [s]; None: no profile),
+    ``certified`` (our judge passed it), ``failure`` (what failed in a few words: the error's type, or the
+    parts of the judge that failed, ``judge_failures``; "" when certified) and ``reason`` (the whole
+    message), ``worst_ratio`` (the judge's largest peak/limit ratio [1]; None: no profile), ``time_stretch``
+    (the largest uniform slow-down its timing details report [1]; None: none reported) and ``compute_s``
+    (wall clock of the timing, the peer's planning included [s])."""
+
+    cycle_s: float | None
+    certified: bool
+    failure: str
+    reason: str
+    worst_ratio: float | None
+    time_stretch: float | None
+    compute_s: float
+
+
+def judge_failures(certificate) -> str:
+    """The parts of our judge a profile failed, comma-separated: the worst quantity beyond its limit
+    ("qdd", "tcp_speed", ...), "columns", "clearance" ("" when it passed)."""
+    parts = [certificate.worst_quantity] if certificate.worst_ratio > 1.0 + certificate.tolerance else []
+    if certificate.columns is not None and not certificate.columns.passed:
+        parts.append("columns")
+    if certificate.clearance is not None and not certificate.clearance.passed:
+        parts.append("clearance")
+    return ", ".join(parts)
+
+
+def _failed(exc: PipelineError, began: float, stage: str = "") -> Outcome:
+    """The outcome of a contestant that raised ``exc`` (in ``stage``, when named)."""
+    return Outcome(None, False, stage + type(exc).__name__, f"{stage}{type(exc).__name__}: {exc}", None, None,
+                   time.perf_counter() - began)
+
+
+def largest_time_stretch(details) -> float | None:
+    """The largest value under a key ``time_stretch`` anywhere in nested dicts and lists (None: none)."""
+    if isinstance(details, dict):
+        found = [largest_time_stretch(value) for key, value in details.items() if key != "time_stretch"]
+        found.append(details.get("time_stretch"))
+    elif isinstance(details, (list, tuple)):
+        found = [largest_time_stretch(value) for value in details]
+    else:
+        return None
+    found = [value for value in found if value is not None]
+    return max(found, default=None)
+
+
+def _judged(profile: Profile, certificate, began: float, time_stretch: float | None) -> Outcome:
+    return Outcome(profile.duration, certificate.passed, judge_failures(certificate),
+                   "" if certificate.passed else str(certificate), certificate.worst_ratio, time_stretch,
+                   time.perf_counter() - began)
+
+
+def run_ours(program, scene) -> Outcome:
+    """``time_program`` on ``program``: its certified profile, or the error it raised."""
+    began = time.perf_counter()
+    try:
+        profile = time_program(program, scene)
+    except PipelineError as exc:
+        return _failed(exc, began)
+    details = profile.details.to_dict() if profile.details is not None else {}
+    return _judged(profile, profile.certificate, began, largest_time_stretch(details))
+
+
+def run_peer(program, scene, budget: float = PEER_PLAN_BUDGET_S) -> Outcome:
+    """The peer on ``program``, judged by ``certify`` (with ``scene``: the clearance too)."""
+    began = time.perf_counter()
+    try:
+        profile = peer_profile(program, scene, budget)
+    except PipelineError as exc:
+        return _failed(exc, began)
+    return _judged(profile, certify(profile, scene=scene), began, None)
+
+
+@dataclass(frozen=True)
+class ProgramRecord:
+    """One program: ``name``, its lower bound [s] (``lower_bound(program).total_s``), the TCP speed of its
+    tool moves [m/s], the draws it took, and both outcomes."""
+
+    name: str
+    bound_s: float
+    tcp_speed: float
+    draws: int
+    ours: Outcome
+    peer: Outcome
+
+    def ratio(self, which: str) -> float | None:
+        """cycle / bound of ``which`` ("ours" | "peer") [1], None without a profile."""
+        cycle = getattr(self, which).cycle_s
+        return None if cycle is None else cycle / self.bound_s
+
+
+def measure(name: str, program, scene, draws: int, budget: float) -> ProgramRecord:
+    """Both contestants on ``program`` (ours first)."""
+    ours = run_ours(program, scene)
+    peer = run_peer(program, scene, budget)
+    speeds = [move.speed for move in program.moves if move.kind != "joint"]
+    return ProgramRecord(name, lower_bound(program).total_s, max(speeds, default=0.0), draws, ours, peer)
+
+
+# -- the problem set --------------------------------------------------------------------------------
+def drawn_programs(cell: str, count: int, rng: np.random.Generator, scene=None):
+    """``count`` (name, program, draws) in ``cell``: each the first draw our compiler accepts, at most
+    MAX_DRAWS draws (fewer when a program was given up); the cell's CollisionModel (built from the first
+    job: every drawn job has the same cell and tool)."""
+    programs = []
+    for k in range(count):
+        name = f"{cell}_{k:02d}"
+        for draws in range(1, MAX_DRAWS + 1):
+            job = parsed_job(draw_document(cell, rng), name)
+            scene = scene or collision_model(job)
+            try:
+                programs.append((name, compile_job(job, scene), draws))
+                break
+            except PipelineError as exc:
+                log.info("%s draw %d refused: %s", name, draws, exc)
+    return programs, scene
+
+
+def measure_demo(name: str, budget: float) -> ProgramRecord:
+    """A demo cell job (trajectories/jobs/NAME.yaml) compiled and measured like a drawn program."""
+    began = time.perf_counter()
+    job = load_job(DEMO_JOB_DIR / f"{name}.yaml")
+    scene = collision_model(job)
+    try:
+        program = compile_job(job, scene)
+    except PipelineError as exc:
+        failed = _failed(exc, began, "compile_job: ")
+        return ProgramRecord(name, math.nan, job.tcp_speed_max or 0.0, 1, failed, failed)
+    return measure(name, program, scene, 1, budget)
+
+
+# -- figures ----------------------------------------------------------------------------------------
+def _median(values: list[float]) -> float | None:
+    return float(np.median(values)) if values else None
+
+
+def _fraction(flags: list[bool]) -> float | None:
+    return float(np.mean(flags)) if flags else None
+
+
+def _tally(outcomes: list[Outcome]) -> dict[str, int]:
+    """How often each failure occurred among the outcomes, most frequent first."""
+    counts: dict[str, int] = {}
+    for outcome in outcomes:
+        if not outcome.certified:
+            counts[outcome.failure] = counts.get(outcome.failure, 0) + 1
+    return dict(sorted(counts.items(), key=lambda item: -item[1]))
+
+
+@dataclass
+class CellReport:
+    """One cell's random programs: how many were asked for, made and drawn; ours certified (fraction),
+    its median and max cycle / bound; the peer's certified fraction and median cycle / bound (over the
+    programs it made a profile for); ``ours_over_peer``: our median cycle over the peer's (over the
+    programs both made a profile for); our largest ``time_stretch``; the peer's largest peak/limit ratio;
+    each side's failures tallied; and every program's record."""
+
+    cell: str
+    asked: int
+    programs: int
+    draws: int
+    ours_certified: float | None
+    ours_median: float | None
+    ours_max: float | None
+    peer_certified: float | None
+    peer_median: float | None
+    ours_over_peer: float | None
+    time_stretch_max: float | None
+    peer_worst_ratio: float | None
+    ours_failures: dict[str, int]
+    peer_failures: dict[str, int]
+    records: list[ProgramRecord] = field(repr=False)
+
+
+def cell_report(cell: str, asked: int, records: list[ProgramRecord]) -> CellReport:
+    ours = [r.ratio("ours") for r in records if r.ours.cycle_s is not None]
+    peer = [r.ratio("peer") for r in records if r.peer.cycle_s is not None]
+    both = [r for r in records if r.ours.cycle_s is not None and r.peer.cycle_s is not None]
+    ours_over_peer = (_median([r.ours.cycle_s for r in both]) / _median([r.peer.cycle_s for r in both])
+                      if both else None)
+    stretches = [r.ours.time_stretch for r in records if r.ours.time_stretch is not None]
+    return CellReport(cell, asked, len(records), sum(r.draws for r in records),
+                      _fraction([r.ours.certified for r in records]), _median(ours), max(ours, default=None),
+                      _fraction([r.peer.certified for r in records]), _median(peer), ours_over_peer,
+                      max(stretches, default=None),
+                      max((r.peer.worst_ratio for r in records if r.peer.worst_ratio is not None), default=None),
+                      _tally([r.ours for r in records]),
+                      _tally([r.peer for r in records]), records)
+
+
+# -- the report -------------------------------------------------------------------------------------
+def _percent(fraction: float | None) -> str:
+    return fmt(None if fraction is None else 100.0 * fraction, ".0f") + " %"
+
+
+def _aligned(head: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
+    widths = [max(len(row[i]) for row in (head, *rows)) for i in range(len(head))]
+    return ["  " + "  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(row, widths)))
+            for row in (head, *rows)]
+
+
+def _cell_row(c: CellReport) -> tuple[str, ...]:
+    return (c.cell, f"{c.programs}/{c.asked} ({c.draws})", _percent(c.ours_certified),
+            f"{fmt(c.ours_median, '.3f')} / {fmt(c.ours_max, '.3f')}", _percent(c.peer_certified),
+            fmt(c.peer_median, ".3f"), fmt(c.ours_over_peer, ".3f"), fmt(c.time_stretch_max, ".4f"))
+
+
+def _outcome_text(outcome: Outcome, bound_s: float) -> str:
+    if outcome.cycle_s is None:
+        return f"no profile ({outcome.failure})"
+    verdict = "certified" if outcome.certified else f"not certified: {outcome.failure}"
+    return f"{outcome.cycle_s:.3f} s = {outcome.cycle_s / bound_s:.3f} x bound, {verdict}"
+
+
+def _demo_line(record: ProgramRecord) -> str:
+    ours, peer = (_outcome_text(outcome, record.bound_s) for outcome in (record.ours, record.peer))
+    return (f"  {record.name}: bound {record.bound_s:.3f} s; ours {ours} (time_stretch "
+            f"{fmt(record.ours.time_stretch, '.4f')}); peer {peer}")
+
+
+@dataclass
+class CycleBenchReport(GoalReport):
+    programs: int
+    seed: int
+    cells: list[CellReport]
+    demos: list[ProgramRecord]
+    goals: list[Goal]
+    versions: dict
+
+    def format_table(self) -> str:
+        """The cells' table, the demo jobs, the failures, then the goals."""
+        lines = [
+            f"Cycle-time benchmark: {self.programs} seeded pick-and-place programs per cell (seed {self.seed}), "
+            "cycle / lower bound (lower_bound(program).total_s)",
+            "ours: compile_job + time_program (zones at the junctions); peer: the same targets and tool-move IK "
+            "samples, RRTConnect + simplify, toppra through the vertices (MPlib's TOPP), tool moves slowed "
+            "uniformly to their TCP limits, a stop at every junction; both judged by certify (limits, clearance)",
+            "programs: made / asked (draws); cycle / bound: median / max over the programs with a profile; ours / "
+            "peer: median cycle over median cycle",
+            "",
+        ]
+        head = ("cell", "programs", "ours cert.", "ours cycle/bound", "peer cert.", "peer cycle/bound",
+                "ours/peer", "time_stretch")
+        lines += _aligned(head, [_cell_row(c) for c in self.cells])
+        for c in self.cells:
+            for who, tally in (("ours", c.ours_failures), ("peer", c.peer_failures)):
+                if tally:
+                    lines.append(f"  {c.cell} {who} not certified: "
+                                 + ", ".join(f"{kind or '?'} x{count}" for kind, count in tally.items()))
+            lines.append(f"  {c.cell} peer: largest peak/limit ratio {fmt(c.peer_worst_ratio, '.6f')}")
+        if self.demos:
+            lines += ["", "Demo cell jobs:"]
+            lines += [_demo_line(record) for record in self.demos]
+        lines += goal_lines("Goals:", self.goals, self.versions)
+        return "\n".join(lines)
+
+
+def cycle_goals(cells: list[CellReport], demos: list[ProgramRecord]) -> list[Goal]:
+    """The goals of issue 23 (see the module docstring), per cell, and the demo jobs' time_stretch."""
+    goals = []
+    for c in cells:
+        goals += [
+            Goal(f"{c.cell}: ours certified [1]", c.ours_certified, "= 1", c.ours_certified == 1.0),
+            Goal(f"{c.cell}: ours median cycle / bound", c.ours_median, f"<= {MEDIAN_GOAL:g}",
+                 c.ours_median is not None and c.ours_median <= MEDIAN_GOAL),
+            Goal(f"{c.cell}: ours max cycle / bound", c.ours_max, f"<= {MAX_GOAL:g}",
+                 c.ours_max is not None and c.ours_max <= MAX_GOAL),
+            Goal(f"{c.cell}: ours median cycle / the peer's", c.ours_over_peer, "< 1",
+                 c.ours_over_peer is not None and c.ours_over_peer < 1.0),
+        ]
+    stretches = [r.ours.time_stretch for c in cells for r in c.records] + [r.ours.time_stretch for r in demos]
+    found = [s for s in stretches if s is not None]
+    goals.append(Goal("ours: largest time_stretch (programs and demo jobs)", max(found, default=None),
+                      f"<= {STRETCH_GOAL:g}", all(s <= STRETCH_GOAL for s in found)))
+    return goals
+
+
+def run_cycle_benchmark(cells=CELLS, programs: int = 20, seed: int = 0,
+                        budget: float = PEER_PLAN_BUDGET_S) -> CycleBenchReport:
+    """The benchmark (see the module docstring): ``programs`` per cell, the demo jobs of the cells measured;
+    ``budget`` [s]: the peer's planning time per joint move."""
+    unknown = [cell for cell in cells if cell not in CELLS]
+    if unknown:
+        raise ConfigurationError(f"bench cycle draws programs in {', '.join(CELLS)}, not in {', '.join(unknown)}")
+    reports = []
+    for cell in cells:
+        drawn, scene = drawn_programs(cell, programs, np.random.default_rng(seed))
+        records = []
+        with Progress(len(drawn), f"bench cycle {cell}") as tick:
+            for name, program, draws in drawn:
+                records.append(measure(name, program, scene, draws, budget))
+                tick()
+        reports.append(cell_report(cell, programs, records))
+    demos = [measure_demo(name, budget) for name, cell in DEMO_JOBS.items() if cell in cells]
+    versions = version_table("drake", "ompl", "toppra", "numpy")
+    return CycleBenchReport(programs, seed, reports, demos, cycle_goals(reports, demos), versions)
