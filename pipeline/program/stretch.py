@@ -35,6 +35,8 @@ AUTO_BLEND = 0.45
 #: Blend check resolution in a cell: configurations at most this far apart [rad]; blend narrowing rounds.
 CHECK_STEP_RAD = 0.01
 NARROW_ROUNDS = 12
+#: Breakpoints closer than this in s are one (a segment's own breakpoint at a blend's end) [1].
+BREAKPOINT_GAP = 1e-9
 #: TCP samples on a joint segment's end half when finding where the TCP is R from the corner.
 ZONE_SAMPLES = 200
 
@@ -188,6 +190,7 @@ class StretchPath:
         bounds = np.array([p[2] for p in self.pieces] + [total]) / total
         inner = [self._segment_breakpoints(k) for k in range(len(self.pieces))]
         breakpoints = np.unique(np.concatenate([bounds, *inner]))
+        breakpoints = breakpoints[np.concatenate([[True], np.diff(breakpoints) > BREAKPOINT_GAP])]
         waypoints = self._piece_values(bounds * total, 0)
         continuity = min([3] + [s.path.continuity for s in self.segments])
         return JointPath(waypoints, bounds, breakpoints, "program", total, continuity, pieces)
