@@ -108,9 +108,9 @@ SPIN_DEG = (-30.0, 30.0)
 #: near the wrist singularity, J4 and J6 aligned, at the upper cubby's height).
 SHELF_TILT_DEG = (5.0, 20.0)
 #: The peer's planning budget per joint move [s] (MoveIt's default planning time is 5 s, MPlib's 1 s);
-#: its rounds of uniform slow-down of a tool move; what its profiles are called.
+#: its rounds of uniform slow-down of a tool move and their samples per dt; what its profiles are called.
 PEER_PLAN_BUDGET_S = 2.0
-STRETCH_ROUNDS = 5
+STRETCH_ROUNDS, STRETCH_DENSITY = 5, 10
 PEER_METHOD = "peer: OMPL RRTConnect + simplify, toppra (MPlib's TOPP), stops at every junction"
 
 
@@ -227,12 +227,13 @@ def _sampled(trajectory, stretch: float, dt: float) -> tuple[np.ndarray, ...]:
 
 
 def _tcp_stretch(tcp: TcpMotion, trajectory, speed: float, accel: float | None, dt: float) -> float:
-    """The uniform slow-down [1] after which the TCP's speed and acceleration on the samples are within
-    ``speed`` [m/s] and ``accel`` [m/s^2] (None: not limited): scaled by the peak ratios (speed ~ 1/c,
-    acceleration ~ 1/c^2) until the samples the judge sees pass, at most STRETCH_ROUNDS times."""
+    """The uniform slow-down [1] after which the TCP's speed and acceleration are within ``speed`` [m/s] and
+    ``accel`` [m/s^2] (None: not limited): scaled by their peak ratios (speed ~ 1/c, acceleration ~ 1/c^2)
+    on samples STRETCH_DENSITY times denser than ``dt`` (a superset of the samples the judge sees) until
+    they pass, at most STRETCH_ROUNDS times."""
     stretch = 1.0
     for _ in range(STRETCH_ROUNDS):
-        _, q, qd, qdd = _sampled(trajectory, stretch, dt)
+        _, q, qd, qdd = _sampled(trajectory, stretch, dt / STRETCH_DENSITY)
         motion = tcp.samples(q, qd, qdd)
         ratio = max(motion.speed.max() / speed, math.sqrt(motion.accel.max() / accel) if accel else 0.0)
         if ratio <= 1.0:
