@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 
 from pipeline.__main__ import main
+from pipeline.poses import rpy_to_rotation
 from pipeline.bench.cycle import (
     CELLS,
     LINE_MM,
     SHELF_CUBBIES,
+    SHELF_TILT_DEG,
     ZONE_MM,
     PeerPiece,
     draw_document,
@@ -49,14 +51,19 @@ def test_the_targets_are_on_both_sides_of_the_obstacle(cell):
         zones = [w["zone"] for w in document["waypoints"] if "zone" in w]
         assert all(0.0 < z <= ZONE_MM[1] for z in zones)
         assert zones[0] <= lines[0] / 2 and max(zones[1:]) <= lines[1] / 2
+        tool_axes = [rpy_to_rotation(*np.radians(document["waypoints"][k]["rpy"]))[:, 2] for k in (1, 4)]
         if cell == "gp7_wall_cell":             # the wall is at y -15..15: pick y > 0, place y < 0, vertical lines
             assert pick[1] > 15 and place[1] < -15
             assert np.allclose((pick - above_pick)[:2], 0) and np.allclose((place - above_place)[:2], 0)
-        else:                                   # one target in each cubby, the lines along +x
+            assert all(np.allclose(axis, [0, 0, -1]) for axis in tool_axes)
+        else:                                   # one target in each cubby, the lines along +x, the tool into the shelf
             cubbies = [next(k for k, box in enumerate(SHELF_CUBBIES) if box[2][0] <= p[2] <= box[2][1])
                        for p in (pick, place)]
             assert sorted(cubbies) == [0, 1]
-            assert (pick - above_pick)[0] > 0 and np.allclose((pick - above_pick)[1:], 0)
+            for line in (pick - above_pick, place - above_place):
+                assert line[0] > 0 and np.allclose(line[1:], 0)
+            for axis in tool_axes:
+                assert axis[0] >= np.cos(np.radians(SHELF_TILT_DEG[1])) - 1e-9 and abs(axis[1]) < 1e-7
 
 
 SMALL = {"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "tool": {"xyz": [0, 0, 120], "rpy": [0, 0, 0]},

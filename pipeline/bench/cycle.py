@@ -67,6 +67,7 @@ import numpy as np
 from ..errors import ConfigurationError, PipelineError
 from ..jobs import load_job, parse_job
 from ..planning import plan_joint_path
+from ..poses import rotation_to_rpy, rpy_to_rotation
 from ..profile import Profile, certify, scale_limits
 from ..program import compile_job, lower_bound, time_program
 from ..progress import Progress
@@ -124,38 +125,39 @@ def _point(rng: np.random.Generator, box) -> list[float]:
     return [_uniform(rng, axis) for axis in box]
 
 
-def _tool_rpy(pitch_deg: float, spin_deg: float) -> list[float]:
-    """rpy [deg] of the tool turned by ``pitch`` about y from pointing down (0: down, rpy [180, 0, spin];
-    90 + tilt: into the shelf (+x) and ``tilt`` down), then by ``spin`` about its own axis."""
-    from ..poses import rotation_to_rpy, rpy_to_rotation
-
-    if pitch_deg == 0.0:
-        return [180.0, 0.0, spin_deg]
-    R = rpy_to_rotation(0.0, math.radians(pitch_deg), 0.0) @ rpy_to_rotation(0.0, 0.0, math.radians(spin_deg))
+def _shelf_rpy(tilt_deg: float, spin_deg: float) -> list[float]:
+    """rpy [deg] of the tool pointing into the shelf (+x) tilted down by ``tilt``, turned by ``spin`` about
+    its own axis (its z axis (cos tilt, 0, -sin tilt))."""
+    R = rpy_to_rotation(0.0, math.radians(90.0 + tilt_deg), 0.0) @ rpy_to_rotation(0.0, 0.0, math.radians(spin_deg))
     return [round(math.degrees(a), 6) for a in rotation_to_rpy(R)]
 
 
-def _station(rng: np.random.Generator, box, direction: np.ndarray, pitch_deg: float) -> tuple[list, list, list, float]:
-    """A target drawn in ``box`` [mm], the point ``direction`` x its approach length before it, the tool's
-    rpy [deg] (``_tool_rpy``, a spin drawn in SPIN_DEG) and the approach length [mm]."""
+def _station(rng: np.random.Generator, box, direction: np.ndarray, rpy: list[float]) -> tuple[list, list, list, float]:
+    """A target drawn in ``box`` [mm], the point ``direction`` x its approach length (drawn in LINE_MM)
+    before it, the tool's ``rpy`` [deg] and the approach length [mm]."""
     target = _point(rng, box)
     length = _uniform(rng, LINE_MM)
     above = [round(float(t - length * d), 1) for t, d in zip(target, direction)]
     line = float(np.linalg.norm(np.subtract(target, above)))          # after rounding
-    return target, above, _tool_rpy(pitch_deg, _uniform(rng, SPIN_DEG)), line
+    return target, above, rpy, line
 
 
 def _wall_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
-    """(pick, place) stations of one program in the wall cell (see ``_station``)."""
+    """(pick, place) stations of one program in the wall cell (see ``_station``), the tool pointing down
+    turned by a spin drawn in SPIN_DEG."""
     down = np.array([0.0, 0.0, -1.0])
-    return _station(rng, WALL_SIDES["pick"], down, 0.0), _station(rng, WALL_SIDES["place"], down, 0.0)
+    return tuple(_station(rng, WALL_SIDES[side], down, [180.0, 0.0, _uniform(rng, SPIN_DEG)])
+                 for side in ("pick", "place"))
 
 
 def _shelf_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
-    """(pick, place) stations of one program in the shelf cell, in the two cubbies in a drawn order."""
+    """(pick, place) stations of one program in the shelf cell, in the two cubbies in a drawn order, the
+    tool into the shelf (``_shelf_rpy``: a tilt drawn in SHELF_TILT_DEG, a spin in SPIN_DEG)."""
     into = np.array([1.0, 0.0, 0.0])
     order = rng.permutation(2)
-    return tuple(_station(rng, SHELF_CUBBIES[k], into, 90.0 + _uniform(rng, SHELF_TILT_DEG)) for k in order)
+    return tuple(_station(rng, SHELF_CUBBIES[k], into, _shelf_rpy(_uniform(rng, SHELF_TILT_DEG),
+                                                                   _uniform(rng, SPIN_DEG)))
+                 for k in order)
 
 
 #: How each demo cell draws its stations.
