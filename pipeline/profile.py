@@ -3,7 +3,8 @@
 ``certify(profile, limits)`` is the one judge of every profile this package makes: per-joint
 peak/limit ratios of q, qd, qdd and qddd (and torques) on the profile's samples, the TCP's speed and
 acceleration ratios when the limits bound them, the worst sample, and in a cell the clearance
-(``pipeline.clearance``), pass/fail.
+(``pipeline.clearance``), pass/fail. A profile's ``schedule`` (limits that change move by move) is judged
+too: each sample's qd and TCP speed and acceleration against the limit that applied at its time.
 A position ratio is the peak distance from the middle of the range over half the range, so 1 is
 "on a limit" for every quantity; a continuous joint (no position limits) has position ratio 0.
 The columns are also judged against each other between consecutive samples (``ColumnAgreement``): q
@@ -190,9 +191,13 @@ class LimitReport:
 
 
 def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
-    """|value| / limit per sample (N, dof) for every quantity that has a limit."""
+    """|value| / limit per sample (N, dof) for every quantity that has a limit; qd and the TCP's speed and
+    acceleration against the limit that applied at each sample (``limits_at``: the profile's schedule on
+    top of ``limits``; a TCP ratio is 0 where neither limits it)."""
+    joint_speed, tcp_speed, tcp_accel = limits_at(limits, profile.schedule, profile.t)
     half = (limits.q_max - limits.q_min) / 2.0            # +inf for a continuous joint: its ratio is 0
-    out = {"q": np.abs(profile.q - limits.q_middle) / half, "qd": np.abs(profile.qd) / limits.qd_max}
+    out = {"q": np.abs(profile.q - limits.q_middle) / half,
+           "qd": np.abs(profile.qd) / (limits.qd_max * joint_speed[:, None])}
     if limits.qdd_max is not None:
         out["qdd"] = np.abs(profile.qdd) / limits.qdd_max
     if limits.qddd_max is not None:
@@ -201,17 +206,45 @@ def _normalised(profile: Profile, limits: Limits) -> dict[str, np.ndarray]:
         if profile.tau is None:
             raise ConfigurationError("the limits bound joint torques but the profile carries none to judge")
         out["tau"] = np.abs(profile.tau) / limits.tau_max
-    for name, limit in (("tcp_speed", limits.tcp_speed_max), ("tcp_accel", limits.tcp_accel_max)):
-        if limit is not None:
+    for name, limit in (("tcp_speed", tcp_speed), ("tcp_accel", tcp_accel)):
+        if np.isfinite(limit).any():
             if profile.tcp is None:
-                raise ConfigurationError("the limits bound the TCP but the profile carries no TCP samples to judge")
-            out[name] = getattr(profile.tcp, name[4:])[:, None] / limit
+                raise ConfigurationError("the limits or the schedule bound the TCP but the profile carries no TCP "
+                                         "samples to judge")
+            out[name] = (getattr(profile.tcp, name[4:]) / limit)[:, None]
     return out
+
+
+def limits_at(limits: Limits, schedule: LimitSchedule | None, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(joint speed factor [1], TCP speed [m/s], TCP acceleration [m/s^2]) (n,) that apply at x (n,) (the
+    schedule's parameter: s along a path, t [s] on a profile): the schedule's values (``LimitSchedule.at``;
+    1, inf, inf without one), the TCP's capped by ``limits.tcp_speed_max`` and ``tcp_accel_max``, which hold
+    everywhere; inf: not limited."""
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    if schedule is None:
+        joint_speed, tcp_speed, tcp_accel = np.ones(len(x)), np.full(len(x), np.inf), np.full(len(x), np.inf)
+    else:
+        joint_speed, tcp_speed, tcp_accel = schedule.at(x)
+    for limit, values in ((limits.tcp_speed_max, tcp_speed), (limits.tcp_accel_max, tcp_accel)):
+        if limit is not None:
+            np.minimum(values, limit, out=values)
+    return joint_speed, tcp_speed, tcp_accel
+
+
+def scale_schedule(schedule: LimitSchedule | None, speed_scale: float) -> LimitSchedule | None:
+    """The schedule for a speed scale, as ``scale_limits`` scales the TCP's limits: TCP speed x s and
+    acceleration x s^2 (the joint speed factors are fractions of the limits, already scaled)."""
+    if schedule is None:
+        return None
+    return LimitSchedule(schedule.bounds, schedule.joint_speed, schedule.tcp_speed * speed_scale,
+                         schedule.tcp_accel * speed_scale**2)
 
 
 def certify(profile: Profile, limits: Limits | None = None, tolerance: float = CERTIFY_TOLERANCE,
             scene=None) -> LimitReport:
-    """Judge a profile against limits (default: the ones it was timed against) on all its samples, its
+    """Judge a profile against limits (default: the ones it was timed against) and its schedule (joint speeds
+    and TCP limits that change move by move, ``profile.schedule``: each sample against the limit that applied
+    at its time, see ``limits_at``) on all its samples, its
     columns against each other between samples (``ColumnAgreement``), and with ``scene`` (a
     ``pipeline.collision.CollisionModel``) its clearance over the whole motion (``pipeline.clearance``;
     between samples each joint's acceleration is bounded by its limit, or by the largest sampled |qdd|
@@ -314,12 +347,14 @@ def _json_limit(value) -> list | float | None:
 def limits_summary(profile: Profile) -> dict:
     """Both views of a certified profile's limits, JSON-ready: ``timed`` (the limits it was timed
     against, i.e. the unscaled ones x speed scale) and ``unscaled`` (the robot's own, unless the caller
-    gave others), each with its values and peak/limit ratios, and the speed scale."""
+    gave others, and the profile's schedule without the speed scale), each with its values and peak/limit
+    ratios, and the speed scale."""
     timed = profile.certificate if profile.certificate is not None else certify(profile)
     unscaled = profile.unscaled_limits if profile.unscaled_limits is not None else profile.limits
+    own = dataclasses.replace(profile, schedule=scale_schedule(profile.schedule, 1.0 / profile.speed_scale))
     return {"speed_scale": profile.speed_scale,
             "timed": {**timed.to_dict(), "values": limit_values(profile.limits)},
-            "unscaled": {**certify(profile, unscaled).to_dict(), "values": limit_values(unscaled)}}
+            "unscaled": {**certify(own, unscaled).to_dict(), "values": limit_values(unscaled)}}
 
 
 def scale_limits(limits: Limits, speed_scale: float) -> Limits:

@@ -4,6 +4,7 @@
 the end frame's origin [m, m/s, m/s^2] for joint samples, and ``along(path, s)``: the track's
 derivatives dp/ds, d2p/ds2 along a joint path, the coefficients of the TCP limits in path timing
 (v = p' sd, a = p' sdd + p'' sd^2). ``dJv/dt qd`` is a central difference of the Jacobian along qd.
+``PathLimits``: the limits a timing back end meets along a path (joints, TCP, a schedule), sample by sample.
 """
 
 from __future__ import annotations
@@ -11,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from .path import JointPath
-from .profile import TcpSamples
+from .profile import TcpSamples, limits_at
 from .robot_spec import Limits
+from .schedule import LimitSchedule
 
 #: Step of the central differences along the motion, as the largest joint change [rad or m]; and,
 #: along a path, in its parameter s.
@@ -56,26 +58,43 @@ class TcpMotion:
         p, v, a = self.motion(Q, QD, QDD)
         return TcpSamples(p, np.linalg.norm(v, axis=1), np.linalg.norm(a, axis=1))
 
-    def sample_ratios(self, limits: Limits, Q: np.ndarray, QD: np.ndarray,
-                      QDD: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per sample (n,): the TCP speed and acceleration over their limits (0 where a limit is absent) [1]."""
-        _, v, a = self.motion(Q, QD, QDD)
-        none = np.zeros(len(Q))
-        speed = np.linalg.norm(v, axis=1) / limits.tcp_speed_max if limits.tcp_speed_max else none
-        accel = np.linalg.norm(a, axis=1) / limits.tcp_accel_max if limits.tcp_accel_max else none
+
+class PathLimits:
+    """The limits a timing back end meets along one path: ``limits`` everywhere, ``schedule`` (a
+    LimitSchedule over the path's s, already scaled like the limits; None: none) on top, the TCP's through
+    ``tcp`` (a TcpMotion; None: the TCP is not judged)."""
+
+    def __init__(self, limits: Limits, tcp: TcpMotion | None = None, schedule: LimitSchedule | None = None):
+        self.limits, self.tcp, self.schedule = limits, tcp, schedule
+
+    def at(self, s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(joint speed factor [1], TCP speed [m/s], TCP acceleration [m/s^2]) (n,) at s (n,); inf: not
+        limited (``pipeline.profile.limits_at``)."""
+        return limits_at(self.limits, self.schedule, s)
+
+    @property
+    def limits_tcp(self) -> bool:
+        """Whether the TCP is judged and something limits it somewhere."""
+        return self.tcp is not None and (self.limits.tcp_speed_max is not None or self.limits.tcp_accel_max is not None
+                                         or (self.schedule is not None and self.schedule.limits_tcp))
+
+    def sample_ratios(self, s: np.ndarray, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray,
+                      tcp_rows=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample (n,) at path positions s (n,): the largest speed ratio (each |qd_j| over qd_max_j x the
+        joint speed factor, and the TCP's speed over its limit) and acceleration ratio (|qdd_j| / qdd_max_j, the
+        TCP's) [1]; the TCP's only on the samples ``tcp_rows`` selects (a slice or index array)."""
+        joint_speed, tcp_speed, tcp_accel = self.at(s)
+        speed = (np.abs(QD) / self.limits.qd_max).max(axis=1) / joint_speed
+        accel = (np.abs(QDD) / self.limits.qdd_max).max(axis=1)
+        if self.limits_tcp:
+            _, v, a = self.tcp.motion(Q[tcp_rows], QD[tcp_rows], QDD[tcp_rows])
+            speed[tcp_rows] = np.maximum(speed[tcp_rows], np.linalg.norm(v, axis=1) / tcp_speed[tcp_rows])
+            accel[tcp_rows] = np.maximum(accel[tcp_rows], np.linalg.norm(a, axis=1) / tcp_accel[tcp_rows])
         return speed, accel
 
-    def ratios(self, limits: Limits, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray) -> tuple[float, float]:
-        """The peak TCP speed and acceleration over their limits (0 where a limit is absent) [1]."""
-        speed, accel = self.sample_ratios(limits, Q, QD, QDD)
+    def peaks(self, s: np.ndarray, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray,
+              tcp_rows=slice(None)) -> tuple[float, float]:
+        """The peak speed and acceleration ratios of ``sample_ratios`` [1] (what a uniform slow-down must bring
+        down to 1)."""
+        speed, accel = self.sample_ratios(s, Q, QD, QDD, tcp_rows)
         return float(speed.max()), float(accel.max())
-
-
-def with_tcp(speed: float, accel: float, tcp: TcpMotion | None, limits: Limits, Q: np.ndarray, QD: np.ndarray,
-             QDD: np.ndarray) -> tuple[float, float]:
-    """Peak speed and acceleration ratios of the joints, raised to the TCP's at the same samples when
-    ``tcp`` is given (what a uniform slow-down must bring down to 1) [1]."""
-    if tcp is None:
-        return speed, accel
-    tcp_speed, tcp_accel = tcp.ratios(limits, Q, QD, QDD)
-    return max(speed, tcp_speed), max(accel, tcp_accel)

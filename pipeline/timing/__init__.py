@@ -20,7 +20,7 @@ from ..arrays import is_whole_number
 from ..choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, DEFAULT_PATH_SHAPE, TIMING_ALIASES, TIMING_METHODS
 from ..errors import ConfigurationError, TimingError
 from ..path import JointPath, make_path
-from ..profile import Profile, certify, scale_limits
+from ..profile import Profile, certify, scale_limits, scale_schedule
 from ..robot_spec import Limits
 from ..schedule import LimitSchedule
 
@@ -59,44 +59,50 @@ def time_path(robot, path_or_waypoints, method: str = "toppra", speed_scale: flo
         raise ConfigurationError(f"max_samples must be an integer of at least 2, got {max_samples!r}")
     unscaled = robot.limits if limits is None else limits
     limits = scale_limits(unscaled, speed_scale)
+    _check_path_limits(method, limits, tcp, schedule)
+    scaled_schedule = scale_schedule(schedule, speed_scale)
     names = tuple(robot.joint_names)
     inverse_dynamics = None
     if limits.tau_max is not None:
         from ..drake_model import build_drake_robot
 
         inverse_dynamics = (drake if drake is not None else build_drake_robot(robot.spec)).inverse_dynamics
-    if (limits.tcp_speed_max is not None or limits.tcp_accel_max is not None) and (tcp is None or method == "ruckig"):
-        raise ConfigurationError("TCP limits need the TCP's kinematics (tcp=TcpMotion(robot)) and a path-following "
-                                 "timing (toppra or topp3; ruckig times waypoint to waypoint, off the path)")
     if method == "ruckig":
         from .ruckig_backend import retime_ruckig
 
-        if schedule is not None:
-            raise ConfigurationError("zones and per-move speeds (a LimitSchedule) need a path-following timing: "
-                                     "toppra or topp3 (ruckig times waypoint to waypoint, off the path)")
         waypoints = path_or_waypoints.waypoints if isinstance(path_or_waypoints, JointPath) else path_or_waypoints
         profile = retime_ruckig(np.asarray(waypoints, dtype=float), limits, dt, names, max_samples=max_samples,
                                 **options)
     else:
-        if schedule is not None:
-            raise ConfigurationError("a LimitSchedule is not supported by the path-following back ends yet")
         path = (path_or_waypoints if isinstance(path_or_waypoints, JointPath)
                 else make_path(path_or_waypoints, limits.q_min, limits.q_max, shape))
         if method == "toppra":
             from .toppra_backend import retime_toppra
 
             profile = retime_toppra(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
-                                    max_samples=max_samples, tcp=tcp, **options)
+                                    max_samples=max_samples, tcp=tcp, schedule=scaled_schedule, **options)
         else:
             from .topp3_backend import retime_topp3
 
             profile = retime_topp3(path, limits, dt, names, inverse_dynamics=inverse_dynamics,
-                                   max_samples=max_samples, tcp=tcp, **options)
+                                   max_samples=max_samples, tcp=tcp, schedule=scaled_schedule, **options)
     if inverse_dynamics is not None:
         profile = dataclasses.replace(profile, tau=inverse_dynamics(profile.q, profile.qd, profile.qdd))
     if tcp is not None:
         profile = dataclasses.replace(profile, tcp=tcp.samples(profile.q, profile.qd, profile.qdd))
     return dataclasses.replace(profile, speed_scale=float(speed_scale), unscaled_limits=unscaled)
+
+
+def _check_path_limits(method: str, limits: Limits, tcp, schedule: LimitSchedule | None) -> None:
+    """ConfigurationError when a schedule or TCP limits come without what they need: a path-following method
+    (toppra or topp3) and, for TCP limits (the limits' or the schedule's), the TCP's kinematics."""
+    if method == "ruckig" and schedule is not None:
+        raise ConfigurationError("zones and per-move speeds (a LimitSchedule) need a path-following timing: "
+                                 "toppra or topp3 (ruckig times waypoint to waypoint, off the path)")
+    limits_tcp = limits.tcp_speed_max is not None or limits.tcp_accel_max is not None
+    if (limits_tcp or (schedule is not None and schedule.limits_tcp)) and (tcp is None or method == "ruckig"):
+        raise ConfigurationError("TCP limits need the TCP's kinematics (tcp=TcpMotion(robot)) and a path-following "
+                                 "timing (toppra or topp3; ruckig times waypoint to waypoint, off the path)")
 
 
 def retime(robot, path_or_waypoints, method: str = "toppra", speed_scale: float = 1.0,

@@ -1,10 +1,13 @@
-"""The TCP's speed and acceleration limits along a joint path, as a toppra constraint and as copp rows.
+"""The TCP's speed and acceleration limits along a joint path, and joint speed limits that change along it
+(a schedule's), as toppra constraints and as copp rows.
 
 Along the path the TCP moves with v = p'(s) sd and a = p'(s) sdd + p''(s) sd^2 (``TcpMotion.along``).
 The speed limit is a bound on sd^2 at each grid point, (v_max / |p'|)^2. The acceleration vector lies
 in the plane of p' and p'', so |a| <= a_max is the disc of that plane, which the constraint replaces
 by the regular ACCEL_DIRECTIONS-gon inscribed in it (linear in sdd and sd^2, as toppra needs; at most
-1 - cos(pi / 64) = 0.12 % slower than the disc).
+1 - cos(pi / 64) = 0.12 % slower than the disc). The limits may differ from grid point to grid point
+(``PathLimits.at``: a schedule on top of the limits); a grid point where the TCP is not limited gets no
+binding row.
 """
 
 from __future__ import annotations
@@ -13,27 +16,27 @@ import numpy as np
 import toppra.constraint
 
 from ..path import JointPath
-from ..robot_spec import Limits
-from ..tcp import TcpMotion
+from ..tcp import PathLimits, TcpMotion
 
 ACCEL_DIRECTIONS = 64
-#: The bound on sd^2 where the TCP stands still (a turn in place): no bound, but a finite number.
+#: The bound on sd^2 where the TCP stands still (a turn in place) or is not limited: no bound, but a finite number.
 UNBOUNDED = 1e12
 
 
-def speed_bound(p1: np.ndarray, limits: Limits, unit: float) -> np.ndarray:
-    """The bound on sd^2 (n,) at stations whose dp/ds is ``p1`` (n, 3), time in units of 1 / ``unit``
-    [1/s]: (v_max / |p'|)^2, UNBOUNDED where the TCP stands still or its speed is not limited."""
-    if limits.tcp_speed_max is None:
-        return np.full(len(p1), UNBOUNDED)
-    with np.errstate(divide="ignore"):
-        return np.minimum((limits.tcp_speed_max / (unit * np.linalg.norm(p1, axis=1))) ** 2, UNBOUNDED)
+def speed_bound(p1: np.ndarray, speed_max: np.ndarray, unit: float) -> np.ndarray:
+    """The bound on sd^2 (n,) at stations whose dp/ds is ``p1`` (n, 3) and TCP speed limit ``speed_max`` (n,)
+    [m/s] (inf: none), time in units of 1 / ``unit`` [1/s]: (v_max / |p'|)^2, UNBOUNDED where the TCP stands
+    still or its speed is not limited."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = (speed_max / (unit * np.linalg.norm(p1, axis=1))) ** 2
+    return np.where(np.isnan(bound), UNBOUNDED, np.minimum(bound, UNBOUNDED))
 
 
-def accel_rows(p1: np.ndarray, p2: np.ndarray, limits: Limits, unit: float) -> tuple[np.ndarray, float]:
+def accel_rows(p1: np.ndarray, p2: np.ndarray, accel_max: np.ndarray, unit: float) -> tuple[np.ndarray, np.ndarray]:
     """The ACCEL_DIRECTIONS unit directions F (n, ACCEL_DIRECTIONS, 3) in the plane of p' and p'' (n, 3)
-    and the bound g, time in units of 1 / ``unit`` [1/s]: F (p' sdd + p'' sd^2) <= g keeps the TCP's
-    acceleration within the inscribed polygon of the |a| <= a_max disc."""
+    and the bounds g (n, ACCEL_DIRECTIONS), for TCP acceleration limits ``accel_max`` (n,) [m/s^2], time in
+    units of 1 / ``unit`` [1/s]: F (p' sdd + p'' sd^2) <= g keeps the TCP's acceleration within the inscribed
+    polygon of the |a| <= a_max disc; where ``accel_max`` is inf, F is 0 and g 1 (no binding row)."""
     speed = np.linalg.norm(p1, axis=1)
     tangent = np.where(speed[:, None] > 0.0, p1 / np.maximum(speed, 1e-300)[:, None], [1.0, 0.0, 0.0])
     normal = p2 - np.sum(p2 * tangent, axis=1, keepdims=True) * tangent
@@ -45,34 +48,67 @@ def accel_rows(p1: np.ndarray, p2: np.ndarray, limits: Limits, unit: float) -> t
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     angles = 2.0 * np.pi * np.arange(ACCEL_DIRECTIONS) / ACCEL_DIRECTIONS
     F = np.cos(angles)[None, :, None] * tangent[:, None, :] + np.sin(angles)[None, :, None] * normal[:, None, :]
-    return F, limits.tcp_accel_max * np.cos(np.pi / ACCEL_DIRECTIONS) / unit**2
+    limited = np.isfinite(accel_max)
+    F[~limited] = 0.0
+    bound = np.where(limited, accel_max, unit**2) * np.cos(np.pi / ACCEL_DIRECTIONS) / unit**2
+    return F, np.repeat(bound[:, None], ACCEL_DIRECTIONS, axis=1)
 
 
 class TcpConstraint(toppra.constraint.LinearConstraint):
-    """TCP speed (and acceleration, when limited) along ``path`` (real units), for toppra in time units
-    of 1 / ``unit`` [1/s] (see ``toppra_backend.time_unit``)."""
+    """TCP speed (and acceleration, where limited) along ``path`` (real units) within ``limits`` (a
+    PathLimits: the TCP's limits at each grid point), for toppra in time units of 1 / ``unit`` [1/s] (see
+    ``toppra_backend.time_unit``)."""
 
-    def __init__(self, tcp: TcpMotion, path: JointPath, limits: Limits, unit: float, dof: int):
+    def __init__(self, tcp: TcpMotion, path: JointPath, limits: PathLimits, unit: float, dof: int):
         super().__init__()
         self.tcp, self.path, self.limits, self.unit, self.dof = tcp, path, limits, unit, dof
 
     def compute_constraint_params(self, path, gridpoints):
-        p1, p2 = self.tcp.along(self.path, np.asarray(gridpoints, dtype=float))
-        x_max = speed_bound(p1, self.limits, self.unit)
+        gridpoints = np.asarray(gridpoints, dtype=float)
+        _, speed_max, accel_max = self.limits.at(gridpoints)
+        p1, p2 = self.tcp.along(self.path, gridpoints)
+        x_max = speed_bound(p1, speed_max, self.unit)
         xbound = np.column_stack([np.zeros_like(x_max), x_max])
-        if self.limits.tcp_accel_max is None:
+        if not np.isfinite(accel_max).any():
             return None, None, None, None, None, None, xbound
-        F, bound = accel_rows(p1, p2, self.limits, self.unit)
-        g = np.full((len(gridpoints), ACCEL_DIRECTIONS), bound)
+        F, g = accel_rows(p1, p2, accel_max, self.unit)
         return p1, p2, np.zeros_like(p1), F, g, None, xbound
 
 
-def add_copp_rows(constraints, tcp: TcpMotion, path: JointPath, limits: Limits, unit: float, s: np.ndarray) -> None:
-    """The same TCP speed and acceleration rows for copp on stations ``s`` (n,), time in units of
-    1 / ``unit`` [1/s]: a first-order bound on a = sd^2 and second-order rows in (a, b = sdd)."""
+class VaryingSpeedConstraint(toppra.constraint.LinearConstraint):
+    """Joint speed limits ``qd_max`` (dof,) (in the solver's units, the path speed cap last) x the joint speed
+    factor of ``limits`` (a PathLimits) at each grid point; the cap is not scaled: a bound on sd^2."""
+
+    def __init__(self, qd_max: np.ndarray, limits: PathLimits):
+        super().__init__()
+        self.qd_max, self.limits, self.dof = qd_max, limits, len(qd_max)
+
+    def compute_constraint_params(self, path, gridpoints):
+        gridpoints = np.asarray(gridpoints, dtype=float)
+        xbound = np.column_stack([np.zeros(len(gridpoints)),
+                                  varying_speed_bound(path(gridpoints, 1), self.qd_max, self.limits.at(gridpoints)[0])])
+        return None, None, None, None, None, None, xbound
+
+
+def varying_speed_bound(d1: np.ndarray, qd_max: np.ndarray, factor: np.ndarray) -> np.ndarray:
+    """The bound on sd^2 (n,) at stations whose dq/ds is ``d1`` (n, dof) (the solver's coordinates, the path
+    speed cap last, whose limit is not scaled), for joint speed limits ``qd_max`` (dof,) x ``factor`` (n,)."""
+    scaled = qd_max[None, :] * np.concatenate([np.repeat(factor[:, None], len(qd_max) - 1, axis=1),
+                                               np.ones((len(factor), 1))], axis=1)
+    with np.errstate(divide="ignore"):
+        return np.minimum(np.min((scaled / np.abs(d1)) ** 2, axis=1), UNBOUNDED)
+
+
+def add_copp_rows(constraints, tcp: TcpMotion | None, path: JointPath, limits: PathLimits, unit: float,
+                  s: np.ndarray) -> None:
+    """The TCP's speed and acceleration rows (when ``tcp`` is given and ``limits`` limit the TCP) for copp on
+    stations ``s`` (n,), time in units of 1 / ``unit`` [1/s]: a first-order bound on a = sd^2 and second-order
+    rows in (a, b = sdd)."""
+    if tcp is None or not limits.limits_tcp:
+        return
+    _, speed_max, accel_max = limits.at(s)
     p1, p2 = tcp.along(path, s)
-    constraints.add_constraint_1st(speed_bound(p1, limits, unit)[:, None], 0)
-    if limits.tcp_accel_max is not None:
-        F, bound = accel_rows(p1, p2, limits, unit)
-        constraints.add_constraint_2nd(np.einsum("nkj,nj->nk", F, p2), np.einsum("nkj,nj->nk", F, p1),
-                                       np.full((len(s), ACCEL_DIRECTIONS), bound), 0)
+    constraints.add_constraint_1st(speed_bound(p1, speed_max, unit)[:, None], 0)
+    if np.isfinite(accel_max).any():
+        F, g = accel_rows(p1, p2, accel_max, unit)
+        constraints.add_constraint_2nd(np.einsum("nkj,nj->nk", F, p2), np.einsum("nkj,nj->nk", F, p1), g, 0)

@@ -31,7 +31,8 @@ from ..errors import TimingError
 from ..path import JointPath
 from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
-from ..tcp import with_tcp
+from ..schedule import LimitSchedule
+from ..tcp import PathLimits
 from .ruckig_backend import require_jerk_limits
 from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, stretch_for, time_unit,
                              torque_stretch)
@@ -96,12 +97,13 @@ class Topp3Details(TimingDetails):
     jerk_exact: bool = True
 
 
-def stations_for(path: JointPath) -> np.ndarray:
+def stations_for(path: JointPath, include=()) -> np.ndarray:
     """The station grid in s: STATIONS_PER_SEGMENT per waypoint segment on average (within
     [MIN_STATIONS, MAX_STATIONS] in all), spread over the segments by their length but at least
     MIN_STATIONS_PER_SEGMENT in each (a short segment between two stops needs room to speed up and
     slow down), evenly within each; every breakpoint of the path is a station and, where d3q/ds3 jumps
-    there (a C2 path), so is a point just before it: each side's value must be limited at a station."""
+    there (a C2 path), so is a point just before it: each side's value must be limited at a station; and
+    the points ``include`` (a schedule's bounds, where the limits change)."""
     knots = path.s_waypoints
     segments = len(knots) - 1
     total = int(np.clip(STATIONS_PER_SEGMENT * segments, MIN_STATIONS, MAX_STATIONS))
@@ -110,7 +112,7 @@ def stations_for(path: JointPath) -> np.ndarray:
     spacing = float(np.min(np.diff(knots) / counts))
     inner = path.breakpoints[1:-1]
     before = inner - BREAKPOINT_GAP * spacing if path.continuity < 3 else inner[:0]
-    return np.unique(np.concatenate([*stations, path.breakpoints, before, [1.0]]))
+    return np.unique(np.concatenate([*stations, path.breakpoints, before, np.clip(include, 0.0, 1.0), [1.0]]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,53 +240,56 @@ def interval_jerk_ratios(timing: PathTiming, path: JointPath, limits: Limits) ->
     return (np.abs(qddd) / limits.qddd_max).reshape(len(timing.s) - 1, fractions.size, -1).max(axis=1)
 
 
-def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: Limits, torques, stretch: float,
-            tcp=None) -> float:
+def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: PathLimits, torques,
+            stretch: float) -> float:
     """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
-    slowed by ``stretch`` within the limits, torques included when ``torques`` is given, and the TCP's
-    speed and acceleration when ``tcp`` (a TcpMotion) is (copp limits them at its stations; between
-    them this slow-down does)."""
-    q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
-    speed, accel, jerk = _peak_ratios(qd, qdd, qddd, limits)
-    speed, accel = with_tcp(speed, accel, tcp, limits, q, qd, qdd)
-    slowed = stretch_for((speed, accel, jerk), stretch, OUTPUT_MARGIN)
+    slowed by ``stretch`` within ``limits`` (joint speeds x the schedule's factor, accelerations, jerks, and
+    the TCP's speed and acceleration where limited: copp limits them at its stations, between them this
+    slow-down does), torques included when ``torques`` is given."""
+    state = timing.at(t, stretch)
+    q, qd, qdd, qddd = joint_motion(path, *state)
+    speed, accel = limits.peaks(state[0], q, qd, qdd)
+    slowed = stretch_for((speed, accel, float((np.abs(qddd) / limits.limits.qddd_max).max())), stretch,
+                         OUTPUT_MARGIN)
     if torques is not None:
-        slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits, torques)
+        slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits.limits, torques)
     return slowed
 
 
-def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None, tcp=None) -> tuple[PathTiming, float]:
+def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> tuple[PathTiming, float]:
     """copp's TOPP2, then TOPP3 with a small total-variation penalty on the joint accelerations (COPP3,
     an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times) around its own answer with the
     jerk limit of every station next to an interval whose jerk exceeds it between stations tightened
-    by that excess, on ``stations_for(path)``. Torques are limited too when ``limits.tau_max`` and
+    by that excess, on ``stations_for(path)`` with the schedule's bounds. ``limits`` (a PathLimits): the joint
+    speed limits x the schedule's factor at each station; torques are limited too when ``tau_max`` and
     ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's speed and acceleration
-    when ``tcp`` (a TcpMotion) is (``tcp_constraint.add_copp_rows``). copp sees the path in units of its
+    where they are limited (``tcp_constraint.add_copp_rows``). copp sees the path in units of its
     length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
     ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The solves share SOLVE_BUDGET_S.
     Returns (timing, TOPP2 duration [s]); TimingError saying what to change when copp fails."""
     import copp_py as copp
 
     distance = max(path.length, 1e-300)
-    unit = time_unit(limits, distance)
+    unit = time_unit(limits.limits, distance)
     view = ScaledPath(path, distance)
-    scaled = view.limits(limits, unit)
-    s = stations_for(path)
+    scaled = view.limits(limits.limits, unit)
+    s = stations_for(path, () if limits.schedule is None else limits.schedule.bounds)
     n = len(s)
     robot = copp.Robot(view.dof, capacity=n, inverse_dynamics=None if inverse_dynamics is None else
                        scaled_inverse_dynamics(inverse_dynamics, view, unit))
     robot.append_s(s)
     robot.set_q(view(s), view(s, 1), view(s, 2), 0, dddq=view(s, 3))
-    robot.add_velocity_limits(scaled.qd_max, -scaled.qd_max, start_idx_s=0, length=n)
+    qd_max = scaled.qd_max * np.append(limits.at(s)[0][:, None] * np.ones(path.dof), np.ones((n, 1)), axis=1)
+    robot.add_velocity_limits(qd_max, -qd_max, start_idx_s=0, length=n)
     robot.add_acceleration_limits(scaled.qdd_max, -scaled.qdd_max, start_idx_s=0, length=n)
     robot.add_jerk_limits(scaled.qddd_max, -scaled.qddd_max, start_idx_s=0, length=n)
     if inverse_dynamics is not None:
-        tau_max = np.append(limits.tau_max, 1.0)
+        tau_max = np.append(limits.limits.tau_max, 1.0)
         robot.add_torque_limits(tau_max, -tau_max, start_idx_s=0, length=n)
-    if tcp is not None:
+    if limits.limits_tcp:
         from .tcp_constraint import add_copp_rows
 
-        add_copp_rows(robot.constraints, tcp, path, limits, unit, s)
+        add_copp_rows(robot.constraints, limits.tcp, path, limits, unit, s)
 
     def real(profile) -> PathTiming:
         timing = _profile_timing(copp, s, profile)
@@ -314,7 +319,7 @@ def solve_topp3(path: JointPath, limits: Limits, inverse_dynamics=None, tcp=None
         profile = solved(a2)
         jerk_max = np.tile(scaled.qddd_max, (n, 1))
         for _ in range(TIGHTEN_ROUNDS):
-            excess = interval_jerk_ratios(real(profile), path, limits)
+            excess = interval_jerk_ratios(real(profile), path, limits.limits)
             station_excess = np.maximum(np.vstack([excess, excess[-1:]]), np.vstack([excess[:1], excess]))
             if station_excess.max() <= 1.0 + TIGHTEN_EXCESS or time.perf_counter() - started >= SOLVE_BUDGET_S:
                 break
@@ -346,26 +351,29 @@ def refusal(path: JointPath, stations: int, why: str, solver_message: str = "") 
 
 
 def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                 inverse_dynamics=None, max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None) -> Profile:
+                 inverse_dynamics=None, max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None,
+                 schedule: LimitSchedule | None = None) -> Profile:
     """Time-optimal jerk-limited profile along ``path`` (C2), at rest at both ends, sampled every
     ``dt`` [s] and at the end; torques limited too with ``inverse_dynamics`` and ``limits.tau_max``,
-    and the TCP's speed and acceleration with ``tcp``."""
+    the TCP's speed and acceleration with ``tcp``, and the ``schedule``'s joint speeds and TCP limits over
+    s (scaled like ``limits``); the profile carries the schedule mapped to its time."""
     require_jerk_limits(limits, "topp3")
     if path.continuity < 2:
         raise TimingError(f"jerk-limited path following needs a C2 path (monotone or spline); the {path.shape} "
                           "path's d2q/ds2 jumps at its corners")
     start = time.perf_counter()
     torques = inverse_dynamics if limits.tau_max is not None else None
-    timing, topp2_s = solve_topp3(path, limits, torques, tcp)
+    judge = PathLimits(limits, tcp, schedule)
+    timing, topp2_s = solve_topp3(path, judge, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
     peaks = _peak_ratios(*joint_motion(path, *timing.at(check_t))[1:], limits)
-    stretch = _slowed(timing, path, check_t, limits, torques, 1.0, tcp)
+    stretch = _slowed(timing, path, check_t, judge, torques, 1.0)
     if stretch > MAX_STRETCH:
         raise TimingError(refusal(path, len(timing.s), f"its solution would need slowing down {stretch:.3g} times "
                                   f"(at most {MAX_STRETCH:g}) to meet the limits between its stations"))
     t = sample_times(timing.duration * stretch, dt, max_samples)
     for _ in range(OUTPUT_ROUNDS):             # the output samples are judged too: slow a little more
-        output_stretch = _slowed(timing, path, t, limits, torques, stretch, tcp)
+        output_stretch = _slowed(timing, path, t, judge, torques, stretch)
         if output_stretch <= stretch:
             break
         stretch = output_stretch
@@ -375,4 +383,6 @@ def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[
         stations=len(timing.s), topp2_s=topp2_s, topp3_s=timing.duration, check_samples=int(check_t.size),
         station_peak_qd_ratio=peaks[0], station_peak_qdd_ratio=peaks[1], station_peak_qddd_ratio=peaks[2],
         time_stretch=stretch, path_deviation=0.0, compute_s=time.perf_counter() - start)
-    return Profile(t, q, qd, qdd, qddd, "topp3", limits, joint_names, details)
+    mapped = None if schedule is None else schedule.mapped(timing.t[np.searchsorted(timing.s, np.clip(
+        schedule.bounds, 0.0, 1.0))] * stretch)
+    return Profile(t, q, qd, qdd, qddd, "topp3", limits, joint_names, details, schedule=mapped)

@@ -28,7 +28,8 @@ from ..errors import ProfileSizeError, TimingError
 from ..path import JointPath
 from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
-from ..tcp import with_tcp
+from ..schedule import LimitSchedule
+from ..tcp import PathLimits
 
 #: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
 #: benchmark paths, see ``python -m pipeline bench timing``), and of the retries.
@@ -51,6 +52,7 @@ PATH_JERK_CAP = 1e6
 #: interval; the output samples are all checked).
 CHECK_SAMPLES_PER_INTERVAL = 32
 TCP_CHECK_STRIDE = 16
+TCP_ROWS = slice(None, None, TCP_CHECK_STRIDE)
 #: Slow down by this much more than the measured excess, so the check passes with room [1]; for the
 #: output samples, rounds of checking them (a slow-down moves them) and their margin (certify allows 1e-6).
 STRETCH_MARGIN = 1e-9
@@ -103,17 +105,17 @@ class ScaledPath:
                       limits.tau_max)
 
 
-def grid_for(path: JointPath, count: int) -> np.ndarray:
+def grid_for(path: JointPath, count: int, include=()) -> np.ndarray:
     """Grid in s: ``count`` uniform points (at least ``POINTS_PER_SEGMENT`` per waypoint segment) and
     every breakpoint of the path, with each smooth piece split at least ``POINTS_PER_PIECE`` times:
     inside every interval the path is smooth and short, so the dense check sees every acceleration
-    peak."""
+    peak; and the points ``include`` (a schedule's bounds, where the limits change)."""
     breakpoints = path.breakpoints
     # A tool move's joint path passes through dense IK samples, not waypoints: no floor per segment.
     segments = 1 if path.shape == "samples" else len(path.waypoints) - 1
     uniform = np.linspace(0.0, 1.0, max(count, POINTS_PER_SEGMENT * segments))
     pieces = (breakpoints[:-1, None] + np.diff(breakpoints)[:, None] * np.arange(POINTS_PER_PIECE) / POINTS_PER_PIECE)
-    return np.unique(np.concatenate([uniform, pieces.ravel(), [1.0]]))
+    return np.unique(np.concatenate([uniform, pieces.ravel(), np.clip(include, 0.0, 1.0), [1.0]]))
 
 
 def _toppra_path(path: ScaledPath):
@@ -198,7 +200,7 @@ class GridTiming:
         return float(self.t[-1])
 
     def at(self, path: JointPath, t: np.ndarray, stretch: float = 1.0):
-        """q, qd, qdd at times t [s] of the trajectory slowed by ``stretch`` (time x stretch)."""
+        """s, q, qd, qdd at times t [s] of the trajectory slowed by ``stretch`` (time x stretch)."""
         tau_total = np.clip(t / stretch, 0.0, self.duration)
         i = np.clip(np.searchsorted(self.t, tau_total, side="right") - 1, 0, len(self.u) - 1)
         tau = tau_total - self.t[i]
@@ -209,7 +211,13 @@ class GridTiming:
         d1, d2 = path(s, 1), path(s, 2)
         qd = d1 * sd[:, None] / stretch
         qdd = (d1 * u[:, None] + d2 * (sd**2)[:, None]) / stretch**2
-        return path(s), qd, qdd
+        return s, path(s), qd, qdd
+
+    def times_of(self, points: np.ndarray) -> np.ndarray:
+        """The times [s] at which the timing passes ``points`` (m,), grid points of its s (a schedule's
+        bounds are on every grid)."""
+        index = np.searchsorted(self.s, np.clip(points, 0.0, 1.0))
+        return self.t[np.minimum(index, len(self.s) - 1)]
 
     def dense_times(self, per_interval: int) -> np.ndarray:
         """``per_interval`` + 1 evenly spaced times in every grid interval, both ends included (the
@@ -239,15 +247,11 @@ def time_unit(limits: Limits, distance: float) -> float:
     return 1.0 / float(max(times))
 
 
-def _refined(timing: GridTiming, path: JointPath, limits: Limits, tcp=None) -> np.ndarray | None:
-    """The grid with every interval whose dense check exceeds a limit by more than REFINE_EXCESS split
-    in REFINE_SPLIT (None: no interval does)."""
-    q, qd, qdd = timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL))
-    ratios = np.maximum(np.abs(qd) / limits.qd_max, np.abs(qdd) / limits.qdd_max).max(axis=1)
-    if tcp is not None:
-        stride = slice(None, None, TCP_CHECK_STRIDE)
-        ratios[stride] = np.maximum(ratios[stride], np.maximum(*tcp.sample_ratios(limits, q[stride], qd[stride],
-                                                                                  qdd[stride])))
+def _refined(timing: GridTiming, path: JointPath, limits: PathLimits) -> np.ndarray | None:
+    """The grid with every interval whose dense check against ``limits`` exceeds a limit by more than
+    REFINE_EXCESS split in REFINE_SPLIT (None: no interval does)."""
+    ratios = np.maximum(*limits.sample_ratios(*timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)),
+                                              tcp_rows=TCP_ROWS))
     over = ratios.reshape(len(timing.u), CHECK_SAMPLES_PER_INTERVAL + 1).max(axis=1) > 1.0 + REFINE_EXCESS
     if not over.any():
         return None
@@ -256,27 +260,25 @@ def _refined(timing: GridTiming, path: JointPath, limits: Limits, tcp=None) -> n
     return np.unique(np.concatenate([timing.s, added.ravel()]))
 
 
-def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dynamics=None, tcp=None):
+def _solve_refined(path: JointPath, limits: PathLimits, gridpoints: int, inverse_dynamics=None):
     """(GridTiming [s], retried grid sizes) with REFINE_ROUNDS of interval splitting; TimingError when
     toppra fails on every grid. Without torques toppra sees the path in units of its length and time
-    in units of (the median velocity limit / that length), and the timing is scaled back exactly."""
+    in units of (the median velocity limit / that length), and the timing is scaled back exactly. A
+    schedule's bounds are on every grid, its joint speeds and the TCP's limits constrain each grid point."""
     distance = max(path.length, 1e-300)
-    unit = time_unit(limits, distance)
+    unit = time_unit(limits.limits, distance)
     view = ScaledPath(path, distance)
-    scaled = view.limits(limits, unit)
+    scaled = view.limits(limits.limits, unit)
     torques = None if inverse_dynamics is None else scaled_inverse_dynamics(inverse_dynamics, view, unit)
-    extra = ()
-    if tcp is not None:
-        from .tcp_constraint import TcpConstraint   # toppra only when it is used
-
-        extra = (TcpConstraint(tcp, path, limits, unit, view.dof),)
+    extra = _extra_constraints(path, view, scaled, limits, unit)
+    bounds = () if limits.schedule is None else limits.schedule.bounds
 
     def real(timing: GridTiming) -> GridTiming:
         return GridTiming(timing.s, timing.sd * unit, timing.u * unit**2, timing.t / unit)
 
     attempts = [gridpoints, *[g for g in RETRY_GRIDPOINTS if g > gridpoints]]
     for used in attempts:
-        timing = solve_grid_timing(view, scaled, used, torques, extra)
+        timing = solve_grid_timing(view, scaled, grid_for(path, used, bounds), torques, extra)
         if timing is not None:
             break
     else:
@@ -285,12 +287,25 @@ def _solve_refined(path: JointPath, limits: Limits, gridpoints: int, inverse_dyn
     timing = real(timing)
     largest = REFINE_GROWTH * len(timing.s)
     for _ in range(REFINE_ROUNDS if inverse_dynamics is None else 0):
-        grid = _refined(timing, path, limits, tcp)
+        grid = _refined(timing, path, limits)
         refined = None if grid is None or len(grid) > largest else solve_grid_timing(view, scaled, grid, extra=extra)
         if refined is None:
             break
         timing = real(refined)
     return timing, tuple(attempts[: attempts.index(used)])
+
+
+def _extra_constraints(path: JointPath, view: ScaledPath, scaled: Limits, limits: PathLimits, unit: float) -> tuple:
+    """The constraints beyond the joints' own (``scaled``: their limits in the solver's units): the TCP's
+    where ``limits`` limit it, the schedule's joint speeds where it slows them."""
+    from .tcp_constraint import TcpConstraint, VaryingSpeedConstraint   # toppra only when it is used
+
+    extra = []
+    if limits.limits_tcp:
+        extra.append(TcpConstraint(limits.tcp, path, limits, unit, view.dof))
+    if limits.schedule is not None and np.any(limits.schedule.joint_speed < 1.0):
+        extra.append(VaryingSpeedConstraint(scaled.qd_max, limits))
+    return tuple(extra)
 
 
 @dataclass(frozen=True)
@@ -314,10 +329,12 @@ class ToppraDetails(TimingDetails):
 
 @dataclass(frozen=True, eq=False)
 class ToppraSolution:
-    """toppra's grid timing along ``path``, slowed uniformly by ``stretch`` [1] so that its dense check
-    (``check_samples`` samples, peaks ``grid_peak_ratios`` (qd, qdd) [1]) passes; ``solve_s`` [s]."""
+    """toppra's grid timing along ``path`` within ``limits`` (a PathLimits), slowed uniformly by ``stretch``
+    [1] so that its dense check (``check_samples`` samples, peaks ``grid_peak_ratios`` (qd, qdd) [1]) passes;
+    ``solve_s`` [s]."""
 
     path: JointPath
+    limits: PathLimits
     grid: GridTiming
     stretch: float
     retried_gridpoints: tuple[int, ...]
@@ -332,11 +349,12 @@ class ToppraSolution:
 
 
 def solve_toppra(path: JointPath, limits: Limits, gridpoints: int | None = None,
-                 inverse_dynamics=None, tcp=None) -> ToppraSolution:
+                 inverse_dynamics=None, tcp=None, schedule: LimitSchedule | None = None) -> ToppraSolution:
     """Time-optimal timing along ``path`` within qd_max and qdd_max (and tau_max through
     ``inverse_dynamics(Q, QD, QDD) -> TAU``, batched [N m], when the limits have it; the TCP's speed and
-    acceleration limits through ``tcp``, a TcpMotion, when the limits have them), checked densely
-    between grid points; no samples yet. Raises TimingError when toppra fails on every grid."""
+    acceleration limits through ``tcp``, a TcpMotion, when the limits or the schedule have them; the
+    ``schedule``'s joint speeds over s, scaled like ``limits``), checked densely between grid points; no
+    samples yet. Raises TimingError when toppra fails on every grid."""
     torques = inverse_dynamics if limits.tau_max is not None else None
     if limits.qdd_max is None:
         raise TimingError("toppra needs acceleration limits (qdd_max) for every joint")
@@ -345,56 +363,55 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int | None = None,
     if torques is not None:
         q_grid = path(grid_for(path, gridpoints))
         check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
-    timing, retried = _solve_refined(path, limits, gridpoints, torques, tcp)
+    judge = PathLimits(limits, tcp, schedule)
+    timing, retried = _solve_refined(path, judge, gridpoints, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    peaks = with_tcp(*_ratios(*timing.at(path, check_t), limits), tcp, limits,
-                     *timing.at(path, check_t[::TCP_CHECK_STRIDE]))
+    checked = timing.at(path, check_t)
+    peaks = judge.peaks(*checked, tcp_rows=TCP_ROWS)
     stretch = stretch_for(peaks, 1.0)
     if torques is not None:
-        stretch = max(stretch, torque_stretch(*timing.at(path, check_t), limits, torques))
-    return ToppraSolution(path, timing, stretch, retried, int(check_t.size), peaks, time.perf_counter() - start)
+        stretch = max(stretch, torque_stretch(*checked[1:], limits, torques))
+    return ToppraSolution(path, judge, timing, stretch, retried, int(check_t.size), peaks,
+                          time.perf_counter() - start)
 
 
-def sample_toppra(solution: ToppraSolution, limits: Limits, dt: float, joint_names: tuple[str, ...],
-                  max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None) -> Profile:
+def sample_toppra(solution: ToppraSolution, dt: float, joint_names: tuple[str, ...],
+                  max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
     """The solution sampled every ``dt`` [s] (and at the end); slowed a little more if an output
-    sample exceeds a limit. Raises ProfileSizeError before sampling more than ``max_samples``."""
+    sample exceeds a limit. Raises ProfileSizeError before sampling more than ``max_samples``. The
+    profile carries the schedule mapped to its time."""
     start = time.perf_counter()
-    path, timing, stretch = solution.path, solution.grid, solution.stretch
+    path, timing, stretch, limits = solution.path, solution.grid, solution.stretch, solution.limits
     t = sample_times(timing.duration * stretch, dt, max_samples)
-    q, qd, qdd = timing.at(path, t, stretch)
+    s, q, qd, qdd = timing.at(path, t, stretch)
     # The output samples are judged too (certify() reads them): stretch more while one of them exceeds
     # (a slow-down moves the samples, so each round checks the new ones).
     for _ in range(OUTPUT_ROUNDS):
-        output_ratios = _ratios(q, qd, qdd, limits, tcp)
+        output_ratios = limits.peaks(s, q, qd, qdd)
         if max(output_ratios) <= 1.0:
             break
         stretch = stretch_for(output_ratios, stretch, OUTPUT_MARGIN)
         t = sample_times(timing.duration * stretch, dt, max_samples)
-        q, qd, qdd = timing.at(path, t, stretch)
+        s, q, qd, qdd = timing.at(path, t, stretch)
     details = ToppraDetails(
         gridpoints=int(len(timing.s)), retried_gridpoints=solution.retried_gridpoints,
         optimal_on_grid_s=timing.duration, check_samples=solution.check_samples,
         grid_peak_qd_ratio=solution.grid_peak_ratios[0], grid_peak_qdd_ratio=solution.grid_peak_ratios[1],
         time_stretch=stretch, compute_s=solution.solve_s + time.perf_counter() - start)
-    timed_limits = dataclasses.replace(limits, qddd_max=None)
-    return Profile(t, q, qd, qdd, np.gradient(qdd, t, axis=0), "toppra", timed_limits, joint_names, details)
+    timed_limits = dataclasses.replace(limits.limits, qddd_max=None)
+    schedule = None if limits.schedule is None else limits.schedule.mapped(timing.times_of(limits.schedule.bounds)
+                                                                           * stretch)
+    return Profile(t, q, qd, qdd, np.gradient(qdd, t, axis=0), "toppra", timed_limits, joint_names, details,
+                   schedule=schedule)
 
 
 def retime_toppra(path: JointPath, limits: Limits, dt: float, joint_names: tuple[str, ...],
                   gridpoints: int | None = None, inverse_dynamics=None,
-                  max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None) -> Profile:
+                  max_samples: int = DEFAULT_MAX_SAMPLES, tcp=None, schedule: LimitSchedule | None = None) -> Profile:
     """Time-optimal profile along ``path``, at rest at both ends, sampled every ``dt`` [s]:
     ``solve_toppra`` then ``sample_toppra``."""
-    return sample_toppra(solve_toppra(path, limits, gridpoints, inverse_dynamics, tcp), limits, dt, joint_names,
-                         max_samples, tcp)
-
-
-def _ratios(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, limits: Limits, tcp=None) -> tuple[float, float]:
-    """The peak speed and acceleration ratios over samples: |qd| / qd_max and |qdd| / qdd_max, and the
-    TCP's speed and acceleration over their limits when ``tcp`` (a TcpMotion) is given."""
-    speed, accel = float((np.abs(qd) / limits.qd_max).max()), float((np.abs(qdd) / limits.qdd_max).max())
-    return with_tcp(speed, accel, tcp, limits, q, qd, qdd)
+    return sample_toppra(solve_toppra(path, limits, gridpoints, inverse_dynamics, tcp, schedule), dt, joint_names,
+                         max_samples)
 
 
 def check_holding_torques(q: np.ndarray, static: np.ndarray, limits: Limits) -> None:
