@@ -30,7 +30,7 @@ SELF_PLANNING_MARGIN_M = 0.005
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
 ROPE_STEP = 3.0
 #: Height steps of the lift tried before a search (``lifted_path``) [m].
-LIFT_STEP_M = 0.05
+LIFT_STEP_M = 0.025
 #: OMPL's random generator takes one seed per process (before its first sample).
 _seeded: list[int] = []
 

@@ -7,8 +7,9 @@ meet, the corner is rounded in joint space by a septic Hermite blend that matche
 first three derivatives where it leaves and joins them (so the path stays C2 or better and toppra and
 topp3 see no jump): at a waypoint with a zone R, the blend leaves the segment before where the TCP is
 R from the waypoint (on a tool move: R along its line or arc) and joins the next one likewise, each
-at most half of the move's last or first edge; at a planner's inner vertex the blend takes
-AUTO_BLEND of each edge. A blend that leaves the joint limits, or, in a cell, comes closer to
+at most half of the move's last or first edge; at a planner's inner vertex, and on the planned side
+of a zone (the planner chose that path, the program only its end), the blend takes AUTO_BLEND of
+each edge. A blend that leaves the joint limits, or, in a cell, comes closer to
 an obstacle than the clearance (checked at configurations CHECK_STEP_RAD apart), is narrowed
 (halved) until it does not; ``narrowed`` counts that.
 
@@ -35,7 +36,8 @@ AUTO_BLEND = 0.45
 #: Blend check resolution in a cell: configurations at most this far apart [rad]; blend narrowing rounds.
 CHECK_STEP_RAD = 0.01
 NARROW_ROUNDS = 12
-#: Breakpoints closer than this in s are one (a segment's own breakpoint at a blend's end) [1].
+#: Breakpoints closer than this in s are one, a piece's bound kept (a segment's own breakpoint at a
+#: blend's end: a microscopic grid interval there made toppra's path acceleration explode) [1].
 BREAKPOINT_GAP = 1e-9
 #: TCP samples on a joint segment's end half when finding where the TCP is R from the corner.
 ZONE_SAMPLES = 200
@@ -91,7 +93,11 @@ class StretchPath:
     # -- geometry -------------------------------------------------------------------------------------
     def _cut(self, segment: Segment, zone: float, at_end: bool) -> float:
         """The joint-space length [rad or m] cut off ``segment`` at its end (or start) for a zone of
-        ``zone`` [m]: where the TCP is ``zone`` from the corner, at most half the move there."""
+        ``zone`` [m]: on a tool move or an unplanned joint move, where the TCP is ``zone`` from the corner,
+        at most half the move there; on a planned move's edge (a path the planner chose, not one the
+        program gave) AUTO_BLEND of it, as at the planner's own vertices."""
+        if segment.kind == "edge":
+            return AUTO_BLEND * segment.length
         if segment.kind == "track":
             along = segment.moves[0].track.along
             tool_path = along.tool_path
@@ -180,6 +186,9 @@ class StretchPath:
         return out
 
     def _joint_path(self) -> JointPath:
+        """The stretch's JointPath: a single segment's own (s = u / length already), else the pieces."""
+        if len(self.segments) == 1:
+            return self.segments[0].path
         total = self.total
 
         def pieces(s, order):
@@ -189,8 +198,10 @@ class StretchPath:
 
         bounds = np.array([p[2] for p in self.pieces] + [total]) / total
         inner = [self._segment_breakpoints(k) for k in range(len(self.pieces))]
-        breakpoints = np.unique(np.concatenate([bounds, *inner]))
-        breakpoints = breakpoints[np.concatenate([[True], np.diff(breakpoints) > BREAKPOINT_GAP])]
+        inner = np.unique(np.concatenate(inner)) if inner else np.empty(0)
+        inner = inner[np.concatenate([[True], np.diff(inner) > BREAKPOINT_GAP])] if inner.size else inner
+        apart = np.abs(inner[:, None] - bounds[None, :]).min(axis=1) > BREAKPOINT_GAP if inner.size else []
+        breakpoints = np.unique(np.concatenate([bounds, inner[apart]]))
         waypoints = self._piece_values(bounds * total, 0)
         continuity = min([3] + [s.path.continuity for s in self.segments])
         return JointPath(waypoints, bounds, breakpoints, "program", total, continuity, pieces)
@@ -224,7 +235,7 @@ class StretchPath:
 
     @property
     def schedule(self) -> LimitSchedule:
-        """The limits along s (see the module docstring), with a bound at every passage."""
+        """The limits along s (see the module docstring)."""
         rows = []            # (s_start, s_end, joint_speed, tcp_speed, tcp_accel)
         accel = np.inf if self.program.tcp_accel_max is None else self.program.tcp_accel_max
         for k, (kind, i, u0, u1) in enumerate(self.pieces):
@@ -240,8 +251,7 @@ class StretchPath:
                 rows += self._track_rows(k, segment, accel)
             else:
                 rows.append((s0, s1, min(m.speed for m in segment.moves), np.inf, np.inf))
-        cuts = sorted(set([r[0] for r in rows] + [rows[-1][1]] + list(self.passages)))
-        bounds = np.array(cuts)
+        bounds = np.array([r[0] for r in rows] + [1.0])
         mids = (bounds[:-1] + bounds[1:]) / 2.0
         values = np.array([[r[2], r[3], r[4]] for r in rows])
         owner = np.clip(np.searchsorted([r[0] for r in rows], mids, side="right") - 1, 0, len(rows) - 1)

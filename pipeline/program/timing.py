@@ -88,11 +88,9 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
     passages, stretches = [], []
     for path, profile, offset, (first, last) in zip(paths, profiles, offsets, program.stretches()):
         if path is None:
-            times = [offset + profile.duration] * (last - first)
+            times = [offset + t for t in _ruckig_passages(program, first, last, profile)]
         else:
-            bounds = profile.schedule.bounds
-            schedule_s = path.schedule.bounds
-            times = [offset + float(np.interp(s, schedule_s, bounds)) for s in path.passages]
+            times = [offset + _passage_time(path, profile, s) for s in path.passages]
         passages += times
         stretches.append({"first": first, "last": last, "duration_s": profile.duration,
                           "timing": profile.details.to_dict() if profile.details else None,
@@ -101,6 +99,31 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
     schedules = [p.schedule.shifted(offset) for p, offset in zip(profiles, offsets) if p.schedule is not None]
     return dataclasses.replace(joined, schedule=joined_schedules(schedules) if len(schedules) == len(profiles)
                                else None)
+
+
+def _passage_time(path: StretchPath, profile: Profile, s: float) -> float:
+    """When the stretch's profile passes its path's ``s`` [s]: between the times of the schedule bounds
+    around s (exact at a bound), the sample nearest the path's configuration there."""
+    bounds = path.schedule.bounds
+    k = int(np.clip(np.searchsorted(bounds, s, side="right") - 1, 0, len(bounds) - 2))
+    t0, t1 = profile.schedule.bounds[k], profile.schedule.bounds[k + 1]
+    if s <= bounds[k] or s >= bounds[k + 1]:
+        return float(t0 if s <= bounds[k] else t1)
+    inside = np.flatnonzero((profile.t >= t0) & (profile.t <= t1))
+    if inside.size == 0:
+        return float((t0 + t1) / 2.0)
+    q = path.path(np.array([s]))[0]
+    return float(profile.t[inside[np.argmin(np.linalg.norm(profile.q[inside] - q, axis=1))]])
+
+
+def _ruckig_passages(program: Program, first: int, last: int, profile: Profile) -> list[float]:
+    """When a stretch timed waypoint to waypoint (ruckig) reaches each of its waypoints [s]: the sums of
+    its segments' durations up to each move's end (the stretch's end for all when they do not match)."""
+    edges = [1 if m.planned is None else len(m.planned.waypoints) - 1 for m in program.moves[first: last]]
+    durations = getattr(profile.details, "segment_durations_s", ())
+    if len(durations) != sum(edges):
+        return [profile.duration] * (last - first)
+    return [float(t) for t in np.cumsum(durations)[np.cumsum(edges) - 1]]
 
 
 def _blend_at(paths: list, profiles: list[Profile], t: float | None):
