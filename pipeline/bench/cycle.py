@@ -34,11 +34,12 @@ limits on every sample, the columns against each other, the clearance over the w
   stops), its certified profile; cycle = its duration, beside ``lower_bound(program)``;
 * the peer, a pipeline as people build it by hand (MPlib's ``TOPP``, MoveIt's default pipeline): the same
   solved targets (``program.targets``) and the same IK samples of each tool move (``move.samples``).
-  Each joint move: ``plan_joint_path(scene, q_a, q_b, "RRTConnect")`` (OMPL RRTConnect + simplification
-  on Drake's checker), then toppra itself through the vertices (``toppra.SplineInterpolator`` over
-  ``linspace(0, 1, n)``, ``JointVelocityConstraint`` x the move's speed fraction and
-  ``JointAccelerationConstraint`` from the robot's limits, ``TOPPRA`` with its default grid and
-  ``ParametrizeConstAccel``, ``compute_trajectory(0, 0)``: rest to rest). Each tool move: the same toppra
+  Each joint move: ``peer_plan`` (OMPL by hand, as ``bench plan``'s peer: RRTConnect on Drake's checker,
+  then ``simplifySolution``; not ``plan_joint_path``, which tries its straight edge and a lift first and
+  keeps a margin beyond the clearance), then toppra itself through the vertices
+  (``toppra.SplineInterpolator`` over ``linspace(0, 1, n)``, ``JointVelocityConstraint`` x the move's
+  speed fraction and ``JointAccelerationConstraint`` from the robot's limits, ``TOPPRA`` with its default
+  grid and ``ParametrizeConstAccel``, ``compute_trajectory(0, 0)``: rest to rest). Each tool move: the same toppra
   along a spline through its IK samples, then slowed uniformly until the TCP speed and acceleration on
   its samples are within the move's speed and the job's TCP acceleration (MoveIt's velocity and
   acceleration scaling). It stops at every junction (no zones); the pieces are joined at rest and
@@ -66,7 +67,7 @@ import numpy as np
 
 from ..errors import ConfigurationError, PipelineError
 from ..jobs import load_job, parse_job
-from ..planning import plan_joint_path
+from ..planning import joint_space, path_vertices
 from ..poses import rotation_to_rpy, rpy_to_rotation
 from ..profile import Profile, certify, scale_limits
 from ..program import compile_job, lower_bound, time_program
@@ -78,6 +79,7 @@ from ..tcp import TcpMotion
 from ..timing.toppra_backend import sample_times
 from ..versions import version_table
 from .goals import Goal, GoalReport, fmt, goal_lines
+from .plan import PEER_STEP_RAD
 
 log = logging.getLogger(__name__)
 
@@ -201,6 +203,34 @@ class PeerError(PipelineError):
     """The peer pipeline produced no profile (a planner or toppra failure), with why."""
 
 
+def peer_plan(scene, q_a: np.ndarray, q_b: np.ndarray, budget: float) -> np.ndarray:
+    """OMPL set up by hand, as ``bench plan``'s peer (and MoveIt's and MPlib's default): ``SimpleSetup`` over
+    the joint box, a validity callback on the scene's Drake checker (its clearance), the motion validator at
+    PEER_STEP_RAD, ``RRTConnect``, ``solve(budget)``, ``simplifySolution()``: the vertices (k, dof).
+    OMPL's generator is seeded as ``plan_joint_path`` seeds it (once per process), so a run repeats.
+    PeerError when it finds no exact solution within ``budget`` [s]."""
+    from ompl import geometric as og, util as ou
+
+    from .. import planning
+
+    ou.setLogLevel(ou.LOG_WARN)
+    if not planning._seeded:                    # the protocol of plan_joint_path: one seed per process
+        ou.RNG.setSeed(1)
+        planning._seeded.append(0)
+    checker = scene.checker
+    space, values, start, goal = joint_space(scene.robot, q_a, q_b)
+    setup = og.SimpleSetup(space)
+    setup.setStateValidityChecker(lambda state: bool(checker.CheckConfigCollisionFree(values(state))))
+    setup.getSpaceInformation().setStateValidityCheckingResolution(PEER_STEP_RAD / space.getMaximumExtent())
+    setup.setStartAndGoalStates(start, goal)
+    setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
+    setup.solve(budget)
+    if not setup.haveExactSolutionPath():
+        raise PeerError(f"RRTConnect found no exact solution in {budget:g} s")
+    setup.simplifySolution()
+    return path_vertices(setup.getSolutionPath(), values)
+
+
 def _toppra_trajectory(vertices: np.ndarray, limits: Limits, speed_fraction: float):
     """toppra as MPlib's ``TOPP`` calls it: a cubic spline through ``vertices`` (k, dof) over
     ``linspace(0, 1, k)``, joint velocity limits x ``speed_fraction`` and acceleration limits, the default
@@ -273,8 +303,7 @@ def peer_piece(program, scene, k: int, limits: Limits, tcp: TcpMotion, budget: f
     move, q_a, q_b = program.moves[k], program.targets[k], program.targets[k + 1]
     scale = program.speed_scale
     if move.kind == "joint":
-        vertices = (np.array([q_a, q_b]) if scene is None
-                    else plan_joint_path(scene, q_a, q_b, "RRTConnect", budget).waypoints)
+        vertices = np.array([q_a, q_b]) if scene is None else peer_plan(scene, q_a, q_b, budget)
         t, q, qd, qdd = _sampled(_toppra_trajectory(vertices, limits, move.speed), 1.0, program.dt)
         return PeerPiece(t, q, qd, qdd, move.speed, np.inf, np.inf, len(vertices), 1.0)
     points = _through(q_a, move.samples, q_b)
