@@ -427,7 +427,8 @@ def run_peer(program, scene, budget: float = PEER_PLAN_BUDGET_S) -> Outcome:
 @dataclass(frozen=True)
 class ProgramRecord:
     """One program: ``name``, its lower bound [s] (``lower_bound(program).total_s``), the TCP speed of its
-    tool moves [m/s], the draws it took, and both outcomes."""
+    tool moves [m/s], the draws it took, both outcomes, and its ``job``: the drawn document (``parse_job``
+    reads it again), or a demo job's file."""
 
     name: str
     bound_s: float
@@ -435,6 +436,7 @@ class ProgramRecord:
     draws: int
     ours: Outcome
     peer: Outcome
+    job: dict | str
 
     def ratio(self, which: str) -> float | None:
         """cycle / bound of ``which`` ("ours" | "peer") [1], None without a profile."""
@@ -442,27 +444,40 @@ class ProgramRecord:
         return None if cycle is None else cycle / self.bound_s
 
 
-def measure(name: str, program, scene, draws: int, budget: float) -> ProgramRecord:
-    """Both contestants on ``program`` (ours first)."""
-    ours = run_ours(program, scene)
-    peer = run_peer(program, scene, budget)
-    speeds = [move.speed for move in program.moves if move.kind != "joint"]
-    return ProgramRecord(name, lower_bound(program).total_s, max(speeds, default=0.0), draws, ours, peer)
+@dataclass(frozen=True, eq=False)
+class Drawn:
+    """A program of the problem set: ``name``, its ``job`` (a document, or a demo job's file), the
+    ``program`` our compiler made of it and the ``draws`` it took."""
+
+    name: str
+    job: dict | str
+    program: object
+    draws: int
+
+
+def measure(drawn: Drawn, scene, budget: float) -> ProgramRecord:
+    """Both contestants on a program (ours first)."""
+    ours = run_ours(drawn.program, scene)
+    peer = run_peer(drawn.program, scene, budget)
+    speeds = [move.speed for move in drawn.program.moves if move.kind != "joint"]
+    return ProgramRecord(drawn.name, lower_bound(drawn.program).total_s, max(speeds, default=0.0), drawn.draws,
+                         ours, peer, drawn.job)
 
 
 # -- the problem set --------------------------------------------------------------------------------
-def drawn_programs(cell: str, count: int, rng: np.random.Generator, scene=None):
-    """``count`` (name, program, draws) in ``cell``: each the first draw our compiler accepts, at most
-    MAX_DRAWS draws (fewer when a program was given up); the cell's CollisionModel (built from the first
-    job: every drawn job has the same cell and tool)."""
+def drawn_programs(cell: str, count: int, rng: np.random.Generator, scene=None) -> tuple[list[Drawn], object]:
+    """``count`` programs in ``cell``: each the first draw our compiler accepts, at most MAX_DRAWS draws
+    (fewer programs when one was given up); the cell's CollisionModel (built from the first job: every
+    drawn job has the same cell and tool)."""
     programs = []
     for k in range(count):
         name = f"{cell}_{k:02d}"
         for draws in range(1, MAX_DRAWS + 1):
-            job = parsed_job(draw_document(cell, rng), name)
+            document = draw_document(cell, rng)
+            job = parsed_job(document, name)
             scene = scene or collision_model(job)
             try:
-                programs.append((name, compile_job(job, scene), draws))
+                programs.append(Drawn(name, document, compile_job(job, scene), draws))
                 break
             except PipelineError as exc:
                 log.info("%s draw %d refused: %s", name, draws, exc)
@@ -472,14 +487,15 @@ def drawn_programs(cell: str, count: int, rng: np.random.Generator, scene=None):
 def measure_demo(name: str, budget: float) -> ProgramRecord:
     """A demo cell job (trajectories/jobs/NAME.yaml) compiled and measured like a drawn program."""
     began = time.perf_counter()
-    job = load_job(DEMO_JOB_DIR / f"{name}.yaml")
+    path = DEMO_JOB_DIR / f"{name}.yaml"
+    job = load_job(path)
     scene = collision_model(job)
     try:
         program = compile_job(job, scene)
     except PipelineError as exc:
         failed = _failed(exc, began, "compile_job: ")
-        return ProgramRecord(name, math.nan, job.tcp_speed_max or 0.0, 1, failed, failed)
-    return measure(name, program, scene, 1, budget)
+        return ProgramRecord(name, math.nan, job.tcp_speed_max or 0.0, 1, failed, failed, str(path))
+    return measure(Drawn(name, str(path), program, 1), scene, budget)
 
 
 # -- figures ----------------------------------------------------------------------------------------
@@ -506,7 +522,8 @@ class CellReport:
     its median and max cycle / bound; the peer's certified fraction and median cycle / bound (over the
     programs it made a profile for); ``ours_over_peer``: our median cycle over the peer's (over the
     programs both made a profile for); our largest ``time_stretch``; the peer's largest peak/limit ratio;
-    each side's failures tallied; and every program's record."""
+    each side's median compute time [s] (ours: ``time_program``; the peer: planning and timing); each
+    side's failures tallied; and every program's record."""
 
     cell: str
     asked: int
@@ -520,6 +537,8 @@ class CellReport:
     ours_over_peer: float | None
     time_stretch_max: float | None
     peer_worst_ratio: float | None
+    ours_compute_s: float | None
+    peer_compute_s: float | None
     ours_failures: dict[str, int]
     peer_failures: dict[str, int]
     records: list[ProgramRecord] = field(repr=False)
@@ -537,6 +556,7 @@ def cell_report(cell: str, asked: int, records: list[ProgramRecord]) -> CellRepo
                       _fraction([r.peer.certified for r in records]), _median(peer), ours_over_peer,
                       max(stretches, default=None),
                       max((r.peer.worst_ratio for r in records if r.peer.worst_ratio is not None), default=None),
+                      _median([r.ours.compute_s for r in records]), _median([r.peer.compute_s for r in records]),
                       _tally([r.ours for r in records]),
                       _tally([r.peer for r in records]), records)
 
@@ -600,7 +620,8 @@ class CycleBenchReport(GoalReport):
                 if tally:
                     lines.append(f"  {c.cell} {who} not certified: "
                                  + ", ".join(f"{kind or '?'} x{count}" for kind, count in tally.items()))
-            lines.append(f"  {c.cell} peer: largest peak/limit ratio {fmt(c.peer_worst_ratio, '.6f')}")
+            lines.append(f"  {c.cell}: the peer's largest peak/limit ratio {fmt(c.peer_worst_ratio, '.6f')}; compute"
+                         f" time, median: ours {fmt(c.ours_compute_s, '.2f')} s, peer {fmt(c.peer_compute_s, '.2f')} s")
         if self.demos:
             lines += ["", "Demo cell jobs:"]
             lines += [_demo_line(record) for record in self.demos]
@@ -640,8 +661,8 @@ def run_cycle_benchmark(cells=CELLS, programs: int = 20, seed: int = 0,
         drawn, scene = drawn_programs(cell, programs, np.random.default_rng(seed))
         records = []
         with Progress(len(drawn), f"bench cycle {cell}") as tick:
-            for name, program, draws in drawn:
-                records.append(measure(name, program, scene, draws, budget))
+            for program in drawn:
+                records.append(measure(program, scene, budget))
                 tick()
         reports.append(cell_report(cell, programs, records))
     demos = [measure_demo(name, budget) for name, cell in DEMO_JOBS.items() if cell in cells]
