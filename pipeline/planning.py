@@ -1,8 +1,9 @@
 """Collision-free joint paths: OMPL's sampling planners with Drake's checker as their validity checker.
 
 ``plan_joint_path(model, q_start, q_goal)``: the straight joint-space edge when it is free, else the
-lowest lift over the obstacles that is free (``lifted_path``: a via point or two above the ends, the
-motion a programmer would teach, found without randomness), else a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``: a
+quickest free detour around the obstacles (``detour_path``: a via point or two moved up, back out
+along the tool or towards the base, the motion a programmer would teach, found without randomness),
+else a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``: a
 continuous joint searches half a turn beyond its start and goal values), each state checked by
 Drake's checker and each edge by Drake's parallel edge check, then OMPL's ``PathSimplifier`` on the
 result (vertex reduction, then rope shortcutting at ROPE_STEP). While planning, obstacles are kept
@@ -29,8 +30,9 @@ SELF_PLANNING_MARGIN_M = 0.005
 #: 0.55 of the raw length in 56 ms median, 3 to 0.74 in 27 ms, vertex reduction alone to 0.87 in 11 ms
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
 ROPE_STEP = 3.0
-#: Height steps of the lift tried before a search (``lifted_path``) [m].
-LIFT_STEP_M = 0.025
+#: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m].
+DETOUR_STEP_M = 0.025
+MAX_DETOUR_M = 1.0
 #: OMPL's random generator takes one seed per process (before its first sample).
 _seeded: list[int] = []
 
@@ -106,36 +108,62 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
         length = path_length(straight)
         return PlannedPath(straight, "direct", 0.0, 0.0, length, length)
     began = time.perf_counter()
-    lifted = lifted_path(model, checks, q_start, q_goal)
-    if lifted is not None:
-        length = path_length(lifted)
-        return PlannedPath(lifted, "lift", time.perf_counter() - began, 0.0, length, length)
+    detour = detour_path(model, checks, q_start, q_goal)
+    if detour is not None:
+        length = path_length(detour)
+        return PlannedPath(detour, "detour", time.perf_counter() - began, 0.0, length, length)
     return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
 
 
-def lifted_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
-    """The quickest of the lowest free lifts over the obstacles, or None. Two shapes, each at heights
-    LIFT_STEP_M, 2 LIFT_STEP_M, ... above the higher end (up to the arm's reach), the lowest whose
-    vertices and edges are free: one via point (the flange midway between the ends, raised, its
-    orientation halfway) and two (each end raised: up, across, down), each solved by IK nearest the
-    joint values it lies between; of the two, the one whose edges the joints cover sooner at their
-    speed limits. Deterministic: the same ends give the same path in any process."""
+def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
+    """The quickest of the shortest free detours around the obstacles, or None. Three directions, up
+    (world z), back (against the tools' z axes: out of a fixture the tool points into) and inward
+    (towards the base's axis), two shapes each: one via point (the flange midway between the ends,
+    its orientation halfway) and two (each end moved: out, across, in); each at offsets DETOUR_STEP_M,
+    2 DETOUR_STEP_M, ... up to MAX_DETOUR_M, the first whose vias (IK nearest the joint values they lie
+    between) and edges are free. Of these, the quickest by ``polyline_time``. Deterministic: the same ends give the same path in any process."""
     robot = model.robot
     X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
-    top = max(X_a[2, 3], X_b[2, 3])
-    shapes = (([interpolated_pose(X_a, X_b, 0.5)], [(q_start + q_goal) / 2.0]), ([X_a, X_b], [q_start, q_goal]))
+    middle = interpolated_pose(X_a, X_b, 0.5)
+    inward = -middle[:3, 3] * np.array([1.0, 1.0, 0.0])
+    directions = {"up": [np.array([0.0, 0.0, 1.0])] * 2, "back": [-X_a[:3, 2], -X_b[:3, 2]],
+                  "inward": [inward / max(float(np.linalg.norm(inward)), 1e-9)] * 2}
     found = []
-    for poses, seeds in shapes:
-        for height in np.arange(LIFT_STEP_M, robot.spec.reach_bound + LIFT_STEP_M, LIFT_STEP_M):
-            vias = [_via(robot, _raised(X, top + height), seed) for X, seed in zip(poses, seeds)]
-            if any(v is None for v in vias):
-                continue
-            vertices = np.array([q_start, *vias, q_goal])
-            if all(checks.state(v) for v in vias) and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
+    for along in directions.values():
+        for poses, seeds, ways in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
+                                   ([X_a, X_b], [q_start, q_goal], along)):
+            vertices = _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways)
+            if vertices is not None:
                 found.append(vertices)
-                break
-    qd_max = robot.limits.qd_max
-    return min(found, key=lambda v: float(np.abs(np.diff(v, axis=0) / qd_max).max(axis=1).sum()), default=None)
+    return min(found, key=lambda vertices: polyline_time(robot.limits, vertices), default=None)
+
+
+def polyline_time(limits, vertices: np.ndarray) -> float:
+    """An estimate of the time along a joint polyline (k, dof) [s]: each edge from rest to rest at the
+    slowest joint's speed and acceleration limits (a blend at a vertex saves some of it)."""
+    steps = np.abs(np.diff(vertices, axis=0))
+    qd, qdd = limits.qd_max, limits.qdd_max
+    if qdd is None:
+        return float((steps / qd).max(axis=1).sum())
+    times = np.where(steps < qd**2 / qdd, 2.0 * np.sqrt(steps / qdd), steps / qd + qd / qdd)
+    return float(times.max(axis=1).sum())
+
+
+def _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways) -> np.ndarray | None:
+    """[q_start, vias..., q_goal] for the smallest offset along ``ways`` (one unit vector per pose) whose
+    vias and edges are free (None: none up to MAX_DETOUR_M)."""
+    for offset in np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M):
+        vias = [_via(robot, _moved(X, offset * way), seed) for X, way, seed in zip(poses, ways, seeds)]
+        if any(v is None for v in vias):
+            continue
+        vertices = np.array([q_start, *vias, q_goal])
+        if all(checks.state(v) for v in vias) and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
+            return vertices
+    return None
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / max(float(np.linalg.norm(v)), 1e-9)
 
 
 def interpolated_pose(X_a: np.ndarray, X_b: np.ndarray, f: float) -> np.ndarray:
@@ -148,10 +176,10 @@ def interpolated_pose(X_a: np.ndarray, X_b: np.ndarray, f: float) -> np.ndarray:
     return X
 
 
-def _raised(X: np.ndarray, z: float) -> np.ndarray:
-    lifted = X.copy()
-    lifted[2, 3] = z
-    return lifted
+def _moved(X: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    moved = X.copy()
+    moved[:3, 3] += offset
+    return moved
 
 
 def _via(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:

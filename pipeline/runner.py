@@ -187,13 +187,17 @@ def _compiled_and_timed(job: Job, scene, max_samples: int, max_duration_s: float
     its certified profile (``time_program``). Tool-move errors name the waypoint and its line, clearance
     failures the line of the waypoint the motion is moving to (``move_at``) and the job's time, timing,
     planning and collision errors the job file."""
+    program = _staged(job, lambda: compile_job(job, scene))
+    check_duration(job, lower_bound(program), max_samples, max_duration_s)
+    return program, _staged(job, lambda: time_program(program, scene, max_samples))
+
+
+def _staged(job: Job, stage):
+    """``stage()``, its errors named as ``_compiled_and_timed`` says."""
     from .tool_moves import ToolMoveError
 
-    program = None
     try:
-        program = compile_job(job, scene)
-        check_duration(job, lower_bound(program), max_samples, max_duration_s)
-        return program, time_program(program, scene, max_samples)
+        return stage()
     except ToolMoveError as exc:
         raise job.error(("waypoints", exc.move), str(exc)) from exc
     except ClearanceError as exc:

@@ -160,7 +160,7 @@ def test_a_planned_move_around_the_wall_is_certified_on_dense_samples(wall):
     robot = wall.robot
     q_start, q_goal = np.radians(PICK_DEG), np.radians(PLACE_DEG)
     plan = plan_joint_path(wall, q_start, q_goal)
-    assert plan.planner == "RRTConnect" and plan.length_after <= plan.length_before
+    assert plan.planner == "detour" and plan.length_after <= plan.length_before
     np.testing.assert_array_equal(plan.waypoints[[0, -1]], [q_start, q_goal])
     profile, _ = time_clear(wall, plan.waypoints, lambda vertices: retime(robot, vertices), refine=True)
     report = profile.certificate
@@ -212,7 +212,7 @@ def test_a_job_in_the_cell_plans_over_the_wall_and_reports_it(tmp_path):
     outcome = run_job(job, tmp_path / "out")
     cell = outcome.report["cell"]
     assert cell["clearance"]["passed"] and cell["clearance"]["min_distance_m"] >= 0.01
-    assert [m["planner"] for m in cell["planned_moves"]] == ["RRTConnect"]
+    assert [m["planned"]["planner"] for m in outcome.report["program"]["moves"]] == ["detour"]
     assert "clearance 10 mm: PASS" in outcome.summary()
 
 
@@ -295,8 +295,8 @@ def test_a_clearance_failure_names_the_waypoint_line_and_the_job_time(tmp_path):
     with pytest.raises(CollisionError) as error:
         run_job(load_job(path), tmp_path / "out")
     failure = error.value.__cause__
-    piece_start, failed_at = failure.profile.t[0], failure.report.failed_at_s
-    assert piece_start > 0.1 and failed_at > piece_start                  # after the tool move, in job time
+    tool_move_end, failed_at = failure.profile.details.passages_s[1], failure.report.failed_at_s
+    assert tool_move_end > 0.1 and failed_at > tool_move_end              # after the tool move, in job time
     assert str(error.value).startswith(f"{path}:9: waypoints[2]: on the move to this waypoint")
     assert f"wall (clearance 10 mm) at t = {failed_at:.4f} s" in str(error.value)
     assert not (tmp_path / "out").exists()

@@ -241,7 +241,8 @@ def test_a_robot_without_the_limits_its_timing_needs_is_named(tmp_path, timing, 
 
 
 def test_an_absurd_duration_is_refused_before_timing(tmp_path):
-    """tcp_speed_max: 1 (mm/s) on the demo pick and place: at least 1743 s of motion, refused in well under
+    """tcp_speed_max: 1 (mm/s) on the demo pick and place: at least 1398 s of motion (its lines less their
+    zones at 1 mm/s: the program's lower bound), refused in well under
     a second after reading (it ran for minutes and wrote hundreds of MB), naming the field and its line."""
     text = (JOBS_DIR / "gp7_pick_place.yaml").read_text()
     path = tmp_path / "slow.yaml"
@@ -253,7 +254,7 @@ def test_an_absurd_duration_is_refused_before_timing(tmp_path):
     assert time.process_time() - start < 1.0
     line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if text.startswith("tcp_speed_max"))
     assert (error.value.field, error.value.line) == ("tcp_speed_max", line)
-    assert "would last at least 17" in str(error.value) and "at 1 mm/s" in str(error.value)
+    assert "would last at least 1398 s" in str(error.value) and "at 1 mm/s" in str(error.value)
     assert not (tmp_path / "out").exists()
 
 

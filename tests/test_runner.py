@@ -272,12 +272,13 @@ def test_torque_limited_robot_writes_torques(tmp_path):
 
 
 def test_the_report_says_what_timed_the_path_and_certifies_once(tmp_path, monkeypatch):
-    """ruckig times waypoint to waypoint (no path shape); the runner reuses retime's certificate."""
-    import pipeline.timing
+    """ruckig times waypoint to waypoint (no path shape); the program is certified once, by time_program."""
+    import pipeline.program.timing
 
     calls = []
-    real_certify = pipeline.timing.certify
-    monkeypatch.setattr(pipeline.timing, "certify", lambda profile: calls.append(profile) or real_certify(profile))
+    real_certify = pipeline.program.timing.certify
+    monkeypatch.setattr(pipeline.program.timing, "certify",
+                        lambda profile, **kw: calls.append(profile) or real_certify(profile, **kw))
     for name, timing, path in (("arm6_joint_rad", "ruckig", None), ("arm5_joint_spline", "toppra", "spline")):
         outcome = run_job_file(ROOT / "trajectories" / "jobs" / f"{name}.yaml", tmp_path / name)
         assert len(calls) == 1 and outcome.limit_report is outcome.profile.certificate

@@ -135,6 +135,12 @@ class Program:
     details: dict = field(default_factory=dict)
 
     @property
+    def has_tcp_limits(self) -> bool:
+        """Whether the TCP is limited somewhere: tool moves, or a safety TCP speed limit (the profile then
+        carries the TCP's samples)."""
+        return self.limits.tcp_speed_max is not None or any(m.is_tool_move for m in self.moves)
+
+    @property
     def targets(self) -> np.ndarray:
         """(K, dof) the joint values of the K waypoints [rad or m]."""
         return np.array([self.waypoints[0].q] + [move.target for move in self.moves])

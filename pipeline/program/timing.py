@@ -22,12 +22,14 @@ from ..cell_motion import ClearanceError
 from ..choices import DEFAULT_MAX_SAMPLES
 from ..errors import TimingError
 from ..profile import Profile, TcpSamples, TimingDetails, certify
-from ..schedule import joined_schedules
+from ..schedule import LimitSchedule, joined_schedules
 from ..tcp import TcpMotion
 from ..timing import time_path
 from .model import Program
 from .stretch import StretchPath
 
+#: How long a stop between two stretches lasts in the joined schedule [s] (far below any sample time).
+STOP_INSTANT_S = 1e-9
 #: Blends narrowed (one per round) to bring the profile within the clearance before giving up.
 MAX_REFINEMENTS = 8
 
@@ -79,7 +81,8 @@ def _time_stretch(program: Program, path: StretchPath | None, k: int, max_sample
         for move in program.moves[first: last]:
             vertices += list(move.planned.waypoints[1:]) if move.planned is not None else [move.target]
         return time_path(program.robot, np.array(vertices), **common)
-    return time_path(program.robot, path.path, tcp=TcpMotion(program.robot), schedule=path.schedule, **common)
+    tcp = TcpMotion(program.robot) if program.has_tcp_limits else None
+    return time_path(program.robot, path.path, tcp=tcp, schedule=path.schedule, **common)
 
 
 def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
@@ -96,9 +99,21 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
                           "timing": profile.details.to_dict() if profile.details else None,
                           "blends_narrowed": 0 if path is None else sum(b.narrowed for b in path.blends)})
     joined = join_profiles(profiles, ProgramDetails(tuple(stretches), (0.0, *passages)))
-    schedules = [p.schedule.shifted(offset) for p, offset in zip(profiles, offsets) if p.schedule is not None]
-    return dataclasses.replace(joined, schedule=joined_schedules(schedules) if len(schedules) == len(profiles)
-                               else None)
+    if any(p.schedule is None for p in profiles):
+        return joined
+    schedules = [profiles[0].schedule] + [_after_stop(p.schedule, before.schedule)
+                                          for before, p in zip(profiles[:-1], profiles[1:])]
+    return dataclasses.replace(joined, schedule=joined_schedules([s.shifted(o) for s, o in zip(schedules, offsets)]))
+
+
+def _after_stop(schedule: LimitSchedule, before: LimitSchedule) -> LimitSchedule:
+    """``schedule`` of a stretch that begins at a stop, with the stop itself (its first STOP_INSTANT_S)
+    under the limits the stretch ``before`` ends with: the joined profile keeps the earlier stretch's
+    sample at the stop (its deceleration into it), which is judged by the limits it was timed with."""
+    last = [values[-1:] for values in (before.joint_speed, before.tcp_speed, before.tcp_accel)]
+    bounds = np.concatenate([[0.0, STOP_INSTANT_S], np.maximum(schedule.bounds[1:], 2.0 * STOP_INSTANT_S)])
+    return LimitSchedule(bounds, *(np.concatenate([end, values]) for end, values in
+                                   zip(last, (schedule.joint_speed, schedule.tcp_speed, schedule.tcp_accel))))
 
 
 def _passage_time(path: StretchPath, profile: Profile, s: float) -> float:
