@@ -116,3 +116,27 @@ def test_time_path_does_not_certify_and_retime_certifies_once(gp7, path, monkeyp
     assert profile.speed_scale == 1.0 and profile.unscaled_limits is gp7.limits
     retime(gp7, path)
     assert calls == [1]
+
+
+def test_a_tcp_acceleration_limit_through_a_turn_in_place_needs_no_uniform_slow_down(gp7):
+    """At the middle vertex of this monotone path every joint turns back (dq/ds = 0, d2q/ds2 not): the TCP's
+    acceleration rows at the grid points alone left toppra's path acceleration free there, and the dense check
+    found the limit exceeded 2.5 times between grid points (the whole piece was slowed 1.4x)."""
+    waypoints = np.array([[0.499347, 0.387442, -0.030465, 0.0, -1.152889, 0.024252],
+                          [-0.516962, 0.065809, 0.743078, 0.516609, -0.310005, 0.494812],
+                          [-0.499347, 0.387442, -0.030465, 0.0, -1.152889, -0.024252]])
+    limits = dataclasses.replace(gp7.limits, tcp_speed_max=0.5, tcp_accel_max=2.5)
+    profile = retime(gp7, waypoints, shape="monotone", limits=limits, tcp=TcpMotion(gp7))
+    assert profile.details.time_stretch < 1.001
+    assert profile.certificate.max_ratio("tcp_accel") > 0.99
+
+
+def test_a_bound_a_hair_from_a_breakpoint_takes_its_place_on_the_grid(path):
+    """A schedule's bound 1.4e-17 from a breakpoint made a grid interval of nothing: the joint acceleration
+    of toppra's solution there came out 2.6e8 times its limit."""
+    from pipeline.timing.toppra_backend import MIN_GRID_GAP, grid_for
+
+    bound = np.nextafter(path.breakpoints[1], 1.0)
+    grid = grid_for(path, 2000, include=[0.0, bound, 1.0])
+    assert bound in grid and path.breakpoints[1] not in grid
+    assert np.diff(grid).min() >= MIN_GRID_GAP and grid[0] == 0.0 and grid[-1] == 1.0

@@ -57,22 +57,37 @@ def accel_rows(p1: np.ndarray, p2: np.ndarray, accel_max: np.ndarray, unit: floa
 class TcpConstraint(toppra.constraint.LinearConstraint):
     """TCP speed (and acceleration, where limited) along ``path`` (real units) within ``limits`` (a
     PathLimits: the TCP's limits at each grid point), for toppra in time units of 1 / ``unit`` [1/s] (see
-    ``toppra_backend.time_unit``)."""
+    ``toppra_backend.time_unit``).
+
+    The acceleration is limited at each grid point s_i and at the end of its interval, s_{i+1}, which
+    the constant path acceleration u_i of the interval reaches with x = sd^2 = x_i + 2 (s_{i+1} - s_i) u_i:
+    rows (p'(s_{i+1}) + 2 ds p''(s_{i+1})) u_i + p''(s_{i+1}) x_i, linear in (u_i, x_i) as toppra needs,
+    with the interval's own limit. Where p' changes fast against p'' (a turn in place: p' = 0 and p'' not)
+    the rows at s_i alone leave u_i free, and toppra's grid solution swings between bang-bang path
+    accelerations that exceed the limit inside every interval, however fine the grid."""
 
     def __init__(self, tcp: TcpMotion, path: JointPath, limits: PathLimits, unit: float, dof: int):
         super().__init__()
         self.tcp, self.path, self.limits, self.unit, self.dof = tcp, path, limits, unit, dof
 
     def compute_constraint_params(self, path, gridpoints):
-        gridpoints = np.asarray(gridpoints, dtype=float)
-        _, speed_max, accel_max = self.limits.at(gridpoints)
-        p1, p2 = self.tcp.along(self.path, gridpoints)
+        s = np.asarray(gridpoints, dtype=float)
+        _, speed_max, accel_max = self.limits.at(s)
+        p1, p2 = self.tcp.along(self.path, s)
         x_max = speed_bound(p1, speed_max, self.unit)
         xbound = np.column_stack([np.zeros_like(x_max), x_max])
         if not np.isfinite(accel_max).any():
             return None, None, None, None, None, None, xbound
+        end = np.append(s[1:], s[-1])
+        end_p1, end_p2 = self.tcp.along(self.path, end)
+        end_p1 = end_p1 + 2.0 * (end - s)[:, None] * end_p2
+        own = self.limits.at((s + end) / 2.0)[2]                  # the interval's own limit (not a bound's)
         F, g = accel_rows(p1, p2, accel_max, self.unit)
-        return p1, p2, np.zeros_like(p1), F, g, None, xbound
+        end_F, end_g = accel_rows(end_p1, end_p2, own, self.unit)
+        zeros = np.zeros_like(F)
+        F = np.concatenate([np.concatenate([F, zeros], axis=2), np.concatenate([zeros, end_F], axis=2)], axis=1)
+        a, b = np.hstack([p1, end_p1]), np.hstack([p2, end_p2])
+        return a, b, np.zeros_like(a), F, np.hstack([g, end_g]), None, xbound
 
 
 class VaryingSpeedConstraint(toppra.constraint.LinearConstraint):

@@ -35,7 +35,7 @@ from ..schedule import LimitSchedule
 from ..tcp import PathLimits
 from .ruckig_backend import require_jerk_limits
 from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, stretch_for, time_unit,
-                             torque_stretch)
+                             torque_stretch, with_points)
 
 #: Stations per waypoint segment on average and at least, and the fewest and most stations of a path
 #: (the solve time grows about linearly with them: 0.3-2 s for a 10-waypoint path, ~15 s for 60
@@ -67,6 +67,9 @@ MAX_STRETCH = 4.0
 A_ROUNDOFF = 1e-8
 #: The station just before a breakpoint, in units of the smallest station spacing [1].
 BREAKPOINT_GAP = 1e-3
+#: A station closer than this in s to a schedule's bound gives way to it (a bound 1e-17 from a breakpoint
+#: would make an interval of nothing) [1].
+MIN_STATION_GAP = 1e-10
 #: Samples per station interval in the dense limit check; rounds of checking the output samples (a
 #: slow-down moves them), and how much more than the measured excess each slow-down takes [1]
 #: (certify allows 1e-6).
@@ -112,7 +115,7 @@ def stations_for(path: JointPath, include=()) -> np.ndarray:
     spacing = float(np.min(np.diff(knots) / counts))
     inner = path.breakpoints[1:-1]
     before = inner - BREAKPOINT_GAP * spacing if path.continuity < 3 else inner[:0]
-    return np.unique(np.concatenate([*stations, path.breakpoints, before, np.clip(include, 0.0, 1.0), [1.0]]))
+    return with_points(np.concatenate([*stations, path.breakpoints, before, [1.0]]), include, MIN_STATION_GAP)
 
 
 @dataclass(frozen=True, eq=False)

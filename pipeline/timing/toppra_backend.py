@@ -41,6 +41,11 @@ SAMPLE_PATH_GRIDPOINTS = 500
 #: Grid density floors: uniform points per waypoint segment, and points per smooth piece of the path.
 POINTS_PER_SEGMENT = 60
 POINTS_PER_PIECE = 8
+#: Grid points closer than this in s are one point [1]: toppra meets its constraints to its solver's
+#: tolerance, and on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is
+#: noise (a schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its
+#: limit there, and the piece was slowed 40,000 times).
+MIN_GRID_GAP = 1e-7
 #: Caps of the path speed ds/dt, acceleration and jerk in the solvers' units (``ScaledPath``,
 #: ``time_unit``: there they are about 1 on ordinary paths): they bind only where every joint nearly
 #: stands still, and cost no measurable time there (larger caps leave toppra's LP ill-conditioned).
@@ -115,7 +120,22 @@ def grid_for(path: JointPath, count: int, include=()) -> np.ndarray:
     segments = 1 if path.shape == "samples" else len(path.waypoints) - 1
     uniform = np.linspace(0.0, 1.0, max(count, POINTS_PER_SEGMENT * segments))
     pieces = (breakpoints[:-1, None] + np.diff(breakpoints)[:, None] * np.arange(POINTS_PER_PIECE) / POINTS_PER_PIECE)
-    return np.unique(np.concatenate([uniform, pieces.ravel(), np.clip(include, 0.0, 1.0), [1.0]]))
+    grid = with_points(np.concatenate([uniform, pieces.ravel(), [1.0]]), include, MIN_GRID_GAP)
+    close = np.flatnonzero(np.diff(grid) < MIN_GRID_GAP)            # of two points that close, the later goes
+    return np.delete(grid, np.where(close + 2 == len(grid), close, close + 1))   # (the end, 1, stays)
+
+
+def with_points(points: np.ndarray, include, gap: float) -> np.ndarray:
+    """The sorted union of ``points`` and ``include`` (both in s, clipped to [0, 1]), where every point closer
+    than ``gap`` to an included one gives way to it (a schedule's bound must be a point itself)."""
+    points = np.unique(points)
+    include = np.unique(np.clip(np.asarray(include, dtype=float), 0.0, 1.0))
+    if include.size == 0:
+        return points
+    index = np.searchsorted(include, points)
+    nearest = np.minimum(np.abs(points - include[np.maximum(index - 1, 0)]),
+                         np.abs(points - include[np.minimum(index, len(include) - 1)]))
+    return np.unique(np.concatenate([points[nearest >= gap], include]))
 
 
 def _toppra_path(path: ScaledPath):
