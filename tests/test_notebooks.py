@@ -282,7 +282,8 @@ def check_seed003(n: dict) -> None:
     assert tool["tcp_speed_max_m_s"] == pytest.approx(0.4) and tool["tcp_accel_max_m_s2"] == pytest.approx(2.0)
     assert tool["peak_tcp_speed_m_s"] >= 0.99 * tool["tcp_speed_max_m_s"]   # it cruises at the TCP limit
     assert tool["top_edge_samples"] > 50 and tool["top_edge_error_mm"] <= 0.1   # on the line between the zones
-    assert tool["max_path_error_m"] <= 1e-4 and tool["pieces"] == 2
+    assert tool["max_path_error_m"] <= 1e-4
+    assert tool["stretches"] == 2 and tool["tracks"] == 2       # stops at waypoint 4 (the rectangle) and at the end
 
 
 def check_seed004(n: dict) -> None:
@@ -319,7 +320,10 @@ def check_cells_and_planning(n: dict) -> None:
     the place (TCP 120 mm out of the flange) and are free; the direct move between them is refused for
     the wall; the planned path runs from the one to the other along edges this test's own collision model
     finds free; its profile is certified, within the limits, at rest at both ends, and keeps the clearance
-    on every sample; the demo job's report carries the same verdicts."""
+    on every sample. The demo job's program: both joint moves planned by the detour over the wall, from
+    and to their waypoints along free edges; stops only where the job has no zone; its cycle report adds
+    up to its certified profile, above the lower bound, and the transfer never rests; the run of the same
+    job gives the same duration, program and verdicts."""
     cell = pipeline.load_cell(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
     robot = cell.load_robot()
     model = pipeline.CollisionModel(robot, cell)
@@ -348,12 +352,11 @@ def check_cells_and_planning(n: dict) -> None:
     # The planned path: from the pick to the place exactly, every edge free here too.
     plan = n["plan"]
     vertices = np.array(plan["vertices_rad"])
-    assert plan["planner"] == "RRTConnect" and len(vertices) >= 3
-    np.testing.assert_array_equal(vertices[[0, -1]], [q_pick, q_place])
-    assert all(model.edge_is_free(a, b) for a, b in zip(vertices[:-1], vertices[1:]))
+    assert plan["planner"] == "detour" and len(vertices) >= 3           # over the wall, found before any search
+    check_planned_vertices(model, vertices, q_pick, q_place)
     length = float(np.linalg.norm(np.diff(vertices, axis=0), axis=1).sum())
-    assert plan["length_after_rad"] == pytest.approx(length, rel=1e-12)
-    assert np.linalg.norm(q_place - q_pick) < plan["length_after_rad"] <= plan["length_before_rad"]
+    assert plan["length_after_rad"] == pytest.approx(length, rel=1e-12) == plan["length_before_rad"]
+    assert np.linalg.norm(q_place - q_pick) < plan["length_after_rad"]
     # Its profile.
     planned = n["planned"]
     assert planned["passed"] is True and planned["clearance"]["passed"] is True and planned["duration_s"] > 0
@@ -363,16 +366,56 @@ def check_cells_and_planning(n: dict) -> None:
     np.testing.assert_allclose(planned["start_q"], q_pick, atol=1e-9)
     np.testing.assert_allclose(planned["end_q"], q_place, atol=1e-9)
     assert planned["end_qd_max"] <= 1e-9
-    # The demo job, run in the notebook.
-    job = n["job"]
+    check_demo_program(model, n["program"])
+    # The demo job, run in the notebook: the same program, duration and verdicts.
+    job, program = n["job"], n["program"]
     assert job["passed"] is True and max(job["max_ratio"].values()) <= RATIO_LIMIT
+    assert job["duration_s"] == program["duration_s"] == job["cycle"]["cycle_s"]
+    assert job["cycle"] == program["cycle"]
+    assert [p and (p["planner"], p["vertices"]) for p in job["planned"]] == [
+        p and (p["planner"], len(p["vertices_rad"])) for p in program["planned"]]
+    for mine, theirs in zip(program["planned"], job["planned"]):
+        if mine is not None:
+            np.testing.assert_allclose(theirs["vertices_q"], mine["vertices_rad"], rtol=0, atol=1e-12)
     section = job["cell"]
     assert section["name"] == "gp7_wall_cell" and section["plan"] == "collision_free"
     assert Path(section["file"]).resolve() == (ROOT / "models" / "cells" / "gp7_wall_cell.yaml").resolve()
     assert section["clearance"]["passed"] is True and section["clearance"]["min_distance_m"] >= clearance
     assert section["clearance"]["clearance_m"] == pytest.approx(clearance)
-    assert [move["planner"] for move in section["planned_moves"]] == ["RRTConnect", "RRTConnect"]
     assert "report.json" in job["files"] and "profile.csv" in job["files"]
+
+
+def check_planned_vertices(model, vertices: np.ndarray, q_from, q_to) -> None:
+    """A planned path from ``q_from`` to ``q_to`` exactly, every edge free in the test's own model."""
+    np.testing.assert_array_equal(vertices[[0, -1]], [q_from, q_to])
+    assert all(model.edge_is_free(a, b) for a, b in zip(vertices[:-1], vertices[1:]))
+
+
+def check_demo_program(model, program: dict) -> None:
+    """The demo job gp7_cell_pick_place as a program: tool moves at the pick and the place, the two joint
+    moves over the wall planned by the detour, stops at the pick, the place and the ends only (the 75 mm
+    zones); certified; the cycle report's moves add up to the profile, above the bound; the transfer
+    over the wall (zones at both its ends) never at rest."""
+    assert program["kinds"] == ["linear", "linear", "joint", "linear", "linear", "joint"]
+    assert program["stops"] == [0, 1, 4, 6]
+    targets = np.array(program["targets_rad"])
+    planners = [p and p["planner"] for p in program["planned"]]
+    assert planners == [None, None, "detour", None, None, "detour"]
+    for k, planned in enumerate(program["planned"]):
+        if planned is not None:
+            vertices = np.array(planned["vertices_rad"])
+            assert len(vertices) >= 3
+            check_planned_vertices(model, vertices, targets[k], targets[k + 1])
+    assert program["passed"] is True and max(program["max_ratio"].values()) <= RATIO_LIMIT
+    cycle = program["cycle"]
+    assert cycle["cycle_s"] == program["duration_s"] and cycle["lower_bound_s"] == program["lower_bound_s"]
+    assert [(m["from"], m["to"], m["kind"]) for m in cycle["moves"]] == [
+        (k, k + 1, kind) for k, kind in enumerate(program["kinds"])]
+    assert sum(m["duration_s"] for m in cycle["moves"]) == pytest.approx(cycle["cycle_s"], abs=1e-9)
+    assert all(m["duration_s"] > 0 and m["binding"] for m in cycle["moves"])
+    assert 0 < program["lower_bound_s"] < cycle["cycle_s"]
+    assert cycle["ratio"] == pytest.approx(cycle["cycle_s"] / cycle["lower_bound_s"], rel=1e-12)
+    assert program["transfer_min_speed_rad_s"] > 0.1          # no stop over the wall [rad/s]
 
 
 def check_reachability_irb1600(n: dict) -> None:
