@@ -33,6 +33,10 @@ ROPE_STEP = 3.0
 #: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m].
 DETOUR_STEP_M = 0.025
 MAX_DETOUR_M = 1.0
+#: A via nudged from the joint values between the ends (``_nudged``): steps, tolerance [m], damping [m].
+NUDGE_ITERATIONS = 30
+NUDGE_TOLERANCE_M = 1e-4
+NUDGE_DAMPING = 0.01
 #: OMPL's random generator takes one seed per process (before its first sample).
 _seeded: list[int] = []
 
@@ -119,9 +123,10 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     """The quickest of the shortest free detours around the obstacles, or None. Three directions, up
     (world z), back (against the tools' z axes: out of a fixture the tool points into) and inward
     (towards the base's axis), two shapes each: one via point (the flange midway between the ends,
-    its orientation halfway) and two (each end moved: out, across, in); each at offsets DETOUR_STEP_M,
-    2 DETOUR_STEP_M, ... up to MAX_DETOUR_M, the first whose vias (IK nearest the joint values they lie
-    between) and edges are free. Of these, the quickest by ``polyline_time``. Deterministic: the same ends give the same path in any process."""
+    its orientation halfway) and two (each end moved: out, across, in); each via solved two ways (the
+    pose by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those
+    joint values, ``_nudged``); each at offsets DETOUR_STEP_M, 2 DETOUR_STEP_M, ... up to MAX_DETOUR_M,
+    the first whose vias and edges are free. Of these, the quickest by ``polyline_time``. Deterministic: the same ends give the same path in any process."""
     robot = model.robot
     X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
     middle = interpolated_pose(X_a, X_b, 0.5)
@@ -132,9 +137,10 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     for along in directions.values():
         for poses, seeds, ways in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
                                    ([X_a, X_b], [q_start, q_goal], along)):
-            vertices = _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways)
-            if vertices is not None:
-                found.append(vertices)
+            for solve in (_via, _nudged):
+                vertices = _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways, solve)
+                if vertices is not None:
+                    found.append(vertices)
     return min(found, key=lambda vertices: polyline_time(robot.limits, vertices), default=None)
 
 
@@ -149,11 +155,11 @@ def polyline_time(limits, vertices: np.ndarray) -> float:
     return float(times.max(axis=1).sum())
 
 
-def _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways) -> np.ndarray | None:
+def _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways, solve) -> np.ndarray | None:
     """[q_start, vias..., q_goal] for the smallest offset along ``ways`` (one unit vector per pose) whose
-    vias and edges are free (None: none up to MAX_DETOUR_M)."""
+    vias (``solve(robot, pose moved, seed)``) and edges are free (None: none up to MAX_DETOUR_M)."""
     for offset in np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M):
-        vias = [_via(robot, _moved(X, offset * way), seed) for X, way, seed in zip(poses, ways, seeds)]
+        vias = [solve(robot, _moved(X, offset * way), seed) for X, way, seed in zip(poses, ways, seeds)]
         if any(v is None for v in vias):
             continue
         vertices = np.array([q_start, *vias, q_goal])
@@ -180,6 +186,20 @@ def _moved(X: np.ndarray, offset: np.ndarray) -> np.ndarray:
     moved = X.copy()
     moved[:3, 3] += offset
     return moved
+
+
+def _nudged(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
+    """Joint values near ``seed`` whose flange is at X's position, its orientation free (damped least
+    squares on the position alone, NUDGE_ITERATIONS steps; None when it does not get within
+    NUDGE_TOLERANCE_M or leaves the limits): a via that keeps the wrist as it is between the ends."""
+    q, target, limits = seed.copy(), X[:3, 3], robot.limits
+    for _ in range(NUDGE_ITERATIONS):
+        error = target - robot.fk(q)[:3, 3]
+        if np.linalg.norm(error) < NUDGE_TOLERANCE_M:
+            return q if np.all((q >= limits.q_min) & (q <= limits.q_max)) else None
+        J = robot.jacobian(q)[:3]
+        q = q + J.T @ np.linalg.solve(J @ J.T + NUDGE_DAMPING**2 * np.eye(3), error)
+    return None
 
 
 def _via(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:

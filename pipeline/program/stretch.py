@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..path import SEPTIC, JointPath, make_path
+from ..path import SEPTIC, JointPath, PathError, make_path
 from ..schedule import LimitSchedule
 from .model import JOINT, Move, Program
 
@@ -85,7 +85,7 @@ class StretchPath:
 
     def __init__(self, program: Program, first: int, last: int, scene=None):
         self.program, self.first, self.last, self.scene = program, first, last, scene
-        self.segments, self.blends = _segments(program, first, last)
+        self.segments, self.blends = _segments(program, first, last, scene)
         for blend in self.blends:
             self._place_blend(blend)
         self.rebuild()
@@ -307,7 +307,21 @@ class StretchPath:
         return 1.0
 
 
-def _segments(program: Program, first: int, last: int) -> tuple[list[Segment], list[Blend]]:
+def _smooth_plan(vertices: np.ndarray, limits, scene) -> JointPath | None:
+    """The C2 spline through a planned move's vertices (when it has an inner one) if it stays inside the
+    joint limits and keeps the clearance at configurations CHECK_STEP_RAD apart (None otherwise): every
+    joint swings smoothly through the vertices, where edges and blends would turn sharply at each."""
+    if len(vertices) < 3:
+        return None
+    try:
+        curve = make_path(vertices, limits.q_min, limits.q_max, "spline")
+    except PathError:
+        return None
+    s = np.linspace(0.0, 1.0, max(3, int(np.ceil(curve.length / CHECK_STEP_RAD)) + 1))
+    return curve if scene is None or all(scene.is_free(q) for q in curve(s)) else None
+
+
+def _segments(program: Program, first: int, last: int, scene=None) -> tuple[list[Segment], list[Blend]]:
     """The segments of the stretch and the blends between them (see the module docstring)."""
     moves = program.moves[first: last]
     limits = program.robot.limits
@@ -321,6 +335,9 @@ def _segments(program: Program, first: int, last: int) -> tuple[list[Segment], l
             run = [m for m in moves[k:] if m.track is move.track]
             segments.append(Segment(move.track.along.path, tuple(run), "track"))
             k += len(run)
+        elif move.planned is not None and (curve := _smooth_plan(move.planned.waypoints, limits, scene)) is not None:
+            segments.append(Segment(curve, (move,), "joint"))
+            k += 1
         elif move.planned is not None:
             vertices = move.planned.waypoints
             for j in range(len(vertices) - 1):
