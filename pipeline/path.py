@@ -170,7 +170,7 @@ def monotone_knots(s_knots: np.ndarray, waypoints: np.ndarray) -> tuple[np.ndarr
             np.concatenate([zero, interior_turns, zero]))
 
 
-def _hermite_matrix(degree: int) -> np.ndarray:
+def hermite_matrix(degree: int) -> np.ndarray:
     """M (degree + 1, degree + 1): the monomial coefficients on t in [0, 1] of the Hermite polynomial
     whose derivatives 0 .. degree // 2 at t = 0, then at t = 1, are the vector they multiply."""
     orders = range((degree + 1) // 2)
@@ -184,7 +184,7 @@ def _hermite_matrix(degree: int) -> np.ndarray:
 
 
 #: The septic Hermite basis (values, slopes, second and third derivatives at both ends).
-SEPTIC = _hermite_matrix(7)
+SEPTIC = hermite_matrix(7)
 
 
 def _monotone_pieces(s_knots: np.ndarray, waypoints: np.ndarray):

@@ -27,10 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..path import SEPTIC, JointPath, PathError, make_path
+from ..path import JointPath, PathError, hermite_matrix, make_path
 from ..schedule import LimitSchedule
 from .model import JOINT, Move, Program
 
+#: The highest derivative a blend matches at its ends, per timing method: toppra limits velocity and
+#: acceleration only, so its blends are C1 (cubic: a joint that rests along a line may start turning at
+#: full acceleration where the blend begins); topp3 limits jerk, so its blends are C3 (septic).
+BLEND_ORDER = {"toppra": 1, "topp3": 3}
 #: Fraction of each edge a blend at a planner's inner vertex takes [1].
 AUTO_BLEND = 0.45
 #: Blend check resolution in a cell: configurations at most this far apart [rad]; blend narrowing rounds.
@@ -85,6 +89,7 @@ class StretchPath:
 
     def __init__(self, program: Program, first: int, last: int, scene=None):
         self.program, self.first, self.last, self.scene = program, first, last, scene
+        self.blend_order = BLEND_ORDER.get(program.timing, 3)
         self.segments, self.blends = _segments(program, first, last, scene)
         for blend in self.blends:
             self._place_blend(blend)
@@ -162,9 +167,10 @@ class StretchPath:
         segments where it leaves and joins them (derivatives in tau = u / width)."""
         before, after = self.segments[blend.before], self.segments[blend.after]
         u_out, u_in = before.length - before.cut_out, after.cut_in
-        ends = [before.local(np.array([u_out]), d)[0] * width**d for d in range(4)]
-        ends += [after.local(np.array([u_in]), d)[0] * width**d for d in range(4)]
-        return SEPTIC @ np.array(ends)
+        orders = range(self.blend_order + 1)
+        ends = [before.local(np.array([u_out]), d)[0] * width**d for d in orders]
+        ends += [after.local(np.array([u_in]), d)[0] * width**d for d in orders]
+        return hermite_matrix(2 * self.blend_order + 1) @ np.array(ends)
 
     def _piece_values(self, u: np.ndarray, order: int) -> np.ndarray:
         """d^order q / du^order at the stretch's u (n,)."""
@@ -203,7 +209,7 @@ class StretchPath:
         apart = np.abs(inner[:, None] - bounds[None, :]).min(axis=1) > BREAKPOINT_GAP if inner.size else []
         breakpoints = np.unique(np.concatenate([bounds, inner[apart]]))
         waypoints = self._piece_values(bounds * total, 0)
-        continuity = min([3] + [s.path.continuity for s in self.segments])
+        continuity = min([self.blend_order] + [s.path.continuity for s in self.segments])
         return JointPath(waypoints, bounds, breakpoints, "program", total, continuity, pieces)
 
     def _segment_breakpoints(self, k: int) -> np.ndarray:
