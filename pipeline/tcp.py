@@ -16,10 +16,8 @@ from .profile import TcpSamples, limits_at
 from .robot_spec import Limits
 from .schedule import LimitSchedule
 
-#: Step of the central differences along the motion, as the largest joint change [rad or m]; and,
-#: along a path, in its parameter s.
+#: Step of the central differences along the motion, as the largest joint change [rad or m].
 JOINT_STEP = 1e-6
-PATH_STEP = 1e-6
 
 
 class TcpMotion:
@@ -46,12 +44,12 @@ class TcpMotion:
         return self.robot.fk_batch(Q)[:, :3, 3], v, np.einsum("nij,nj->ni", self._jv(Q), QDD) + bias
 
     def along(self, path: JointPath, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(dp/ds, d2p/ds2) (n, 3) of the TCP along a joint path at s (n,) [m per unit s^k]."""
-        def first(x):
-            return np.einsum("nij,nj->ni", self._jv(path(x)), path(x, 1))
-
-        low, high = np.clip(s - PATH_STEP, 0.0, 1.0), np.clip(s + PATH_STEP, 0.0, 1.0)
-        return first(s), (first(high) - first(low)) / (high - low)[:, None]
+        """(dp/ds, d2p/ds2) (n, 3) of the TCP along a joint path at s (n,) [m per unit s^k]: Jv q' and
+        Jv q'' + (dJv/ds) q', with the path's own q' and q'' (at a breakpoint, the piece that starts there)
+        and dJv/ds a central difference in joint space along q' (never across a breakpoint of the path)."""
+        q, d1 = path(s), path(s, 1)
+        p1, bias = self.velocity_and_bias(q, d1)
+        return p1, np.einsum("nij,nj->ni", self._jv(q), path(s, 2)) + bias
 
     def samples(self, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray) -> TcpSamples:
         """The TCP's position, speed and acceleration at a profile's samples."""

@@ -62,7 +62,8 @@ class TcpConstraint(toppra.constraint.LinearConstraint):
     The acceleration is limited at each grid point s_i and at the end of its interval, s_{i+1}, which
     the constant path acceleration u_i of the interval reaches with x = sd^2 = x_i + 2 (s_{i+1} - s_i) u_i:
     rows (p'(s_{i+1}) + 2 ds p''(s_{i+1})) u_i + p''(s_{i+1}) x_i, linear in (u_i, x_i) as toppra needs,
-    with the interval's own limit. Where p' changes fast against p'' (a turn in place: p' = 0 and p'' not)
+    with the interval's own limit and the path's derivatives on the interval's side (d2q/ds2 may jump at
+    s_{i+1}). Where p' changes fast against p'' (a turn in place: p' = 0 and p'' not)
     the rows at s_i alone leave u_i free, and toppra's grid solution swings between bang-bang path
     accelerations that exceed the limit inside every interval, however fine the grid."""
 
@@ -79,7 +80,7 @@ class TcpConstraint(toppra.constraint.LinearConstraint):
         if not np.isfinite(accel_max).any():
             return None, None, None, None, None, None, xbound
         end = np.append(s[1:], s[-1])
-        end_p1, end_p2 = self.tcp.along(self.path, end)
+        end_p1, end_p2 = self.tcp.along(self.path, np.nextafter(end, -np.inf))   # the interval's side of s_{i+1}
         end_p1 = end_p1 + 2.0 * (end - s)[:, None] * end_p2
         own = self.limits.at((s + end) / 2.0)[2]                  # the interval's own limit (not a bound's)
         F, g = accel_rows(p1, p2, accel_max, self.unit)
