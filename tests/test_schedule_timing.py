@@ -12,7 +12,7 @@ import pipeline.timing
 from pipeline import load_robot
 from pipeline.errors import ConfigurationError
 from pipeline.path import make_path
-from pipeline.profile import certify
+from pipeline.profile import certify, limits_summary
 from pipeline.schedule import LimitSchedule
 from pipeline.tcp import TcpMotion
 from pipeline.timing import retime, time_path
@@ -140,3 +140,13 @@ def test_a_bound_a_hair_from_a_breakpoint_takes_its_place_on_the_grid(path):
     grid = grid_for(path, 2000, include=[0.0, bound, 1.0])
     assert bound in grid and path.breakpoints[1] not in grid
     assert np.diff(grid).min() >= MIN_GRID_GAP and grid[0] == 0.0 and grid[-1] == 1.0
+
+
+def test_speed_scale_scales_the_schedules_tcp_speed_as_the_limits(gp7, path):
+    schedule = LimitSchedule(np.array([0.0, 0.3, 0.7, 1.0]), np.ones(3), np.array([np.inf, 0.3, np.inf]), INF3)
+    profile = retime(gp7, path, schedule=schedule, tcp=TcpMotion(gp7), speed_scale=0.5)
+    assert profile.tcp.speed[inside(profile, 1)].max() <= 0.15 * (1.0 + 1e-6)
+    assert profile.certificate.max_ratio("tcp_speed") > 0.98
+    summary = limits_summary(profile)                  # the robot's own limits and the schedule's own speeds
+    assert summary["unscaled"]["max_ratio"]["tcp_speed"] == pytest.approx(
+        summary["timed"]["max_ratio"]["tcp_speed"] / 2.0, rel=1e-9)

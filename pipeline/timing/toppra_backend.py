@@ -13,6 +13,13 @@ solve retried, and that is reported too. The path and the limits are normalised
 before toppra sees them in units of the path's length and the move's natural time (``ScaledPath``,
 ``time_unit``: a speed scale of 0.001 or a 1e-8 rad move would otherwise leave it with vanishing
 limits), and the result is scaled back exactly.
+
+Limits that change along the path (a ``LimitSchedule`` over s: joint speed factors, TCP speed and
+acceleration per interval) constrain each grid point with that point's limits, the schedule's bounds are
+grid points (so the time at each is exact), and the dense and output checks judge each sample by the
+limits at its s (``tcp.PathLimits``). The TCP's acceleration is limited at both ends of every grid
+interval (``tcp_constraint.TcpConstraint``), so that local refinement, not the uniform slow-down, removes
+what the dense check finds.
 """
 
 from __future__ import annotations
