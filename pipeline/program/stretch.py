@@ -103,6 +103,9 @@ class StretchPath:
         program gave) AUTO_BLEND of it, as at the planner's own vertices."""
         if segment.kind == "edge":
             return AUTO_BLEND * segment.length
+        if segment.kind == "curve":
+            knots = segment.path.s_waypoints
+            return AUTO_BLEND * (1.0 - knots[-2] if at_end else knots[1]) * segment.length
         if segment.kind == "track":
             along = segment.moves[0].track.along
             tool_path = along.tool_path
@@ -342,7 +345,7 @@ def _segments(program: Program, first: int, last: int, scene=None) -> tuple[list
             segments.append(Segment(move.track.along.path, tuple(run), "track"))
             k += len(run)
         elif move.planned is not None and (curve := _smooth_plan(move.planned.waypoints, limits, scene)) is not None:
-            segments.append(Segment(curve, (move,), "joint"))
+            segments.append(Segment(curve, (move,), "curve"))
             k += 1
         elif move.planned is not None:
             vertices = move.planned.waypoints
