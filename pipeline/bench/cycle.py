@@ -356,7 +356,8 @@ class Outcome:
     parts of the judge that failed, ``judge_failures``; "" when certified) and ``reason`` (the whole
     message), ``worst_ratio`` (the judge's largest peak/limit ratio [1]; None: no profile), ``time_stretch``
     (the largest uniform slow-down its timing details report [1]; None: none reported) and ``compute_s``
-    (wall clock of the timing, the peer's planning included [s])."""
+    (wall clock [s]: ours compiling (planning included) and timing, the peer planning and timing; both
+    with our judge)."""
 
     cycle_s: float | None
     certified: bool
@@ -447,17 +448,20 @@ class ProgramRecord:
 @dataclass(frozen=True, eq=False)
 class Drawn:
     """A program of the problem set: ``name``, its ``job`` (a document, or a demo job's file), the
-    ``program`` our compiler made of it and the ``draws`` it took."""
+    ``program`` our compiler made of it, the ``draws`` it took and the compiler's wall clock on it
+    (``compile_s`` [s]: IK, tool tracks, planning)."""
 
     name: str
     job: dict | str
     program: object
     draws: int
+    compile_s: float
 
 
 def measure(drawn: Drawn, scene, budget: float) -> ProgramRecord:
-    """Both contestants on a program (ours first)."""
+    """Both contestants on a program (ours first; its compute time includes the compiler's)."""
     ours = run_ours(drawn.program, scene)
+    ours = dataclasses.replace(ours, compute_s=ours.compute_s + drawn.compile_s)
     peer = run_peer(drawn.program, scene, budget)
     speeds = [move.speed for move in drawn.program.moves if move.kind != "joint"]
     return ProgramRecord(drawn.name, lower_bound(drawn.program).total_s, max(speeds, default=0.0), drawn.draws,
@@ -476,8 +480,10 @@ def drawn_programs(cell: str, count: int, rng: np.random.Generator, scene=None) 
             document = draw_document(cell, rng)
             job = parsed_job(document, name)
             scene = scene or collision_model(job)
+            began = time.perf_counter()
             try:
-                programs.append(Drawn(name, document, compile_job(job, scene), draws))
+                program = compile_job(job, scene)
+                programs.append(Drawn(name, document, program, draws, time.perf_counter() - began))
                 break
             except PipelineError as exc:
                 log.info("%s draw %d refused: %s", name, draws, exc)
@@ -486,16 +492,16 @@ def drawn_programs(cell: str, count: int, rng: np.random.Generator, scene=None) 
 
 def measure_demo(name: str, budget: float) -> ProgramRecord:
     """A demo cell job (trajectories/jobs/NAME.yaml) compiled and measured like a drawn program."""
-    began = time.perf_counter()
     path = DEMO_JOB_DIR / f"{name}.yaml"
     job = load_job(path)
     scene = collision_model(job)
+    began = time.perf_counter()
     try:
         program = compile_job(job, scene)
     except PipelineError as exc:
         failed = _failed(exc, began, "compile_job: ")
         return ProgramRecord(name, math.nan, job.tcp_speed_max or 0.0, 1, failed, failed, str(path))
-    return measure(Drawn(name, str(path), program, 1), scene, budget)
+    return measure(Drawn(name, str(path), program, 1, time.perf_counter() - began), scene, budget)
 
 
 # -- figures ----------------------------------------------------------------------------------------
@@ -522,8 +528,8 @@ class CellReport:
     its median and max cycle / bound; the peer's certified fraction and median cycle / bound (over the
     programs it made a profile for); ``ours_over_peer``: our median cycle over the peer's (over the
     programs both made a profile for); our largest ``time_stretch``; the peer's largest peak/limit ratio;
-    each side's median compute time [s] (ours: ``time_program``; the peer: planning and timing); each
-    side's failures tallied; and every program's record."""
+    each side's median compute time [s] (``Outcome.compute_s``); each side's failures tallied; and every
+    program's record."""
 
     cell: str
     asked: int
