@@ -112,7 +112,7 @@ def test_the_peer_is_judged_by_certify_with_a_reason(small):
 def test_a_junction_keeps_the_sample_of_the_move_with_the_tcp_limits():
     def piece(qdd: float, tcp: float) -> PeerPiece:
         t = np.array([0.0, 0.1, 0.2])
-        return PeerPiece(t, np.zeros((3, 1)), np.zeros((3, 1)), np.full((3, 1), qdd), 1.0, tcp, tcp, 2, 1.0)
+        return PeerPiece(t, np.zeros((3, 1)), np.zeros((3, 1)), np.full((3, 1), qdd), 1.0, tcp, tcp)
 
     t, _, _, qdd, bounds = joined_at_rest([piece(1.0, np.inf), piece(2.0, 0.5), piece(3.0, np.inf)])
     np.testing.assert_allclose(t, [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6])

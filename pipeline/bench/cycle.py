@@ -282,9 +282,8 @@ def _through(q_a: np.ndarray, samples: np.ndarray, q_b: np.ndarray) -> np.ndarra
 
 @dataclass(frozen=True)
 class PeerPiece:
-    """One move of the peer from rest to rest: its samples (t from 0 [s], q, qd, qdd), the limits on it
-    (``joint_speed`` fraction, TCP ``tcp_speed`` [m/s] and ``tcp_accel`` [m/s^2], inf: none), its planned
-    vertices (joint moves) and the uniform slow-down it took (tool moves) [1]."""
+    """One move of the peer from rest to rest: its samples (t from 0 [s], q, qd, qdd) and the limits on it
+    (``joint_speed`` fraction, TCP ``tcp_speed`` [m/s] and ``tcp_accel`` [m/s^2], inf: none)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -293,8 +292,6 @@ class PeerPiece:
     joint_speed: float
     tcp_speed: float
     tcp_accel: float
-    vertices: int
-    stretch: float
 
 
 def peer_piece(program, scene, k: int, limits: Limits, tcp: TcpMotion, budget: float) -> PeerPiece:
@@ -305,14 +302,13 @@ def peer_piece(program, scene, k: int, limits: Limits, tcp: TcpMotion, budget: f
     if move.kind == "joint":
         vertices = np.array([q_a, q_b]) if scene is None else peer_plan(scene, q_a, q_b, budget)
         t, q, qd, qdd = _sampled(_toppra_trajectory(vertices, limits, move.speed), 1.0, program.dt)
-        return PeerPiece(t, q, qd, qdd, move.speed, np.inf, np.inf, len(vertices), 1.0)
-    points = _through(q_a, move.samples, q_b)
-    trajectory = _toppra_trajectory(points, limits, 1.0)
+        return PeerPiece(t, q, qd, qdd, move.speed, np.inf, np.inf)
+    trajectory = _toppra_trajectory(_through(q_a, move.samples, q_b), limits, 1.0)
     speed = move.speed * scale
     accel = None if program.tcp_accel_max is None else program.tcp_accel_max * scale**2
     stretch = _tcp_stretch(tcp, trajectory, speed, accel, program.dt)
     t, q, qd, qdd = _sampled(trajectory, stretch, program.dt)
-    return PeerPiece(t, q, qd, qdd, 1.0, speed, np.inf if accel is None else accel, len(points), stretch)
+    return PeerPiece(t, q, qd, qdd, 1.0, speed, np.inf if accel is None else accel)
 
 
 def joined_at_rest(pieces: list[PeerPiece]) -> tuple[np.ndarray, ...]:
