@@ -22,6 +22,7 @@ import numpy as np
 
 from .choices import DEFAULT_PLANNER, PLAN_TIME_BUDGET_S, PLANNERS
 from .errors import CollisionError, ConfigurationError, PlanningError
+from .path import PathError, make_path
 
 #: Extra distance to obstacles (beyond the clearance) and between links kept while planning [m].
 PLANNING_MARGIN_M = 0.01
@@ -33,6 +34,12 @@ ROPE_STEP = 3.0
 #: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m].
 DETOUR_STEP_M = 0.025
 MAX_DETOUR_M = 1.0
+#: Offset steps the detour search goes on after the first way found a free one; finer steps (of
+#: DETOUR_STEP_M) a found detour is brought in by while its spline stays free.
+DETOUR_SPREAD = 8
+LOWER_STEPS = 5
+#: Configurations along a detour's spline are checked this far apart [rad].
+CURVE_STEP_RAD = 0.01
 #: A via nudged from the joint values between the ends (``_nudged``): steps, tolerance [m], damping [m].
 NUDGE_ITERATIONS = 30
 NUDGE_TOLERANCE_M = 1e-4
@@ -125,23 +132,66 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     (towards the base's axis), two shapes each: one via point (the flange midway between the ends,
     its orientation halfway) and two (each end moved: out, across, in); each via solved two ways (the
     pose by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those
-    joint values, ``_nudged``); each at offsets DETOUR_STEP_M, 2 DETOUR_STEP_M, ... up to MAX_DETOUR_M,
-    the first whose vias and edges are free. Of these, the quickest by ``polyline_time``. Deterministic: the same ends give the same path in any process."""
+    joint values, ``_nudged``). Offsets grow by DETOUR_STEP_M up to MAX_DETOUR_M; each way keeps its
+    first offset whose vias and edges are free, and the search ends DETOUR_SPREAD steps after the first
+    way found one. Of these, the quickest by ``polyline_time``, brought as close in as the spline through
+    its vertices stays free (``_lowered``: the spline bulges beyond the edges a detour bends outwards).
+    Deterministic: the same ends give the same path in any process."""
     robot = model.robot
     X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
     middle = interpolated_pose(X_a, X_b, 0.5)
     inward = -middle[:3, 3] * np.array([1.0, 1.0, 0.0])
-    directions = {"up": [np.array([0.0, 0.0, 1.0])] * 2, "back": [-X_a[:3, 2], -X_b[:3, 2]],
-                  "inward": [inward / max(float(np.linalg.norm(inward)), 1e-9)] * 2}
-    found = []
-    for along in directions.values():
-        for poses, seeds, ways in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
-                                   ([X_a, X_b], [q_start, q_goal], along)):
-            for solve in (_via, _nudged):
-                vertices = _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways, solve)
-                if vertices is not None:
-                    found.append(vertices)
-    return min(found, key=lambda vertices: polyline_time(robot.limits, vertices), default=None)
+    directions = ([np.array([0.0, 0.0, 1.0])] * 2, [-X_a[:3, 2], -X_b[:3, 2]], [_unit(inward)] * 2)
+    ways = [Detour(robot, checks, (q_start, q_goal), poses, seeds, along, solve)
+            for along in directions
+            for poses, seeds, along in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
+                                        ([X_a, X_b], [q_start, q_goal], along))
+            for solve in (_via, _nudged)]
+    found: list[tuple[Detour, float, np.ndarray]] = []
+    for step, offset in enumerate(np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M)):
+        for way in [w for w in ways if all(w is not f[0] for f in found)]:
+            vertices = way.vertices(offset)
+            if vertices is not None and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
+                found.append((way, offset, vertices))
+        if found and offset >= found[0][1] + DETOUR_SPREAD * DETOUR_STEP_M - 1e-12:
+            break
+    if not found:
+        return None
+    way, offset, vertices = min(found, key=lambda f: polyline_time(robot.limits, f[2]))
+    return way.lowered(offset, vertices)
+
+
+@dataclass(frozen=True, eq=False)
+class Detour:
+    """One way of detouring: vias at ``poses`` (flange poses) moved along ``along`` (a unit vector per
+    pose) by an offset, solved by ``solve(robot, pose, seed)`` from ``seeds``, between ``ends``."""
+
+    robot: object
+    checks: object
+    ends: tuple
+    poses: list
+    seeds: list
+    along: list
+    solve: object
+
+    def vertices(self, offset: float) -> np.ndarray | None:
+        """[start, vias..., goal] at ``offset`` [m] (None: a via out of reach or not free)."""
+        vias = [self.solve(self.robot, _moved(X, offset * way), seed)
+                for X, way, seed in zip(self.poses, self.along, self.seeds)]
+        if any(v is None for v in vias) or not all(self.checks.state(v) for v in vias):
+            return None
+        return np.array([self.ends[0], *vias, self.ends[1]])
+
+    def lowered(self, offset: float, vertices: np.ndarray) -> np.ndarray:
+        """The vertices at the smallest offset, in steps of DETOUR_STEP_M / LOWER_STEPS below ``offset``,
+        through which the spline stays free (``vertices`` when even theirs is not)."""
+        best = vertices if _curve_is_free(self.robot, self.checks, vertices) else None
+        for smaller in offset - DETOUR_STEP_M / LOWER_STEPS * np.arange(1, round(LOWER_STEPS * offset / DETOUR_STEP_M)):
+            candidate = self.vertices(smaller)
+            if candidate is None or not _curve_is_free(self.robot, self.checks, candidate):
+                break
+            best = candidate
+        return vertices if best is None else best
 
 
 def polyline_time(limits, vertices: np.ndarray) -> float:
@@ -155,17 +205,16 @@ def polyline_time(limits, vertices: np.ndarray) -> float:
     return float(times.max(axis=1).sum())
 
 
-def _first_free_detour(robot, checks, q_start, q_goal, poses, seeds, ways, solve) -> np.ndarray | None:
-    """[q_start, vias..., q_goal] for the smallest offset along ``ways`` (one unit vector per pose) whose
-    vias (``solve(robot, pose moved, seed)``) and edges are free (None: none up to MAX_DETOUR_M)."""
-    for offset in np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M):
-        vias = [solve(robot, _moved(X, offset * way), seed) for X, way, seed in zip(poses, ways, seeds)]
-        if any(v is None for v in vias):
-            continue
-        vertices = np.array([q_start, *vias, q_goal])
-        if all(checks.state(v) for v in vias) and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
-            return vertices
-    return None
+def _curve_is_free(robot, checks, vertices: np.ndarray) -> bool:
+    """The C2 spline through ``vertices`` (what a program times through a planned move's vertices,
+    ``pipeline.program.stretch``) stays inside the limits and keeps the planning margins at
+    configurations CURVE_STEP_RAD apart."""
+    try:
+        curve = make_path(vertices, robot.limits.q_min, robot.limits.q_max, "spline")
+    except PathError:
+        return False
+    s = np.linspace(0.0, 1.0, max(3, int(np.ceil(curve.length / CURVE_STEP_RAD)) + 1))
+    return all(checks.state(q) for q in curve(s))
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
