@@ -29,27 +29,27 @@ class TcpMotion:
     def _jv(self, Q: np.ndarray) -> np.ndarray:
         return self.robot.jacobian_batch(Q)[:, :3, :]
 
-    def velocity_and_bias(self, Q: np.ndarray, QD: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(v, dJv/dt qd) (n, 3) at joint positions Q and velocities QD (n, dof)."""
+    def bias(self, Q: np.ndarray, QD: np.ndarray) -> np.ndarray:
+        """dJv/dt qd (n, 3) at joint positions Q and velocities QD (n, dof): a central difference of Jv along qd."""
         scale = np.maximum(np.abs(QD).max(axis=1, keepdims=True), 1e-300)
         h = JOINT_STEP / scale
         direction = QD * h
         forward, backward = self._jv(Q + direction), self._jv(Q - direction)
-        bias = np.einsum("nij,nj->ni", forward - backward, QD) / (2.0 * h)
-        return np.einsum("nij,nj->ni", self._jv(Q), QD), bias
+        return np.einsum("nij,nj->ni", forward - backward, QD) / (2.0 * h)
 
     def motion(self, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray):
         """(p, v, a) (n, 3) [m, m/s, m/s^2] of the TCP for joint samples (n, dof)."""
-        v, bias = self.velocity_and_bias(Q, QD)
-        return self.robot.fk_batch(Q)[:, :3, 3], v, np.einsum("nij,nj->ni", self._jv(Q), QDD) + bias
+        jv = self._jv(Q)
+        return (self.robot.fk_batch(Q)[:, :3, 3], np.einsum("nij,nj->ni", jv, QD),
+                np.einsum("nij,nj->ni", jv, QDD) + self.bias(Q, QD))
 
     def along(self, path: JointPath, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(dp/ds, d2p/ds2) (n, 3) of the TCP along a joint path at s (n,) [m per unit s^k]: Jv q' and
         Jv q'' + (dJv/ds) q', with the path's own q' and q'' (at a breakpoint, the piece that starts there)
         and dJv/ds a central difference in joint space along q' (never across a breakpoint of the path)."""
         q, d1 = path(s), path(s, 1)
-        p1, bias = self.velocity_and_bias(q, d1)
-        return p1, np.einsum("nij,nj->ni", self._jv(q), path(s, 2)) + bias
+        jv = self._jv(q)
+        return np.einsum("nij,nj->ni", jv, d1), np.einsum("nij,nj->ni", jv, path(s, 2)) + self.bias(q, d1)
 
     def samples(self, Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray) -> TcpSamples:
         """The TCP's position, speed and acceleration at a profile's samples."""

@@ -80,7 +80,10 @@ class TcpConstraint(toppra.constraint.LinearConstraint):
         if not np.isfinite(accel_max).any():
             return None, None, None, None, None, None, xbound
         end = np.append(s[1:], s[-1])
-        end_p1, end_p2 = self.tcp.along(self.path, np.nextafter(end, -np.inf))   # the interval's side of s_{i+1}
+        end_p1, end_p2 = np.vstack([p1[1:], p1[-1:]]), np.vstack([p2[1:], p2[-1:]])
+        jumps = np.flatnonzero(np.isin(end, self.path.breakpoints[1:-1]))      # the interval's side of s_{i+1}
+        if jumps.size:
+            end_p1[jumps], end_p2[jumps] = self.tcp.along(self.path, np.nextafter(end[jumps], -np.inf))
         end_p1 = end_p1 + 2.0 * (end - s)[:, None] * end_p2
         own = self.limits.at((s + end) / 2.0)[2]                  # the interval's own limit (not a bound's)
         F, g = accel_rows(p1, p2, accel_max, self.unit)
