@@ -2,7 +2,8 @@
 
 For each stretch between two stops, the larger of
 (a) the slowest joint's shortest rest-to-rest time for the change of its value from stop to stop,
-    under its speed and acceleration limits (x speed scale, x its square), obstacles ignored (a
+    under its speed and acceleration limits (x speed scale, x its square; the speed limits also x the
+    largest speed fraction of the stretch's moves, a tool move's counting 1), obstacles ignored (a
     triangular or trapezoidal speed profile: 2 sqrt(d / a) when d < v^2 / a, else d / v + v / a); and
 (b) the TCP's shortest time along the parts of its lines and arcs it must follow (each tool move's
     track less the zones at its ends, at most half of it each) at the move's speed and the TCP
@@ -94,7 +95,8 @@ def lower_bound(program: Program) -> LowerBound:
     targets = program.targets
     stretches = []
     for first, last in program.stretches():
-        times = rest_to_rest_time(targets[last] - targets[first], qd_max, qdd_max)
+        fastest = max(1.0 if m.is_tool_move else m.speed for m in program.moves[first: last])
+        times = rest_to_rest_time(targets[last] - targets[first], qd_max * fastest, qdd_max)
         tcp = sum(_tool_part_time(program, k, first, last, accel, scale) for k in range(first, last))
         stretches.append(StretchBound(first, last, float(times.max()), float(tcp), int(np.argmax(times))))
     return LowerBound(tuple(stretches))

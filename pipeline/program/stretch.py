@@ -34,7 +34,7 @@ from .model import JOINT, Move, Program
 #: The highest derivative a blend matches at its ends, per timing method: toppra limits velocity and
 #: acceleration only, so its blends are C1 (cubic: a joint that rests along a line may start turning at
 #: full acceleration where the blend begins); topp3 limits jerk, so its blends are C3 (septic).
-BLEND_ORDER = {"toppra": 1, "topp3": 3}
+BLEND_ORDER = {"toppra": 2, "topp3": 3}
 #: Fraction of each edge a blend at a planner's inner vertex takes [1].
 AUTO_BLEND = 0.45
 #: Blend check resolution in a cell: configurations at most this far apart [rad]; blend narrowing rounds.
