@@ -348,13 +348,18 @@ def limits_summary(profile: Profile) -> dict:
     """Both views of a certified profile's limits, JSON-ready: ``timed`` (the limits it was timed
     against, i.e. the unscaled ones x speed scale) and ``unscaled`` (the robot's own, unless the caller
     gave others, and the profile's schedule without the speed scale), each with its values and peak/limit
-    ratios, and the speed scale."""
+    ratios, and the speed scale. At speed scale 1 both are the same limits: the certificate is reused
+    (without its clearance, which is the timed view's), not judged again."""
     timed = profile.certificate if profile.certificate is not None else certify(profile)
     unscaled = profile.unscaled_limits if profile.unscaled_limits is not None else profile.limits
-    own = dataclasses.replace(profile, schedule=scale_schedule(profile.schedule, 1.0 / profile.speed_scale))
+    if profile.speed_scale == 1.0:
+        own_report = dataclasses.replace(timed, clearance=None)
+    else:
+        own = dataclasses.replace(profile, schedule=scale_schedule(profile.schedule, 1.0 / profile.speed_scale))
+        own_report = certify(own, unscaled)
     return {"speed_scale": profile.speed_scale,
             "timed": {**timed.to_dict(), "values": limit_values(profile.limits)},
-            "unscaled": {**certify(own, unscaled).to_dict(), "values": limit_values(unscaled)}}
+            "unscaled": {**own_report.to_dict(), "values": limit_values(unscaled)}}
 
 
 def scale_limits(limits: Limits, speed_scale: float) -> Limits:
