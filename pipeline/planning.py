@@ -38,6 +38,9 @@ MAX_DETOUR_M = 1.0
 #: DETOUR_STEP_M) a found detour is brought in by while its spline stays free.
 DETOUR_SPREAD = 8
 LOWER_STEPS = 5
+#: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
+#: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
+TIME_DECIMALS = 6
 #: Configurations along a detour's spline are checked this far apart [rad].
 CURVE_STEP_RAD = 0.01
 #: A via nudged from the joint values between the ends (``_nudged``): steps, tolerance [m], damping [m].
@@ -157,7 +160,7 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
             break
     if not found:
         return None
-    way, offset, vertices = min(found, key=lambda f: polyline_time(robot.limits, f[2]))
+    way, offset, vertices = min(found, key=lambda f: round(polyline_time(robot.limits, f[2]), TIME_DECIMALS))
     return way.lowered(offset, vertices)
 
 
