@@ -16,16 +16,16 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 
 from .controller_formats import write_json_trajectory, write_ros2_yaml
 from .cell_motion import ClearanceError
 from .choices import DEFAULT_MAX_DURATION_S
-from .errors import CollisionError, ConfigurationError, PlanningError, ProfileSizeError, TimingError
+from .errors import CollisionError, ConfigurationError, PlanningError, TimingError
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
-from .program import LowerBound, Program, compile_job, cycle_lines, cycle_report, lower_bound, time_program
+from .program import Program, compile_job, cycle_lines, cycle_report, lower_bound, time_program
+from .program.bound import check_duration
 from .program.model import program_arrays
 from .timing import DEFAULT_MAX_SAMPLES
 from .versions import installed_version
@@ -85,31 +85,6 @@ class JobOutcome:
 
 def _ratios(report: LimitReport) -> str:
     return ", ".join(f"{name} {report.max_ratio(name):.4f}" for name in QUANTITIES if name in report.ratios)
-
-
-def check_duration(job: Job, bound: LowerBound, max_samples: int, max_duration_s: float) -> None:
-    """Refuse, before timing, a job whose duration is bounded from below (``bound``, the program's
-    ``lower_bound``) by more samples of ``dt`` than ``max_samples`` (ProfileSizeError, as timing would,
-    but at once) or by more than ``max_duration_s`` [s] (a JobFileError); both name the field that sets
-    the bound (tcp_speed_max for the tool moves, or speed_scale for the joints' speeds)."""
-    from .timing.toppra_backend import check_sample_count
-
-    if job.has_tool_moves and bound.tcp_s >= bound.joints_s:
-        speed = (job.tcp_speed_max or 0.0) * job.speed_scale
-        field = "tcp_speed_max"
-        why = (f"its tool moves take at least {bound.tcp_s:.4g} s at their TCP speeds (at {speed * 1e3:.4g} mm/s: "
-               "tcp_speed_max x speed_scale, unless a move gives its own). Is tcp_speed_max in the job's "
-               "length_unit per second?")
-    else:
-        field, why = "speed_scale", f"its joint moves take {bound.joints_s:.4g} s at the robot's qd_max x speed_scale"
-    try:
-        check_sample_count(bound.total_s, job.dt, max_samples)
-    except ProfileSizeError as exc:
-        raise ProfileSizeError(f"{job.source}: {exc} (at least, found before timing: {job.location((field,))}: "
-                               f"{why})") from None
-    if bound.total_s > max_duration_s:
-        raise job.error((field,), f"the job would last at least {bound.total_s:.4g} s, longer than "
-                        f"{max_duration_s:g} s (run --max-duration raises the limit): {why}")
 
 
 def package_versions() -> dict[str, str | None]:

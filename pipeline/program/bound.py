@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ProfileSizeError
+from ..jobs import Job
 from .model import Program
 
 
@@ -114,3 +116,28 @@ def _tool_part_time(program: Program, k: int, first: int, last: int, accel: floa
     zone_after = 0.0 if k + 1 == last else move.zone
     followed = length - min(zone_before, length / 2.0) - min(zone_after, length / 2.0)
     return follow_time(followed, move.speed * scale, accel, from_rest=k == first, to_rest=k + 1 == last)
+
+
+def check_duration(job: Job, bound: LowerBound, max_samples: int, max_duration_s: float) -> None:
+    """Refuse, before timing, a job whose duration is bounded from below (``bound``, the program's
+    ``lower_bound``) by more samples of ``dt`` than ``max_samples`` (ProfileSizeError, as timing would,
+    but at once) or by more than ``max_duration_s`` [s] (a JobFileError); both name the field that sets
+    the bound (tcp_speed_max for the tool moves, or speed_scale for the joints' speeds)."""
+    from ..timing.toppra_backend import check_sample_count
+
+    if job.has_tool_moves and bound.tcp_s >= bound.joints_s:
+        speed = (job.tcp_speed_max or 0.0) * job.speed_scale
+        field = "tcp_speed_max"
+        why = (f"its tool moves take at least {bound.tcp_s:.4g} s at their TCP speeds (at {speed * 1e3:.4g} mm/s: "
+               "tcp_speed_max x speed_scale, unless a move gives its own). Is tcp_speed_max in the job's "
+               "length_unit per second?")
+    else:
+        field, why = "speed_scale", f"its joint moves take {bound.joints_s:.4g} s at the robot's qd_max x speed_scale"
+    try:
+        check_sample_count(bound.total_s, job.dt, max_samples)
+    except ProfileSizeError as exc:
+        raise ProfileSizeError(f"{job.source}: {exc} (at least, found before timing: {job.location((field,))}: "
+                               f"{why})") from None
+    if bound.total_s > max_duration_s:
+        raise job.error((field,), f"the job would last at least {bound.total_s:.4g} s, longer than "
+                        f"{max_duration_s:g} s (run --max-duration raises the limit): {why}")
