@@ -53,9 +53,11 @@ _seeded: list[int] = []
 
 @dataclass(frozen=True, eq=False)
 class PlannedPath:
-    """A collision-free joint path: ``waypoints`` (k, dof) from start to goal [rad or m]; ``planner``
-    ("direct" when the straight edge was free); ``plan_time_s`` (search) and ``simplify_time_s``;
-    joint-space path lengths (Euclidean) ``length_before`` and ``length_after`` simplification [rad]."""
+    """A collision-free joint path: ``waypoints`` (k, dof) from start to goal [rad or m], every edge free;
+    ``planner`` ("direct" when the straight edge was free, "detour" for ``detour_path``'s); ``plan_time_s``
+    (search) and ``simplify_time_s``; joint-space path lengths (Euclidean) ``length_before`` and
+    ``length_after`` simplification [rad]; ``smooth_waypoints``: a detour's vertices brought closer in,
+    through which the C2 spline (not the edges) keeps the planning margins (None: none)."""
 
     waypoints: np.ndarray
     planner: str
@@ -63,6 +65,7 @@ class PlannedPath:
     simplify_time_s: float
     length_before: float
     length_after: float
+    smooth_waypoints: np.ndarray | None = None
 
     def to_dict(self) -> dict:
         return {"planner": self.planner, "plan_time_s": self.plan_time_s, "simplify_time_s": self.simplify_time_s,
@@ -124,12 +127,13 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     began = time.perf_counter()
     detour = detour_path(model, checks, q_start, q_goal)
     if detour is not None:
-        length = path_length(detour)
-        return PlannedPath(detour, "detour", time.perf_counter() - began, 0.0, length, length)
+        vertices, smooth = detour
+        length = path_length(vertices)
+        return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
     return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
 
 
-def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
+def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray):
     """The quickest of the shortest free detours around the obstacles, or None. Three directions, up
     (world z), back (against the tools' z axes: out of a fixture the tool points into) and inward
     (towards the base's axis), two shapes each: one via point (the flange midway between the ends,
@@ -137,9 +141,10 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     pose by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those
     joint values, ``_nudged``). Offsets grow by DETOUR_STEP_M up to MAX_DETOUR_M; each way keeps its
     first offset whose vias and edges are free, and the search ends DETOUR_SPREAD steps after the first
-    way found one. Of these, the quickest by ``polyline_time``, brought as close in as the spline through
-    its vertices stays free (``_lowered``: the spline bulges beyond the edges a detour bends outwards).
-    Deterministic: the same ends give the same path in any process."""
+    way found one. Of these, the quickest by ``polyline_time``: (its vertices, every edge free; the
+    vertices brought as close in as the spline through them keeps the margins, ``Detour.lowered``: the
+    spline bulges beyond the edges a detour bends outwards; None when even the first spline does not),
+    or None. Deterministic: the same ends give the same path in any process."""
     robot = model.robot
     X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
     middle = interpolated_pose(X_a, X_b, 0.5)
@@ -161,7 +166,7 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     if not found:
         return None
     way, offset, vertices = min(found, key=lambda f: round(polyline_time(robot.limits, f[2]), TIME_DECIMALS))
-    return way.lowered(offset, vertices)
+    return vertices, way.lowered(offset, vertices)
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,16 +190,19 @@ class Detour:
             return None
         return np.array([self.ends[0], *vias, self.ends[1]])
 
-    def lowered(self, offset: float, vertices: np.ndarray) -> np.ndarray:
-        """The vertices at the smallest offset, in steps of DETOUR_STEP_M / LOWER_STEPS below ``offset``,
-        through which the spline stays free (``vertices`` when even theirs is not)."""
-        best = vertices if _curve_is_free(self.robot, self.checks, vertices) else None
+    def lowered(self, offset: float, vertices: np.ndarray) -> np.ndarray | None:
+        """The vertices at the smallest offset, in steps of DETOUR_STEP_M / LOWER_STEPS down from
+        ``offset``, through which the spline keeps the margins (None when even that of ``vertices`` does
+        not)."""
+        if not _curve_is_free(self.robot, self.checks, vertices):
+            return None
+        best = vertices
         for smaller in offset - DETOUR_STEP_M / LOWER_STEPS * np.arange(1, round(LOWER_STEPS * offset / DETOUR_STEP_M)):
             candidate = self.vertices(smaller)
             if candidate is None or not _curve_is_free(self.robot, self.checks, candidate):
                 break
             best = candidate
-        return vertices if best is None else best
+        return best
 
 
 def polyline_time(limits, vertices: np.ndarray) -> float:

@@ -105,8 +105,10 @@ class Move:
         return {"kind": self.kind, "target": self.target.tolist(), "tcp_xyz_m": self.X_BT[:3, 3].tolist(),
                 "speed": self.speed, "speed_unit": "fraction of qd_max" if self.kind == JOINT else "m/s",
                 "zone_m": self.zone, "via_m": None if self.via is None else self.via.tolist(),
-                "planned": None if self.planned is None else {**self.planned.to_dict(),
-                                                              "vertices_q": self.planned.waypoints.tolist()},
+                "planned": None if self.planned is None else {
+                    **self.planned.to_dict(), "vertices_q": self.planned.waypoints.tolist(),
+                    "smooth_vertices_q": None if self.planned.smooth_waypoints is None
+                    else self.planned.smooth_waypoints.tolist()},
                 "track": None if self.track is None else self.track.to_dict()}
 
 
@@ -160,9 +162,12 @@ class Program:
 def program_arrays(program: Program) -> dict[str, np.ndarray]:
     """The program as NPZ arrays: ``program_targets`` (K, dof) [rad or m], ``program_move_kinds`` (K - 1,),
     ``program_speeds`` (K - 1,) (joint: fraction of qd_max, tool: m/s), ``program_zones_m`` (K - 1,),
-    ``program_stops`` (waypoint indices), and per planned move k ``program_planned_<k>`` (vertices, dof)."""
+    ``program_stops`` (waypoint indices), and per planned move k ``program_planned_<k>`` (vertices, dof) and,
+    for a detour, ``program_planned_smooth_<k>`` (the vertices its spline goes through)."""
     arrays = {"program_targets": program.targets, "program_move_kinds": np.array([m.kind for m in program.moves]),
               "program_speeds": np.array([m.speed for m in program.moves]),
               "program_zones_m": np.array([m.zone for m in program.moves]), "program_stops": np.array(program.stops)}
     arrays.update({f"program_planned_{m.end}": m.planned.waypoints for m in program.moves if m.planned is not None})
+    arrays.update({f"program_planned_smooth_{m.end}": m.planned.smooth_waypoints for m in program.moves
+                   if m.planned is not None and m.planned.smooth_waypoints is not None})
     return arrays

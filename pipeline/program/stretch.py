@@ -1,15 +1,16 @@
 """One stretch of a program (from one stop to the next) as one joint path with its limits move by move.
 
 The stretch is a chain of segments, each a JointPath: a run of tool moves (the C2 spline through its
-IK samples), a run of unplanned joint moves (the job's path shape through their targets), or an edge
-of a planned move (straight in joint space between two of the planner's vertices). Where two segments
-meet, the corner is rounded in joint space by a septic Hermite blend that matches both segments'
-first three derivatives where it leaves and joins them (so the path stays C2 or better and toppra and
-topp3 see no jump): at a waypoint with a zone R, the blend leaves the segment before where the TCP is
-R from the waypoint (on a tool move: R along its line or arc) and joins the next one likewise, each
-at most half of the move's last or first edge; at a planner's inner vertex, and on the planned side
-of a zone (the planner chose that path, the program only its end), the blend takes AUTO_BLEND of
-each edge. A blend that leaves the joint limits, or, in a cell, comes closer to
+IK samples), a run of unplanned joint moves (the job's path shape through their targets), a planned
+move (the C2 spline through the planner's vertices where it stays in the limits and keeps the
+clearance, ``_smooth_plan``; else each edge, straight in joint space between two vertices). Where two
+segments meet, the corner is rounded in joint space by a Hermite blend that matches both segments'
+derivatives up to BLEND_ORDER where it leaves and joins them (so neither back end sees a jump it
+limits): at a waypoint with a zone R, the blend leaves the segment before where the TCP is R from the
+waypoint (on a tool move: R along its line or arc) and joins the next one likewise, each at most half
+of the move's last or first edge; at a planner's inner vertex, and on the planned side of a zone (the
+planner chose that path, the program only its end), the blend takes AUTO_BLEND of the edge or of the
+spline's first or last interval. A blend that leaves the joint limits, or, in a cell, comes closer to
 an obstacle than the clearance (checked at configurations CHECK_STEP_RAD apart), is narrowed
 (halved) until it does not; ``narrowed`` counts that.
 
@@ -17,7 +18,8 @@ Each segment is parameterised by its joint-space length u (so |dq/du| is about 1
 blends, whose parameter width is the length they replace, neither loop nor stall); the stretch's s in
 [0, 1] is u over the total. The ``schedule`` (``pipeline.schedule``) gives each part its limits: a
 tool move's line or arc outside its zones its TCP speed and the job's TCP acceleration; a joint move
-and a blend the joint speed fraction of its move (a blend between two moves the smaller).
+and a blend the joint speed fraction of its move (a blend between two moves, or a run of joint moves
+the path passes through, the smallest).
 ``passages`` are the s at which the stretch passes its waypoints (a blend's middle at a zone).
 """
 
@@ -32,8 +34,9 @@ from ..schedule import LimitSchedule
 from .model import JOINT, Move, Program
 
 #: The highest derivative a blend matches at its ends, per timing method: toppra limits velocity and
-#: acceleration only, so its blends are C1 (cubic: a joint that rests along a line may start turning at
-#: full acceleration where the blend begins); topp3 limits jerk, so its blends are C3 (septic).
+#: acceleration, so its blends are C2 (quintic: a C1 cubic let a joint resting along a line start
+#: turning at once, but its jump in d2q/ds2 was constrained on one side only and needed a 1.07 uniform
+#: slow-down on a shelf program); topp3 limits jerk, so its blends are C3 (septic).
 BLEND_ORDER = {"toppra": 2, "topp3": 3}
 #: Fraction of each edge a blend at a planner's inner vertex takes [1].
 AUTO_BLEND = 0.45
@@ -50,7 +53,8 @@ ZONE_SAMPLES = 200
 @dataclass
 class Segment:
     """A JointPath ``path`` of joint-space length ``length`` [rad or m] and the moves it carries:
-    ``moves`` (the program's Move values), ``kind`` ("track", "joint" or "edge"), and the parts cut
+    ``moves`` (the program's Move values), ``kind`` ("track", "joint", "curve": a planned move's spline,
+    or "edge": one edge of a planned move), and the parts cut
     off at its ends for blends, ``cut_in`` and ``cut_out`` [same units]."""
 
     path: JointPath
@@ -72,7 +76,7 @@ class Segment:
 class Blend:
     """The blend between segments ``before`` and ``after`` (indices), its ``zone`` [m] (None: at a
     planner's vertex), the ``waypoint`` it rounds (None at a planner's vertex) and the coefficients of
-    its septic polynomial in tau = (u - start) / width (set by ``StretchPath``)."""
+    its Hermite polynomial in tau = (u - start) / width (set by ``StretchPath``)."""
 
     before: int
     after: int
@@ -99,8 +103,8 @@ class StretchPath:
     def _cut(self, segment: Segment, zone: float, at_end: bool) -> float:
         """The joint-space length [rad or m] cut off ``segment`` at its end (or start) for a zone of
         ``zone`` [m]: on a tool move or an unplanned joint move, where the TCP is ``zone`` from the corner,
-        at most half the move there; on a planned move's edge (a path the planner chose, not one the
-        program gave) AUTO_BLEND of it, as at the planner's own vertices."""
+        at most half the move there; on a planned move (a path the planner chose, not one the program
+        gave) AUTO_BLEND of its edge or of its spline's end interval, as at the planner's own vertices."""
         if segment.kind == "edge":
             return AUTO_BLEND * segment.length
         if segment.kind == "curve":
@@ -166,8 +170,8 @@ class StretchPath:
         self.path = self._joint_path()
 
     def _coefficients(self, blend: Blend, width: float) -> np.ndarray:
-        """The blend's septic coefficients (8, dof) in tau: values and first three derivatives of both
-        segments where it leaves and joins them (derivatives in tau = u / width)."""
+        """The blend's Hermite coefficients (2 BLEND_ORDER + 2, dof) in tau: values and derivatives up to
+        BLEND_ORDER of both segments where it leaves and joins them (derivatives in tau = u / width)."""
         before, after = self.segments[blend.before], self.segments[blend.after]
         u_out, u_in = before.length - before.cut_out, after.cut_in
         orders = range(self.blend_order + 1)
@@ -316,10 +320,12 @@ class StretchPath:
         return 1.0
 
 
-def _smooth_plan(vertices: np.ndarray, limits, scene) -> JointPath | None:
-    """The C2 spline through a planned move's vertices (when it has an inner one) if it stays inside the
-    joint limits and keeps the clearance at configurations CHECK_STEP_RAD apart (None otherwise): every
-    joint swings smoothly through the vertices, where edges and blends would turn sharply at each."""
+def _smooth_plan(planned, limits, scene) -> JointPath | None:
+    """The C2 spline through a planned move's vertices (its ``smooth_waypoints`` where the planner gives
+    them, else its edges' vertices, when there is an inner one) if it stays inside the joint limits and
+    keeps the clearance at configurations CHECK_STEP_RAD apart (None otherwise): every joint swings
+    smoothly through the vertices, where edges and blends would turn sharply at each."""
+    vertices = planned.waypoints if planned.smooth_waypoints is None else planned.smooth_waypoints
     if len(vertices) < 3:
         return None
     try:
@@ -344,7 +350,7 @@ def _segments(program: Program, first: int, last: int, scene=None) -> tuple[list
             run = [m for m in moves[k:] if m.track is move.track]
             segments.append(Segment(move.track.along.path, tuple(run), "track"))
             k += len(run)
-        elif move.planned is not None and (curve := _smooth_plan(move.planned.waypoints, limits, scene)) is not None:
+        elif move.planned is not None and (curve := _smooth_plan(move.planned, limits, scene)) is not None:
             segments.append(Segment(curve, (move,), "curve"))
             k += 1
         elif move.planned is not None:
