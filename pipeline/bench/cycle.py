@@ -522,8 +522,9 @@ def _tally(outcomes: list[Outcome]) -> dict[str, int]:
 class CellReport:
     """One cell's random programs: how many were asked for, made and drawn; ours certified (fraction),
     its median and max cycle / bound; the peer's certified fraction and median cycle / bound (over the
-    programs it made a profile for); ``ours_over_peer``: our median cycle over the peer's (over the
-    programs both made a profile for); our largest ``time_stretch``; the peer's largest peak/limit ratio;
+    programs it made a profile for); ``ours_over_peer``: our median cycle over the peer's and
+    ``ours_faster``: on how many programs ours was the faster (both over the programs both made a profile
+    for, ``compared``); our largest ``time_stretch``; the peer's largest peak/limit ratio;
     each side's median compute time [s] (``Outcome.compute_s``); each side's failures tallied; and every
     program's record."""
 
@@ -537,6 +538,8 @@ class CellReport:
     peer_certified: float | None
     peer_median: float | None
     ours_over_peer: float | None
+    ours_faster: int
+    compared: int
     time_stretch_max: float | None
     peer_worst_ratio: float | None
     ours_compute_s: float | None
@@ -556,6 +559,7 @@ def cell_report(cell: str, asked: int, records: list[ProgramRecord]) -> CellRepo
     return CellReport(cell, asked, len(records), sum(r.draws for r in records),
                       _fraction([r.ours.certified for r in records]), _median(ours), max(ours, default=None),
                       _fraction([r.peer.certified for r in records]), _median(peer), ours_over_peer,
+                      sum(r.ours.cycle_s < r.peer.cycle_s for r in both), len(both),
                       max(stretches, default=None),
                       max((r.peer.worst_ratio for r in records if r.peer.worst_ratio is not None), default=None),
                       _median([r.ours.compute_s for r in records]), _median([r.peer.compute_s for r in records]),
@@ -577,7 +581,8 @@ def _aligned(head: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
 def _cell_row(c: CellReport) -> tuple[str, ...]:
     return (c.cell, f"{c.programs}/{c.asked} ({c.draws})", _percent(c.ours_certified),
             f"{fmt(c.ours_median, '.3f')} / {fmt(c.ours_max, '.3f')}", _percent(c.peer_certified),
-            fmt(c.peer_median, ".3f"), fmt(c.ours_over_peer, ".3f"), fmt(c.time_stretch_max, ".4f"))
+            fmt(c.peer_median, ".3f"), f"{fmt(c.ours_over_peer, '.3f')} ({c.ours_faster}/{c.compared})",
+            fmt(c.time_stretch_max, ".4f"))
 
 
 def _outcome_text(outcome: Outcome, bound_s: float) -> str:
@@ -611,7 +616,7 @@ class CycleBenchReport(GoalReport):
             "samples, RRTConnect + simplify, toppra through the vertices (MPlib's TOPP), tool moves slowed "
             "uniformly to their TCP limits, a stop at every junction; both judged by certify (limits, clearance)",
             "programs: made / asked (draws); cycle / bound: median / max over the programs with a profile; ours / "
-            "peer: median cycle over median cycle",
+            "peer: median cycle over median cycle (programs where ours is faster / programs compared)",
             "",
         ]
         head = ("cell", "programs", "ours cert.", "ours cycle/bound", "peer cert.", "peer cycle/bound",
