@@ -33,11 +33,13 @@ SELF_PLANNING_MARGIN_M = 0.005
 ROPE_STEP = 3.0
 #: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m].
 DETOUR_STEP_M = 0.025
-MAX_DETOUR_M = 1.0
-#: Offset steps the detour search goes on after the first way found a free one; finer steps (of
-#: DETOUR_STEP_M) a found detour is brought in by while its spline stays free.
+MAX_DETOUR_M = 0.6
+#: Detours tried (vias solved) before the search gives up for OMPL's: bounds the cost where none exists.
+MAX_DETOUR_TRIES = 96
+#: Offset steps the detour search goes on after the first way found a free one; bisections that bring
+#: a found detour in while its spline stays free.
 DETOUR_SPREAD = 8
-LOWER_STEPS = 5
+LOWER_ROUNDS = 5
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
@@ -141,7 +143,7 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     pose by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those
     joint values, ``_nudged``). Offsets grow by DETOUR_STEP_M up to MAX_DETOUR_M; each way keeps its
     first offset whose vias and edges are free, and the search ends DETOUR_SPREAD steps after the first
-    way found one. Of these, the quickest by ``polyline_time``: (its vertices, every edge free; the
+    way found one, or after MAX_DETOUR_TRIES detours tried. Of these, the quickest by ``polyline_time``: (its vertices, every edge free; the
     vertices brought as close in as the spline through them keeps the margins, ``Detour.lowered``: the
     spline bulges beyond the edges a detour bends outwards; None when even the first spline does not),
     or None. Deterministic: the same ends give the same path in any process."""
@@ -156,8 +158,12 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
                                         ([X_a, X_b], [q_start, q_goal], along))
             for solve in (_via, _nudged)]
     found: list[tuple[Detour, float, np.ndarray]] = []
-    for step, offset in enumerate(np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M)):
+    tries = 0
+    for offset in np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M):
+        if tries >= MAX_DETOUR_TRIES:
+            break
         for way in [w for w in ways if all(w is not f[0] for f in found)]:
+            tries += 1
             vertices = way.vertices(offset)
             if vertices is not None and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
                 found.append((way, offset, vertices))
@@ -191,17 +197,19 @@ class Detour:
         return np.array([self.ends[0], *vias, self.ends[1]])
 
     def lowered(self, offset: float, vertices: np.ndarray) -> np.ndarray | None:
-        """The vertices at the smallest offset, in steps of DETOUR_STEP_M / LOWER_STEPS down from
-        ``offset``, through which the spline keeps the margins (None when even that of ``vertices`` does
-        not)."""
+        """The vertices at the smallest offset below ``offset`` through which the spline keeps the
+        margins, found by LOWER_ROUNDS bisections of [0, offset] (None when even the spline through
+        ``vertices`` does not)."""
         if not _curve_is_free(self.robot, self.checks, vertices):
             return None
-        best = vertices
-        for smaller in offset - DETOUR_STEP_M / LOWER_STEPS * np.arange(1, round(LOWER_STEPS * offset / DETOUR_STEP_M)):
-            candidate = self.vertices(smaller)
-            if candidate is None or not _curve_is_free(self.robot, self.checks, candidate):
-                break
-            best = candidate
+        low, high, best = 0.0, offset, vertices
+        for _ in range(LOWER_ROUNDS):
+            middle = (low + high) / 2.0
+            candidate = self.vertices(middle)
+            if candidate is not None and _curve_is_free(self.robot, self.checks, candidate):
+                high, best = middle, candidate
+            else:
+                low = middle
         return best
 
 
