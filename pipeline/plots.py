@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from .profile import Profile
+from .profile import Profile, limits_at
 
 #: Axis label and unit per quantity, for revolute and for prismatic joints.
 _AXES = {"q": ("q", "rad", "m"), "qd": ("qd", "rad/s", "m/s"), "qdd": ("qdd", "rad/s^2", "m/s^2"),
@@ -76,19 +76,22 @@ def plot_profile(path: str | Path, profile: Profile, revolute: Sequence[bool], t
 
 def tcp_figure(profile: Profile, title: str) -> Figure:
     """The TCP against t [s] (as seed 003's figures 8-10): its position x, y, z [mm], its speed [mm/s] and
-    its acceleration [mm/s^2] with their limits dashed (the limits x the speed scale)."""
-    tcp, limits = profile.tcp, profile.limits
+    its acceleration [mm/s^2] with their limits dashed where they apply (the limits x the speed scale:
+    the job's safety limit everywhere, a tool move's own on its line or arc, ``limits_at``)."""
+    tcp = profile.tcp
+    _, speed_limit, accel_limit = limits_at(profile.limits, profile.schedule, profile.t)
     figure = Figure(figsize=(10, 8.25), layout="constrained")
     axes = figure.subplots(3, 1, sharex=True)
     for k, axis in enumerate("xyz"):
         axes[0].plot(profile.t, 1e3 * tcp.position[:, k], linewidth=1.2, label=axis)
     axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
     axes[0].set_ylabel("TCP position [mm]")
-    for ax, values, limit, label in ((axes[1], tcp.speed, limits.tcp_speed_max, "TCP speed [mm/s]"),
-                                     (axes[2], tcp.accel, limits.tcp_accel_max, "TCP acceleration [mm/s^2]")):
+    for ax, values, limit, label in ((axes[1], tcp.speed, speed_limit, "TCP speed [mm/s]"),
+                                     (axes[2], tcp.accel, accel_limit, "TCP acceleration [mm/s^2]")):
         ax.plot(profile.t, 1e3 * values, color="tab:blue", linewidth=1.2)
-        if limit is not None:
-            ax.axhline(1e3 * limit, color="tab:red", linestyle="--", linewidth=0.8, label="limit")
+        if np.isfinite(limit).any():
+            ax.plot(profile.t, np.where(np.isfinite(limit), 1e3 * limit, np.nan), color="tab:red", linestyle="--",
+                    linewidth=0.8, label="limit")
             ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
         else:
             ax.text(0.99, 0.95, "not limited", transform=ax.transAxes, ha="right", va="top", fontsize=8)
