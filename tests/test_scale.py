@@ -199,6 +199,7 @@ def _kill_a_busy_worker(client, running: threading.Thread) -> int:
     raise AssertionError("no worker ever got a task of the map")
 
 
+@pytest.mark.slow
 def test_a_worker_killed_during_a_map_loses_nothing(client, serial_map):
     running, outcome = _in_a_thread(lambda: reachability_map("irb1600", **MAP, client=client, chunk_poses=500))
     killed = _kill_a_busy_worker(client, running)
