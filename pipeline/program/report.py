@@ -4,9 +4,9 @@ program's lower bound beside its cycle time.
 A move lasts from the passage of its start waypoint to the passage of its end waypoint (at a zone, the
 middle of the blend; at a stop, the stop). At each sample the binding limit is the one closest to
 its bound: joint i's speed (against its move's speed fraction), joint i's acceleration, the TCP's
-speed or acceleration (where limited); a move's is the one binding at most of its samples, "clearance"
-when blends of its stretch were narrowed to keep the clearance, and "singularity slow-down" when a
-tool move's track allows the TCP less than the move's speed.
+speed or acceleration (where limited); a move's is the one binding at most of its samples, noting
+when blends of its stretch were narrowed to keep the joint limits or the clearance, and a "singularity
+slow-down" when a tool move's track allows the TCP less than the move's speed.
 """
 
 from __future__ import annotations
@@ -15,26 +15,22 @@ from collections import Counter
 
 import numpy as np
 
-from ..profile import Profile
+from ..profile import Profile, limits_at
 from .bound import LowerBound, lower_bound
 from .model import Program
 
 
-def binding_labels(program: Program, profile: Profile) -> list[str]:
-    """Per sample, the name of the limit closest to its bound."""
+def binding_labels(profile: Profile) -> list[str]:
+    """Per sample, the name of the limit closest to its bound (the limits that apply there, ``limits_at``)."""
     limits = profile.limits
-    joint_speed, tcp_speed, tcp_accel = (np.ones(len(profile.t)), np.full(len(profile.t), np.inf),
-                                         np.full(len(profile.t), np.inf))
-    if profile.schedule is not None:
-        joint_speed, tcp_speed, tcp_accel = profile.schedule.at(profile.t)
+    joint_speed, tcp_speed, tcp_accel = limits_at(limits, profile.schedule, profile.t)
     columns = [np.abs(profile.qd) / (limits.qd_max * joint_speed[:, None])]
     names = [f"joint {name} speed" for name in profile.joint_names]
     if limits.qdd_max is not None:
         columns.append(np.abs(profile.qdd) / limits.qdd_max)
         names += [f"joint {name} acceleration" for name in profile.joint_names]
     if profile.tcp is not None:
-        speed_limit = np.minimum(tcp_speed, np.inf if limits.tcp_speed_max is None else limits.tcp_speed_max)
-        columns += [(profile.tcp.speed / speed_limit)[:, None], (profile.tcp.accel / tcp_accel)[:, None]]
+        columns += [(profile.tcp.speed / tcp_speed)[:, None], (profile.tcp.accel / tcp_accel)[:, None]]
         names += ["TCP speed", "TCP acceleration"]
     ratios = np.hstack(columns)
     return [names[i] for i in np.argmax(ratios, axis=1)]
@@ -45,7 +41,7 @@ def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = 
     per move its waypoints, kind, duration [s] and binding limit."""
     bound = lower_bound(program) if bound is None else bound
     passages = list(profile.details.passages_s)
-    labels = binding_labels(program, profile)
+    labels = binding_labels(profile)
     narrowed = {s["last"]: s["blends_narrowed"] for s in profile.details.stretches}
     moves = []
     for k, move in enumerate(program.moves):
@@ -54,7 +50,7 @@ def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = 
         binding = Counter(inside).most_common(1)[0][0] if inside else "none"
         stretch_end = next(last for first, last in program.stretches() if first <= k < last)
         if narrowed.get(stretch_end):
-            binding += " (blends narrowed for the clearance)"
+            binding += " (blends narrowed to keep the limits or the clearance)"
         if move.track is not None and move.track.along.slowest_tcp_speed < move.speed * program.speed_scale:
             binding += " (singularity slow-down)"
         moves.append({"from": k, "to": k + 1, "kind": move.kind, "duration_s": t1 - t0, "binding": binding})
