@@ -127,7 +127,7 @@ def test_the_largest_time_stretch_is_found_anywhere_in_the_details():
     assert largest_time_stretch({"stretches": [{"timing": None}]}) is None
 
 
-@pytest.mark.slow                                  # one program through the CLI, both contestants: about 10 s
+@pytest.mark.slow                                  # one program through the CLI, both contestants: 2-10 s
 def test_the_cli_runs_the_suite_and_writes_json(tmp_path, capsys):
     out = tmp_path / "cycle.json"
     assert main(["bench", "cycle", "--programs", "1", "--cells", "gp7_shelf_cell", "--seed", "1",
