@@ -34,8 +34,6 @@ ROPE_STEP = 3.0
 #: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m].
 DETOUR_STEP_M = 0.025
 MAX_DETOUR_M = 0.6
-#: Detours tried (vias solved) before the search gives up for OMPL's: bounds the cost where none exists.
-MAX_DETOUR_TRIES = 96
 #: Offset steps the detour search goes on after the first way found a free one; bisections that bring
 #: a found detour in while its spline stays free.
 DETOUR_SPREAD = 8
@@ -143,7 +141,7 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     pose by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those
     joint values, ``_nudged``). Offsets grow by DETOUR_STEP_M up to MAX_DETOUR_M; each way keeps its
     first offset whose vias and edges are free, and the search ends DETOUR_SPREAD steps after the first
-    way found one, or after MAX_DETOUR_TRIES detours tried. Of these, the quickest by ``polyline_time``: (its vertices, every edge free; the
+    way found one. Of these, the quickest by ``polyline_time``: (its vertices, every edge free; the
     vertices brought as close in as the spline through them keeps the margins, ``Detour.lowered``: the
     spline bulges beyond the edges a detour bends outwards; None when even the first spline does not),
     or None. Deterministic: the same ends give the same path in any process."""
@@ -158,12 +156,8 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
                                         ([X_a, X_b], [q_start, q_goal], along))
             for solve in (_via, _nudged)]
     found: list[tuple[Detour, float, np.ndarray]] = []
-    tries = 0
     for offset in np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M):
-        if tries >= MAX_DETOUR_TRIES:
-            break
         for way in [w for w in ways if all(w is not f[0] for f in found)]:
-            tries += 1
             vertices = way.vertices(offset)
             if vertices is not None and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
                 found.append((way, offset, vertices))
