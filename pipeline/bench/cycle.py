@@ -67,7 +67,7 @@ import numpy as np
 
 from ..errors import ConfigurationError, PipelineError
 from ..jobs import load_job, parse_job
-from ..planning import joint_space, path_vertices
+from ..planning import path_vertices
 from ..poses import rotation_to_rpy, rpy_to_rotation
 from ..profile import Profile, certify, scale_limits
 from ..program import compile_job, lower_bound, time_program
@@ -79,7 +79,7 @@ from ..tcp import TcpMotion
 from ..timing.toppra_backend import sample_times
 from ..versions import version_table
 from .goals import Goal, GoalReport, fmt, goal_lines
-from .plan import PEER_STEP_RAD
+from .plan import peer_setup
 
 log = logging.getLogger(__name__)
 
@@ -209,21 +209,14 @@ def peer_plan(scene, q_a: np.ndarray, q_b: np.ndarray, budget: float) -> np.ndar
     PEER_STEP_RAD, ``RRTConnect``, ``solve(budget)``, ``simplifySolution()``: the vertices (k, dof).
     OMPL's generator is seeded as ``plan_joint_path`` seeds it (once per process), so a run repeats.
     PeerError when it finds no exact solution within ``budget`` [s]."""
-    from ompl import geometric as og, util as ou
+    from ompl import util as ou
 
     from .. import planning
 
-    ou.setLogLevel(ou.LOG_WARN)
     if not planning._seeded:                    # the protocol of plan_joint_path: one seed per process
         ou.RNG.setSeed(1)
         planning._seeded.append(0)
-    checker = scene.checker
-    space, values, start, goal = joint_space(scene.robot, q_a, q_b)
-    setup = og.SimpleSetup(space)
-    setup.setStateValidityChecker(lambda state: bool(checker.CheckConfigCollisionFree(values(state))))
-    setup.getSpaceInformation().setStateValidityCheckingResolution(PEER_STEP_RAD / space.getMaximumExtent())
-    setup.setStartAndGoalStates(start, goal)
-    setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
+    setup, values = peer_setup(scene, q_a, q_b)
     setup.solve(budget)
     if not setup.haveExactSolutionPath():
         raise PeerError(f"RRTConnect found no exact solution in {budget:g} s")

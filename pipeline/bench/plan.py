@@ -161,8 +161,10 @@ def run_ours(model, q_a, q_b, budget: float) -> Run:
     return _checked(model, plan.waypoints, total, plan.plan_time_s, plan.simplify_time_s, plan.length_before)
 
 
-def run_peer(model, q_a, q_b, budget: float) -> Run:
-    """OMPL by hand on a pair (see the module docstring), timed, then checked."""
+def peer_setup(model, q_a, q_b):
+    """(OMPL's ``SimpleSetup`` as a user sets it up by hand, a function state -> joint values): the joint
+    box, a validity callback on the model's Drake checker (its clearance), OMPL's motion validator at
+    PEER_STEP_RAD, RRTConnect, start and goal (see the module docstring)."""
     from ompl import geometric as og, util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
@@ -173,6 +175,12 @@ def run_peer(model, q_a, q_b, budget: float) -> Run:
     setup.getSpaceInformation().setStateValidityCheckingResolution(PEER_STEP_RAD / space.getMaximumExtent())
     setup.setStartAndGoalStates(start, goal)
     setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
+    return setup, values
+
+
+def run_peer(model, q_a, q_b, budget: float) -> Run:
+    """OMPL by hand on a pair (see the module docstring), timed, then checked."""
+    setup, values = peer_setup(model, q_a, q_b)
     began = time.perf_counter()
     setup.solve(budget)
     search = time.perf_counter() - began
