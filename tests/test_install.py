@@ -94,3 +94,13 @@ def check_console_script_and_demo_cell_by_name(script: Path, elsewhere: Path) ->
     report = json.loads((elsewhere / "cell_out" / "report.json").read_text())
     assert report["cell"]["name"] == "gp7_wall_cell" and report["cell"]["clearance"]["passed"] is True
     assert Path(report["cell"]["file"]).is_relative_to(script.parent.parent)     # the installed copy
+
+
+def test_every_subpackage_is_installed():
+    """Each folder of ``pipeline`` with an ``__init__.py`` is listed in pyproject.toml's packages (a new
+    stage folder missing there is absent from a non-editable install)."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    folders = {".".join(path.parent.relative_to(ROOT).parts) for path in (ROOT / "pipeline").rglob("__init__.py")}
+    assert folders <= listed, sorted(folders - listed)
