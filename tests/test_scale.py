@@ -234,8 +234,9 @@ def test_importing_the_package_starts_no_dask_and_no_drake():
 
 @pytest.mark.slow                                  # planned jobs in fresh processes: about 15 s
 def test_a_job_that_plans_gets_the_plans_of_its_own_run_whatever_ran_before_it(tmp_path):
-    """OMPL takes one seed per process: two copies of the demo cell job in one batch (in this process,
-    which has planned before) plan as a fresh `python -m pipeline run` of it does, byte for byte."""
+    """Two copies of the demo cell job in one batch (in this process, which has planned before) plan as a
+    fresh `python -m pipeline run` of it does, byte for byte (its moves take deterministic detours; OMPL,
+    when a move needs it, takes one seed per process)."""
     for name in ("first", "second"):
         shutil.copy(JOBS / "gp7_cell_pick_place.yaml", tmp_path / f"{name}.yaml")
         text = (tmp_path / f"{name}.yaml").read_text().replace("../../models/", f"{ROOT}/models/")
@@ -244,7 +245,8 @@ def test_a_job_that_plans_gets_the_plans_of_its_own_run_whatever_ran_before_it(t
     run_serially([JOBS / "gp7_cell_pick_place.yaml"], tmp_path / "run")
     first, second = ((tmp_path / "batch" / name / "profile.csv").read_bytes() for name in ("first", "second"))
     assert first == second == (tmp_path / "run" / "gp7_cell_pick_place" / "profile.csv").read_bytes()
-    assert json.loads((tmp_path / "batch" / "first" / "report.json").read_text())["cell"]["planned_moves"]
+    moves = json.loads((tmp_path / "batch" / "first" / "report.json").read_text())["program"]["moves"]
+    assert [move["planned"]["planner"] for move in moves if move["planned"]] == ["detour", "detour"]
 
 
 # -- failed jobs are rows -------------------------------------------------------------------------------
