@@ -31,12 +31,13 @@ SELF_PLANNING_MARGIN_M = 0.005
 #: 0.55 of the raw length in 56 ms median, 3 to 0.74 in 27 ms, vertex reduction alone to 0.87 in 11 ms
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
 ROPE_STEP = 3.0
-#: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m].
-DETOUR_STEP_M = 0.025
+#: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m]; a found
+#: detour is then brought in by bisection (``Detour.lowered``), so a coarse step costs no lift.
+DETOUR_STEP_M = 0.1
 MAX_DETOUR_M = 0.6
 #: Offset steps the detour search goes on after the first way found a free one; bisections that bring
 #: a found detour in while its spline stays free.
-DETOUR_SPREAD = 8
+DETOUR_SPREAD = 3
 LOWER_ROUNDS = 5
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
