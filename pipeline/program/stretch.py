@@ -168,6 +168,7 @@ class StretchPath:
                 u += width
         self.pieces, self.total = pieces, u
         self.path = self._joint_path()
+        self.schedule = self._schedule()
 
     def _coefficients(self, blend: Blend, width: float) -> np.ndarray:
         """The blend's Hermite coefficients (2 BLEND_ORDER + 2, dof) in tau: values and derivatives up to
@@ -246,8 +247,7 @@ class StretchPath:
         kind, i, u0, _ = self.pieces[k]
         return (u0 + u_local - self.segments[i].cut_in) / self.total
 
-    @property
-    def schedule(self) -> LimitSchedule:
+    def _schedule(self) -> LimitSchedule:
         """The limits along s (see the module docstring)."""
         rows = []            # (s_start, s_end, joint_speed, tcp_speed, tcp_accel)
         accel = np.inf if self.program.tcp_accel_max is None else self.program.tcp_accel_max
