@@ -28,7 +28,7 @@ DEFAULT_DT = 0.004
 DEFAULT_MAX_SAMPLES = 500_000
 #: Longest a job's moves may take at their speed limits, bounded from below before any timing, unless the
 #: caller allows more [s]: 10 minutes of motion is a unit mistake (a TCP speed in m/s written under mm)
-#: or a tiny speed scale, not a job's move (``pipeline.runner.check_duration``).
+#: or a tiny speed scale, not a job's move (``pipeline.program.bound.check_duration``).
 DEFAULT_MAX_DURATION_S = 600.0
 #: How the TCP gets to a pose waypoint (``pipeline.tool_path``): joint interpolation, or a tool move, a
 #: straight line or a circular arc.

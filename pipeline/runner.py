@@ -24,7 +24,7 @@ from .errors import CollisionError, ConfigurationError, PlanningError, TimingErr
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
-from .program import Program, compile_job, cycle_lines, cycle_report, lower_bound, time_program
+from .program import LowerBound, Program, compile_job, cycle_lines, cycle_report, lower_bound, time_program
 from .program.bound import check_duration
 from .program.model import program_arrays
 from .timing import DEFAULT_MAX_SAMPLES
@@ -136,8 +136,8 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     timing (``check_duration``)."""
     with staged_output(out_dir) as staging:
         scene = collision_model(job)
-        program, profile = _compiled_and_timed(job, scene, max_samples, max_duration_s)
-        report = build_report(job, program, profile, cycle_report(program, profile))
+        program, bound, profile = _compiled_and_timed(job, scene, max_samples, max_duration_s)
+        report = build_report(job, program, profile, cycle_report(program, profile, bound))
         writers = _writers(job, profile, report, program)
         for kind in job.outputs:
             writers[kind](staging / FILE_NAMES[kind])
@@ -157,14 +157,16 @@ def collision_model(job: Job):
     return CollisionModel(job.cell.load_robot(), job.cell)
 
 
-def _compiled_and_timed(job: Job, scene, max_samples: int, max_duration_s: float) -> tuple[Program, Profile]:
-    """The job's program (``compile_job``), checked against the duration limits (``check_duration``), and
-    its certified profile (``time_program``). Tool-move errors name the waypoint and its line, clearance
+def _compiled_and_timed(job: Job, scene, max_samples: int,
+                        max_duration_s: float) -> tuple[Program, LowerBound, Profile]:
+    """The job's program (``compile_job``), its lower bound, checked against the duration limits
+    (``check_duration``), and its certified profile (``time_program``). Tool-move errors name the waypoint and its line, clearance
     failures the line of the waypoint the motion is moving to (``move_at``) and the job's time, timing,
     planning and collision errors the job file."""
     program = _staged(job, lambda: compile_job(job, scene))
-    check_duration(job, lower_bound(program), max_samples, max_duration_s)
-    return program, _staged(job, lambda: time_program(program, scene, max_samples))
+    bound = lower_bound(program)
+    check_duration(job, bound, max_samples, max_duration_s)
+    return program, bound, _staged(job, lambda: time_program(program, scene, max_samples))
 
 
 def _staged(job: Job, stage):

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ProfileSizeError
 from ..jobs import Job
+from .compile import move_speed
 from .model import Program
 
 
@@ -126,11 +127,11 @@ def check_duration(job: Job, bound: LowerBound, max_samples: int, max_duration_s
     from ..timing.toppra_backend import check_sample_count
 
     if job.has_tool_moves and bound.tcp_s >= bound.joints_s:
-        speed = (job.tcp_speed_max or 0.0) * job.speed_scale
+        speed = min(move_speed(job, w) for w in job.waypoints[1:] if w.is_tool_move) * job.speed_scale
         field = "tcp_speed_max"
-        why = (f"its tool moves take at least {bound.tcp_s:.4g} s at their TCP speeds (at {speed * 1e3:.4g} mm/s: "
-               "tcp_speed_max x speed_scale, unless a move gives its own). Is tcp_speed_max in the job's "
-               "length_unit per second?")
+        why = (f"its tool moves take at least {bound.tcp_s:.4g} s at their TCP speeds (the slowest at "
+               f"{speed * 1e3:.4g} mm/s: tcp_speed_max, or a move's own speed, x speed_scale). Is tcp_speed_max in "
+               "the job's length_unit per second?")
     else:
         field, why = "speed_scale", f"its joint moves take {bound.joints_s:.4g} s at the robot's qd_max x speed_scale"
     try:

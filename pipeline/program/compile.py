@@ -46,7 +46,7 @@ def compile_job(job: Job, scene=None) -> Program:
         planned = None
         if not waypoint.is_tool_move and scene is not None and job.plan == "collision_free":
             planned = plan_joint_path(scene, targets[k - 1], targets[k], job.planner, job.plan_time_budget, seed=k)
-        moves.append(Move(k, waypoint.move, targets[k], job.robot.fk(targets[k]), _speed(job, waypoint),
+        moves.append(Move(k, waypoint.move, targets[k], job.robot.fk(targets[k]), move_speed(job, waypoint),
                           waypoint.zone if k + 1 < len(job.waypoints) else 0.0, getattr(waypoint, "via", None),
                           planned, track))
     limits = dataclasses.replace(job.robot.limits, tcp_speed_max=job.tcp_speed_limit, tcp_accel_max=None)
@@ -54,8 +54,9 @@ def compile_job(job: Job, scene=None) -> Program:
                    job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan)
 
 
-def _speed(job: Job, waypoint) -> float:
-    """A move's speed: its own, else the job's tcp_speed_max (tool moves) or 1 (joint moves)."""
+def move_speed(job: Job, waypoint) -> float:
+    """The speed of the move to ``waypoint``: its own, else the job's tcp_speed_max (a tool move, [m/s]) or 1
+    (a joint move, a fraction of the joint speed limits)."""
     if waypoint.speed is not None:
         return waypoint.speed
     return job.tcp_speed_max if waypoint.is_tool_move else 1.0
@@ -151,7 +152,7 @@ def _tool_tracks(job: Job, targets: list[np.ndarray], scene) -> list[ToolTrack]:
         moves = [ToolMove(w.move, w.X_BE, w.via, w.zone if k < last else 0.0)
                  for k, w in enumerate(waypoints, start=first)]
         tool_path = ToolPath(robot.fk(q_start), moves, first_index=first)
-        slowest = min(_speed(job, w) for w in waypoints) * job.speed_scale
+        slowest = min(move_speed(job, w) for w in waypoints) * job.speed_scale
         along = joint_path_along(robot, tool_path, q_start, slowest, job.singularity, job.ik)
         if scene is not None:
             k = check_samples(scene, along.samples)
