@@ -309,6 +309,19 @@ def test_the_lower_bound_of_a_joint_move_is_its_slowest_joint(speed_scale):
     assert (bound.stretches[0].joint, bound.tcp_s) == (0, 0.0)
 
 
+def test_the_lower_bound_counts_the_joint_waypoints_a_joint_path_passes_through():
+    """Out to S = 90 deg and back through joint waypoints without zones (one stretch: the path passes the
+    middle one exactly, and S turns back there, at rest): twice the 90 deg triangle, not the zero change
+    from the first stop to the last; with a zone at the turn (not passed exactly) only the net change."""
+    out = [90, 10, 0, 0, -60, 0]
+    through = compile_job(parse_job(gp7_job([J0, out, J0], tcp_speed_max=None), source="x.yaml"))
+    assert through.stops == (0, 2)
+    assert lower_bound(through).total_s == pytest.approx(2.0 * 2.0 * np.sqrt(90.0 / 1250.0), rel=1e-3)
+    zoned = compile_job(parse_job(gp7_job([J0, {"joints": out, "zone": 50}, J0], tcp_speed_max=None),
+                                  source="x.yaml"))
+    assert lower_bound(zoned).total_s == pytest.approx(0.0, abs=1e-12)
+
+
 # -- StretchPath geometry, stops -------------------------------------------------------------------------
 
 def derivative_scale(path, order: int) -> float:

@@ -1,7 +1,9 @@
 """A lower bound of a program's cycle time, from its moves before any timing.
 
 For each stretch between two stops, the larger of
-(a) the slowest joint's shortest rest-to-rest time for the change of its value from stop to stop,
+(a) the slowest joint's shortest rest-to-rest time for the change of its value from stop to stop
+    (through the waypoints the joint path passes exactly, between two joint moves without a zone: where a
+    joint turns back at one, it rests there, so each monotone run of it counts from rest to rest),
     under its speed and acceleration limits (x speed scale, x its square; the speed limits also x the
     largest speed fraction of the stretch's moves, a tool move's counting 1), obstacles ignored (a
     triangular or trapezoidal speed profile: 2 sqrt(d / a) when d < v^2 / a, else d / v + v / a); and
@@ -99,10 +101,33 @@ def lower_bound(program: Program) -> LowerBound:
     stretches = []
     for first, last in program.stretches():
         fastest = max(1.0 if m.is_tool_move else m.speed for m in program.moves[first: last])
-        times = rest_to_rest_time(targets[last] - targets[first], qd_max * fastest, qdd_max)
+        times = _joint_times(targets[_passed_exactly(program, first, last)], qd_max * fastest, qdd_max)
         tcp = sum(_tool_part_time(program, k, first, last, accel, scale) for k in range(first, last))
         stretches.append(StretchBound(first, last, float(times.max()), float(tcp), int(np.argmax(times))))
     return LowerBound(tuple(stretches))
+
+
+def _passed_exactly(program: Program, first: int, last: int) -> list[int]:
+    """The waypoints of stretch first .. last the motion passes exactly: its stops, and the zone-less
+    waypoints between two unplanned joint moves (the joint path goes through them)."""
+    moves = program.moves
+    inner = [k for k in range(first + 1, last) if moves[k - 1].zone <= 0.0
+             and all(m.kind == "joint" and m.planned is None for m in (moves[k - 1], moves[k]))]
+    return [first, *inner, last]
+
+
+def _joint_times(points: np.ndarray, qd_max: np.ndarray, qdd_max: np.ndarray | None) -> np.ndarray:
+    """Per joint, the shortest time [s] through ``points`` (k, dof) in order, starting and ending at rest:
+    where a joint turns back at a point it passes exactly its speed is zero there, so each of its monotone
+    runs between such turns takes at least the rest-to-rest time of the run's distance."""
+    times = np.zeros(points.shape[1])
+    for j, values in enumerate(points.T):
+        steps = np.diff(values)
+        steps = steps[steps != 0.0]
+        turns = np.flatnonzero(np.sign(steps[1:]) != np.sign(steps[:-1])) + 1
+        runs = [float(np.abs(run).sum()) for run in np.split(steps, turns)] if steps.size else [0.0]
+        times[j] = float(np.sum(rest_to_rest_time(np.array(runs), qd_max[j], None if qdd_max is None else qdd_max[j])))
+    return times
 
 
 def _tool_part_time(program: Program, k: int, first: int, last: int, accel: float | None, scale: float) -> float:
