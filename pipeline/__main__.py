@@ -185,7 +185,8 @@ def cmd_bench(args) -> int:
     elif args.suite == "plan":
         from .bench.plan import run_plan_benchmark
 
-        report = run_plan_benchmark(pairs=args.pairs, seed=args.seed)
+        report = run_plan_benchmark(pairs=args.pairs, seed=args.seed, count=args.count,
+                                    sets=None if args.sets is None else _names(args.sets, ()))
     elif args.suite == "cycle":
         from .bench.cycle import CELLS, run_cycle_benchmark
 
@@ -386,6 +387,10 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                        "timing: rows to run (default toppra,raw,drake,topp3,ruckig; toppra always)")
     bench.add_argument("--pairs", type=POSITIVE, default=100, metavar="N",
                        help="plan only: seeded random start/goal pairs per cell (default 100)")
+    bench.add_argument("--sets", metavar="NAMES", help="plan only: comma-separated problem sets that need a search "
+                       "(default: all; cubbies, gp7_box, ...: pipeline.bench.plan_sets.SET_NAMES)")
+    bench.add_argument("--count", type=POSITIVE, default=100, metavar="N",
+                       help="plan only: queries per problem set (default 100; cubbies has its 30 always)")
     bench.add_argument("--programs", type=POSITIVE, default=20, metavar="N",
                        help="cycle only: seeded random pick-and-place programs per cell (default 20)")
     bench.add_argument("--cells", help="cycle only: comma-separated demo cells (default gp7_wall_cell,gp7_shelf_cell)")

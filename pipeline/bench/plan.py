@@ -1,6 +1,7 @@
-"""Planning benchmark: collision-free joint moves in two cells, ours beside OMPL set up by hand.
+"""Planning benchmark: collision-free joint moves, ours beside OMPL set up by hand, on random pairs in two
+cells and on problem sets that need a search.
 
-Problem set, per cell (``gp7_wall_cell``: a table with a wall across it, the demo cell;
+Random pairs, per cell (``gp7_wall_cell``: a table with a wall across it, the demo cell;
 ``gp7_shelf_cell``: a shelf of three boards, a back panel and a post), ``pairs`` start/goal pairs from
 one generator seeded with ``seed`` (the same draws in every cell): configurations uniform in the
 robot's joint box (``random_configurations``, in limits), a draw kept only when Drake's checker finds
@@ -43,6 +44,43 @@ DENSE_FACTOR x the sample rate; a profile closer than the clearance anywhere the
 Goals: 100 % success on the proven-feasible pairs (every cell); on the first cell, ours (the whole
 call) median <= 10 ms and p95 <= 50 ms over its pairs; the whole job under 1 s (the slowest); no
 certified profile closer than the clearance.
+
+Problem sets that need a search (``pipeline.bench.plan_sets``: "cubbies", the GP7 reaching into the demo
+shelf's cubbies, every ordered pair of its 6 targets; MotionBenchMaker-style scenes for the GP7 and the
+IRB 1600, ``count`` queries each, seeded with ``seed``). Per query the two contestants take turns (ours
+first on even queries), each at the default planning budget (PLAN_TIME_BUDGET_S), after a warm-up of both
+on the set's first query:
+
+* ours: ``plan_joint_path(model, start, goal, seed=JOB_MOVE_SEED)``, the whole call timed (wall clock);
+  then, untimed, the query as a programmer writes it (``query_document``: the set's cell, a tool with the
+  set's X_FT, a joint move from start to goal, ``plan: collision_free``), ``parse_job``, ``compile_job``
+  (which plans the move again) and ``time_program`` (its certificate: limits and the clearance). The
+  program's planned vertices must equal the timed call's (the same ends and seed: a deterministic plan);
+  the queries where they differ are counted.
+* the peer: ``solve_peer`` (OMPL by hand, as on the random pairs) timed, then toppra through a spline of its
+  vertices (``time_path(robot, vertices, shape="spline")``, as MoveIt and MPlib users time a plan) and our
+  judge (``certify`` with the cell).
+
+Each profile (untimed) is measured: the TCP path (FK of the flange composed with X_FT at the profile's
+samples, the sum of |dp|) over the straight TCP distance between start and goal; the duration over the
+rest-to-rest bound (``polyline_time`` of [start, goal]: the slowest joint from rest to rest); and an
+independent re-check (``recheck_profile``): ``CollisionModel.clearance`` (Drake's distance query) at every
+sample, Drake's padded check (``is_free``: the clearance to obstacles, links apart) at every point of the
+samples subdivided DENSE_FACTOR times (linear interpolation), and the distances of the dense points in the
+intervals within DENSE_BAND_M of the closest sample and around any point the padded check refused (a
+distance query costs about 0.6 ms, the padded check 25 us: every dense point measured would take most of
+the run). A query is solved by a contestant when it found a path within the budget and its profile passes
+the re-check; certified when the profile passed our judge.
+
+Per set and contestant: solved %, plan time p50 / p95 / max over every query (failures at the time they
+took), TCP path / straight median and max and motion / bound median over the solved, the re-check's
+smallest obstacle distance, certified / found, profiles under the clearance in the re-check; the peer /
+ours plan-time ratio (median of per-query ratios over the queries both solved).
+
+Goals on the sets (issue 24): cubbies: every query solved, plan time median <= 50 ms and max <= 500 ms,
+TCP path / straight median <= 2.2, motion / bound median <= 2.0; every other set: >= 99 % solved with a
+plan time <= 1 s, plan time median <= 50 ms, every path ours found certified and above the clearance in
+the re-check; over all sets, no program planning other vertices than the timed call.
 """
 
 from __future__ import annotations
@@ -56,11 +94,16 @@ import numpy as np
 
 from ..cell import load_cell
 from ..cell_motion import time_clear
+from ..choices import PLAN_TIME_BUDGET_S
 from ..collision import EDGE_STEP_RAD, SELF_CLEARANCE_M, CollisionModel
-from ..errors import PipelineError
-from ..planning import joint_space, path_length, path_vertices, plan_joint_path
+from ..errors import ConfigurationError, PipelineError
+from ..jobs import parse_job
+from ..planning import joint_space, path_length, path_vertices, plan_joint_path, polyline_time
+from ..poses import rotation_to_rpy
+from ..profile import Profile, certify
+from ..program import compile_job, time_program
 from ..progress import Progress
-from ..timing import retime
+from ..timing import retime, time_path
 from ..versions import version_table
 from .goals import Goal, GoalReport, fmt, goal_lines
 
@@ -76,6 +119,15 @@ CHECK_STEP_RAD = 0.005
 JOB_PAIRS = 20
 DENSE_FACTOR = 10
 MEDIAN_GOAL_MS, P95_GOAL_MS, JOB_GOAL_S = 10.0, 50.0, 1.0
+#: The re-check of a profile measures the dense points between samples within this of the closest sample [m].
+DENSE_BAND_M = 0.005
+#: The seed ``compile_job`` gives the move to waypoint 1 (``seed=k``): the timed call plans with it too.
+JOB_MOVE_SEED = 1
+#: The cubby set and its goals: plan time median and max [ms], TCP path / straight and motion / bound medians [1].
+CUBBY_SET = "cubbies"
+CUBBY_MEDIAN_MS, CUBBY_MAX_MS, CUBBY_TCP_GOAL, CUBBY_TIME_GOAL = 50.0, 500.0, 2.2, 2.0
+#: The other sets' goals: solved within SOLVE_TIME_S [s] (fraction), plan time median [ms].
+SOLVE_TIME_S, SOLVED_GOAL, SET_MEDIAN_MS = 1.0, 0.99, 50.0
 
 
 def cell_file(name: str) -> Path:
@@ -178,19 +230,38 @@ def peer_setup(model, q_a, q_b):
     return setup, values
 
 
-def run_peer(model, q_a, q_b, budget: float) -> Run:
-    """OMPL by hand on a pair (see the module docstring), timed, then checked."""
+@dataclass(frozen=True, eq=False)
+class PeerPath:
+    """The peer's answer on a pair: its raw and simplified vertices (k, dof) [rad] (None: no exact
+    solution), its search time and its whole time (search + simplification) [s]."""
+
+    raw: np.ndarray | None
+    vertices: np.ndarray | None
+    search_s: float
+    total_s: float
+
+
+def solve_peer(model, q_a, q_b, budget: float) -> PeerPath:
+    """OMPL by hand on a pair (see the module docstring), timed."""
     setup, values = peer_setup(model, q_a, q_b)
     began = time.perf_counter()
     setup.solve(budget)
     search = time.perf_counter() - began
     if not setup.haveExactSolutionPath():
-        return Run(False, search, search, reason=f"no exact solution in {budget:g} s")
+        return PeerPath(None, None, search, search)
     raw = path_vertices(setup.getSolutionPath(), values)
     setup.simplifySolution()
     total = time.perf_counter() - began
-    return _checked(model, path_vertices(setup.getSolutionPath(), values), total, search, total - search,
-                    path_length(raw))
+    return PeerPath(raw, path_vertices(setup.getSolutionPath(), values), search, total)
+
+
+def run_peer(model, q_a, q_b, budget: float) -> Run:
+    """OMPL by hand on a pair, timed (``solve_peer``), then checked."""
+    peer = solve_peer(model, q_a, q_b, budget)
+    if peer.vertices is None:
+        return Run(False, peer.total_s, peer.search_s, reason=f"no exact solution in {budget:g} s")
+    return _checked(model, peer.vertices, peer.total_s, peer.search_s, peer.total_s - peer.search_s,
+                    path_length(peer.raw))
 
 
 # -- the problem set --------------------------------------------------------------------------------
@@ -369,6 +440,245 @@ def measure_jobs(model, name: str, pairs: list[tuple[np.ndarray, np.ndarray]], b
                       failures)
 
 
+# -- problem sets that need a search (pipeline.bench.plan_sets) ---------------------------------------
+@dataclass(frozen=True)
+class Recheck:
+    """The independent re-check of a profile (see the module docstring): ``ok`` (every sample and
+    dense point at least the clearance from the obstacles, links apart), the smallest obstacle and
+    link-link distances it measured [m], and how many configurations it checked (``dense``) and measured
+    (``measured``)."""
+
+    ok: bool
+    obstacle_m: float
+    self_m: float
+    dense: int
+    measured: int
+
+
+def recheck_profile(model, Q: np.ndarray) -> Recheck:
+    """Profile samples Q (n, dof) re-checked: ``CollisionModel.clearance`` at every sample, Drake's
+    padded check (``is_free``) at every point of ``subdivided(Q, DENSE_FACTOR)``, and
+    ``CollisionModel.clearance`` at the dense points between samples within DENSE_BAND_M of the closest
+    sample and around every dense point the padded check refused."""
+    samples = [model.clearance(q) for q in Q]
+    dense = subdivided(Q, DENSE_FACTOR)
+    refused = {i // DENSE_FACTOR for i, q in enumerate(dense) if not model.is_free(q)}     # the samples before
+    closest = min(c.obstacle for c in samples)
+    near = {i for i, c in enumerate(samples) if c.obstacle <= closest + DENSE_BAND_M}
+    intervals = sorted({k for i in near | refused for k in (i - 1, i) if 0 <= k < len(Q) - 1})
+    between = [model.clearance(q) for k in intervals for q in dense[k * DENSE_FACTOR + 1:(k + 1) * DENSE_FACTOR]]
+    measured = samples + between
+    obstacle, self_ = min(c.obstacle for c in measured), min(c.self for c in measured)
+    ok = not refused and obstacle >= model.clearance_m and self_ >= SELF_CLEARANCE_M
+    return Recheck(bool(ok), float(obstacle), float(self_), len(dense), len(measured))
+
+
+def tcp_positions(robot, X_FT: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """(n, 3) TCP positions [m] in the robot's base frame at Q (n, dof): the flange's FK composed with X_FT."""
+    X_BF = robot.fk_batch(np.ascontiguousarray(Q))
+    return X_BF[:, :3, :3] @ X_FT[:3, 3] + X_BF[:, :3, 3]
+
+
+@dataclass(frozen=True)
+class Motion:
+    """One contestant on one query: ``found`` (a path within the budget), ``plan_s`` [s] (the search,
+    wall clock, failures included at the time they took), ``profiled`` (a profile was made),
+    ``certified`` (it passed our judge, clearance included), the re-check's verdict ``rechecked`` and
+    smallest obstacle distance ``min_distance_m`` [m], ``tcp_ratio`` (TCP path along the profile / straight
+    distance [1]), ``time_ratio`` (duration / rest-to-rest bound [1]), ``duration_s`` [s], ``vertices``
+    (of the path), and why it failed ("" when solved)."""
+
+    found: bool
+    plan_s: float
+    profiled: bool = False
+    certified: bool = False
+    rechecked: bool = False
+    min_distance_m: float | None = None
+    tcp_ratio: float | None = None
+    time_ratio: float | None = None
+    duration_s: float | None = None
+    vertices: int | None = None
+    reason: str = ""
+
+    @property
+    def solved(self) -> bool:
+        """A path found within the budget whose profile the independent re-check confirms."""
+        return self.found and self.rechecked
+
+
+def judged_motion(model, X_FT: np.ndarray, start, goal, plan_s: float, vertices: int, profile: Profile,
+                  certified: bool) -> Motion:
+    """A found path's profile measured (see ``Motion``) and re-checked (``recheck_profile``)."""
+    check = recheck_profile(model, profile.q)
+    P = tcp_positions(model.robot, X_FT, profile.q)
+    straight = float(np.linalg.norm(P[-1] - P[0]))
+    travel = float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum())
+    bound = polyline_time(model.robot.limits, np.array([start, goal]))
+    reason = "" if check.ok else (f"the re-check found {check.obstacle_m * 1e3:.2f} mm to an obstacle, links "
+                                  f"{check.self_m * 1e3:.2f} mm apart")
+    return Motion(True, plan_s, True, certified, check.ok, check.obstacle_m,
+                  travel / straight if straight > 0.0 else None, profile.duration / bound if bound > 0.0 else None,
+                  profile.duration, vertices, reason)
+
+
+def query_document(problems, query, budget: float) -> dict:
+    """The query as a job a programmer writes [m, rad]: the set's cell and tool (X_FT), a joint move
+    from ``query.start`` to ``query.goal`` planned collision-free within ``budget`` [s]."""
+    return {"description": f"bench plan: {problems.name} query {query.index}", "cell": problems.cell,
+            "length_unit": "m", "angle_unit": "rad",
+            "tool": {"xyz": problems.X_FT[:3, 3].tolist(), "rpy": rotation_to_rpy(problems.X_FT[:3, :3]).tolist()},
+            "plan": "collision_free", "plan_time_budget": budget,
+            "waypoints": [query.start.tolist(), query.goal.tolist()]}
+
+
+def ours_on_query(model, problems, query, budget: float) -> tuple[Motion, bool | None]:
+    """Ours on a query: ``plan_joint_path`` timed (seed JOB_MOVE_SEED), then the query as a program
+    (``query_document``, ``compile_job``, ``time_program``: untimed) whose planned move is measured;
+    (the motion, whether the program's planned vertices equal the timed call's; None: nothing to compare)."""
+    began = time.perf_counter()
+    try:
+        plan = plan_joint_path(model, query.start, query.goal, time_budget=budget, seed=JOB_MOVE_SEED)
+    except PipelineError as exc:
+        return Motion(False, time.perf_counter() - began, reason=f"plan_joint_path: {exc}"), None
+    plan_s = time.perf_counter() - began
+    name = f"{problems.name}_{query.index:03d}"
+    try:
+        job = parse_job(query_document(problems, query, budget), source=f"<bench plan {name}>", name=name)
+        program = compile_job(job, model)
+    except PipelineError as exc:
+        return Motion(True, plan_s, vertices=len(plan.waypoints), reason=f"compile_job: {exc}"), None
+    planned = program.moves[-1].planned
+    same = bool(np.array_equal(planned.waypoints, plan.waypoints))
+    try:
+        profile = time_program(program, model)
+    except PipelineError as exc:
+        return Motion(True, plan_s, vertices=len(planned.waypoints), reason=f"time_program: {exc}"), same
+    return judged_motion(model, problems.X_FT, query.start, query.goal, plan_s, len(planned.waypoints), profile,
+                         profile.certificate.passed), same
+
+
+def peer_on_query(model, problems, query, budget: float) -> Motion:
+    """The peer on a query: ``solve_peer`` timed, then toppra through a spline of its vertices
+    (``time_path``, untimed) and our judge (``certify`` with the cell)."""
+    peer = solve_peer(model, query.start, query.goal, budget)
+    if peer.vertices is None:
+        return Motion(False, peer.total_s, reason=f"no exact solution in {budget:g} s")
+    try:
+        profile = time_path(model.robot, peer.vertices, shape="spline")
+    except PipelineError as exc:
+        return Motion(True, peer.total_s, vertices=len(peer.vertices), reason=f"toppra: {exc}")
+    return judged_motion(model, problems.X_FT, query.start, query.goal, peer.total_s, len(peer.vertices), profile,
+                         certify(profile, scene=model).passed)
+
+
+@dataclass(frozen=True)
+class QueryRecord:
+    """One query of a set: its index, ``search`` (its straight joint edge is not free), ``ours_first``
+    (the order of the turn), both motions and ``same_vertices`` (the program planned the vertices the
+    timed call returned; None: not compared)."""
+
+    index: int
+    search: bool
+    ours_first: bool
+    ours: Motion
+    peer: Motion
+    same_vertices: bool | None
+
+
+def measure_query(model, problems, query, budget: float) -> QueryRecord:
+    """Both contestants on a query (ours first on even indices)."""
+    ours_first = query.index % 2 == 0
+    if ours_first:
+        ours, same = ours_on_query(model, problems, query, budget)
+        peer = peer_on_query(model, problems, query, budget)
+    else:
+        peer = peer_on_query(model, problems, query, budget)
+        ours, same = ours_on_query(model, problems, query, budget)
+    return QueryRecord(query.index, not model.edge_is_free(query.start, query.goal), ours_first, ours, peer, same)
+
+
+@dataclass(frozen=True)
+class SetFigures:
+    """One contestant on one set: ``solved`` and ``solved_in_time`` (solved with a plan time <= SOLVE_TIME_S)
+    fractions [1]; plan time p50 / p95 / max over every query [ms]; TCP path / straight median and max,
+    motion / bound median over the solved [1]; ``min_distance_mm``: the re-check's smallest obstacle
+    distance over the found paths' profiles; ``found``, ``certified`` and ``under_clearance`` (profiles the
+    re-check found closer than the clearance) counts; ``failures``: "query k: why"."""
+
+    solved: float | None
+    solved_in_time: float | None
+    p50_ms: float | None
+    p95_ms: float | None
+    max_ms: float | None
+    tcp_median: float | None
+    tcp_max: float | None
+    time_median: float | None
+    min_distance_mm: float | None
+    found: int
+    certified: int
+    under_clearance: int
+    failures: list[str]
+
+
+def set_figures(records: list[QueryRecord], which: str) -> SetFigures:
+    """The figures of ``which`` ("ours" | "peer") over a set's records."""
+    motions = [(r.index, getattr(r, which)) for r in records]
+    solved = [m for _, m in motions if m.solved]
+    profiled = [m for _, m in motions if m.profiled]
+    times = [1e3 * m.plan_s for _, m in motions]
+    tcp = [m.tcp_ratio for m in solved if m.tcp_ratio is not None]
+    return SetFigures(
+        float(np.mean([m.solved for _, m in motions])) if motions else None,
+        float(np.mean([m.solved and m.plan_s <= SOLVE_TIME_S for _, m in motions])) if motions else None,
+        *_stats(times), max(times, default=None), _median(tcp), max(tcp, default=None),
+        _median([m.time_ratio for m in solved if m.time_ratio is not None]),
+        1e3 * min(m.min_distance_m for m in profiled) if profiled else None,
+        sum(m.found for _, m in motions), sum(m.certified for m in profiled), sum(not m.rechecked for m in profiled),
+        [f"query {k}: {m.reason}" for k, m in motions if not m.solved])
+
+
+@dataclass
+class SetReport:
+    """One problem set: its name, cell, queries, those that need a search, each contestant's figures, the
+    peer / ours plan-time ratio (median of per-query ratios over the queries both solved), the queries
+    whose program planned other vertices than the timed call (``mismatches``) and every query's record."""
+
+    name: str
+    cell: str
+    queries: int
+    search: int
+    ours: SetFigures
+    peer: SetFigures
+    ratio: float | None
+    mismatches: list[int]
+    records: list[QueryRecord] = field(repr=False)
+
+
+def set_report(name: str, cell: str, records: list[QueryRecord]) -> SetReport:
+    return SetReport(name, cell, len(records), sum(r.search for r in records), set_figures(records, "ours"),
+                     set_figures(records, "peer"),
+                     _median([r.peer.plan_s / r.ours.plan_s for r in records
+                              if r.ours.solved and r.peer.solved and r.ours.plan_s > 0.0]),
+                     [r.index for r in records if r.same_vertices is False], records)
+
+
+def measure_set(name: str, count: int, seed: int, budget: float = PLAN_TIME_BUDGET_S) -> SetReport:
+    """A problem set (``plan_sets.problem_set``), a warm-up of both contestants and the program on its
+    first query (imports, caches, compilation), then every query measured."""
+    from .plan_sets import problem_set, set_model
+
+    model = set_model(name)
+    problems = problem_set(name, model, count=count, seed=seed)
+    ours_on_query(model, problems, problems.queries[0], budget)
+    peer_on_query(model, problems, problems.queries[0], budget)
+    records = []
+    with Progress(len(problems.queries), f"bench plan {name}") as tick:
+        for query in problems.queries:
+            records.append(measure_query(model, problems, query, budget))
+            tick()
+    return set_report(name, problems.cell, records)
+
+
 # -- the report -------------------------------------------------------------------------------------
 def _table(head: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
     widths = [max(len(row[i]) for row in (head, *rows)) for i in range(len(head))]
@@ -384,6 +694,35 @@ def _planner_row(label: str, f: PlannerFigures) -> tuple[str, ...]:
             fmt(f.shortening, ".2f"), fmt(f.min_distance_mm, ".1f"))
 
 
+def _set_row(label: str, f: SetFigures) -> tuple[str, ...]:
+    return (label, fmt(None if f.solved is None else 100 * f.solved, ".0f") + " %",
+            f"{fmt(f.p50_ms, '.1f')} / {fmt(f.p95_ms, '.1f')} / {fmt(f.max_ms, '.1f')}",
+            f"{fmt(f.tcp_median, '.2f')} / {fmt(f.tcp_max, '.2f')}", fmt(f.time_median, ".2f"),
+            fmt(f.min_distance_mm, ".1f"), f"{f.certified} / {f.found}", str(f.under_clearance))
+
+
+def _set_lines(sets: list[SetReport]) -> list[str]:
+    """Per problem set a table of both contestants, the ratio, the determinism check and the failures."""
+    if not sets:
+        return []
+    lines = ["", f"Problem sets that need a search (pipeline.bench.plan_sets), default budget "
+                 f"{PLAN_TIME_BUDGET_S:g} s; ours: plan_joint_path timed, then the query as a program (compile_job, "
+                 "time_program); peer: as above, then toppra through a spline of its vertices, certify",
+             f"solved: found and the profile re-checked (CollisionModel.clearance at the samples, Drake's padded "
+             f"check at {DENSE_FACTOR}x the sample rate, distances measured within {DENSE_BAND_M * 1e3:g} mm of the "
+             "closest sample); TCP: TCP path / straight distance; motion: duration / rest-to-rest bound"]
+    head = ("", "solved", "plan ms p50 / p95 / max", "TCP med / max", "motion med", "closest mm",
+            "certified / found", "under clearance")
+    for c in sets:
+        lines += ["", f"{c.name} ({c.cell}): {c.queries} queries, {c.search} need a search"]
+        lines += _table(head, [_set_row("ours", c.ours), _set_row("peer", c.peer)])
+        lines.append(f"  peer / ours plan time (median of per-query ratios; > 1: ours is faster) "
+                     f"{fmt(c.ratio, '.2f')}; the program planned other vertices than the timed call on "
+                     f"{len(c.mismatches)} queries{': ' + ', '.join(map(str, c.mismatches)) if c.mismatches else ''}")
+        lines += [f"  {who} failed: {why}" for who, f in (("ours", c.ours), ("peer", c.peer)) for why in f.failures]
+    return lines
+
+
 @dataclass
 class PlanBenchReport(GoalReport):
     pairs: int
@@ -391,11 +730,13 @@ class PlanBenchReport(GoalReport):
     time_budget_s: float
     cells: list[CellReport]
     job: JobFigures
+    count: int
+    sets: list[SetReport]
     goals: list[Goal]
     versions: dict
 
     def format_table(self) -> str:
-        """Per cell a table of both contestants, the whole job, then the goals."""
+        """Per cell a table of both contestants, the whole job, per problem set a table, then the goals."""
         lines = [
             f"Planning benchmark: {self.pairs} seeded random pairs of collision-free configurations per cell "
             f"(seed {self.seed}), budget {self.time_budget_s:g} s each",
@@ -422,13 +763,16 @@ class PlanBenchReport(GoalReport):
                       f"{j.under_clearance} closer than the clearance at {DENSE_FACTOR}x the sample rate (closest "
                       f"{fmt(j.min_distance_mm, '.1f')} mm)"]
         lines += [f"  {failure}" for failure in j.failures]
+        lines += _set_lines(self.sets)
         lines += goal_lines("Goals:", self.goals, self.versions)
         return "\n".join(lines)
 
 
-def plan_goals(cells: list[CellReport], job: JobFigures) -> list[Goal]:
+def plan_goals(cells: list[CellReport], job: JobFigures, sets: list[SetReport]) -> list[Goal]:
+    """The random pairs' goals, each set's (``set_goals``) and the determinism of the programs' plans."""
     successes = [c.ours.success for c in cells if c.ours.success is not None]
     first = cells[0]
+    mismatches = sum(len(s.mismatches) for s in sets)
     return [
         Goal("ours: success on the proven-feasible pairs, worst cell [1]", min(successes, default=None), "= 1",
              bool(successes) and min(successes) == 1.0),
@@ -440,12 +784,58 @@ def plan_goals(cells: list[CellReport], job: JobFigures) -> list[Goal]:
              job.max_s is not None and job.max_s < JOB_GOAL_S),
         Goal(f"certified profiles closer than the clearance at {DENSE_FACTOR}x the sample rate",
              float(job.under_clearance), "= 0", job.under_clearance == 0),
+        *[goal for s in sets for goal in set_goals(s)],
+        *([Goal("problem sets: queries whose program planned other vertices than the timed call", float(mismatches),
+                "= 0", mismatches == 0)] if sets else []),
     ]
 
 
-def run_plan_benchmark(cells=CELLS, pairs: int = 100, seed: int = 0,
-                       time_budget: float = TIME_BUDGET_S) -> PlanBenchReport:
-    """The benchmark (see the module docstring); ``time_budget`` [s] per planner run."""
+def _at_most(value: float | None, bound: float) -> bool:
+    return value is not None and value <= bound
+
+
+def set_goals(s: SetReport) -> list[Goal]:
+    """The cubby set: every query solved, plan time median and max, TCP path / straight and motion / bound
+    medians; every other set: solved within SOLVE_TIME_S, plan time median, every found path certified and
+    above the clearance in the re-check."""
+    f = s.ours
+    if s.name == CUBBY_SET:
+        return [Goal(f"{s.name}: ours solved [1]", f.solved, "= 1", f.solved == 1.0),
+                Goal(f"{s.name}: ours plan time median [ms]", f.p50_ms, f"<= {CUBBY_MEDIAN_MS:g}",
+                     _at_most(f.p50_ms, CUBBY_MEDIAN_MS)),
+                Goal(f"{s.name}: ours plan time max [ms]", f.max_ms, f"<= {CUBBY_MAX_MS:g}",
+                     _at_most(f.max_ms, CUBBY_MAX_MS)),
+                Goal(f"{s.name}: ours TCP path / straight, median [1]", f.tcp_median, f"<= {CUBBY_TCP_GOAL:g}",
+                     _at_most(f.tcp_median, CUBBY_TCP_GOAL)),
+                Goal(f"{s.name}: ours motion / rest-to-rest bound, median [1]", f.time_median,
+                     f"<= {CUBBY_TIME_GOAL:g}", _at_most(f.time_median, CUBBY_TIME_GOAL))]
+    unproven = f.found - sum(r.ours.certified and r.ours.rechecked for r in s.records)
+    return [Goal(f"{s.name}: ours solved within {SOLVE_TIME_S:g} s [1]", f.solved_in_time, f">= {SOLVED_GOAL:g}",
+                 f.solved_in_time is not None and f.solved_in_time >= SOLVED_GOAL),
+            Goal(f"{s.name}: ours plan time median [ms]", f.p50_ms, f"<= {SET_MEDIAN_MS:g}",
+                 _at_most(f.p50_ms, SET_MEDIAN_MS)),
+            Goal(f"{s.name}: ours found paths not certified or under the clearance at {DENSE_FACTOR}x",
+                 float(unproven), "= 0", unproven == 0)]
+
+
+def set_names(sets: tuple[str, ...] | None) -> tuple[str, ...]:
+    """The problem sets asked for (None: every one of ``plan_sets.SET_NAMES``); ConfigurationError naming
+    an unknown one and the known."""
+    from .plan_sets import SET_NAMES
+
+    if sets is None:
+        return SET_NAMES
+    unknown = [name for name in sets if name not in SET_NAMES]
+    if unknown:
+        raise ConfigurationError(f"unknown problem set {unknown[0]!r}; choose from {', '.join(SET_NAMES)}")
+    return tuple(sets)
+
+
+def run_plan_benchmark(cells=CELLS, pairs: int = 100, seed: int = 0, time_budget: float = TIME_BUDGET_S,
+                       sets: tuple[str, ...] | None = None, count: int = 100) -> PlanBenchReport:
+    """The benchmark (see the module docstring); ``time_budget`` [s] per planner run on the random pairs;
+    ``sets`` (None: all) of ``count`` queries each (seeded with ``seed``), at the default budget."""
+    names = set_names(sets)
     reports, first_model = [], None
     for name in cells:
         report, model = measure_cell(name, pairs, seed, time_budget)
@@ -454,5 +844,7 @@ def run_plan_benchmark(cells=CELLS, pairs: int = 100, seed: int = 0,
     first = reports[0]
     job_pairs = [(np.array(r.start), np.array(r.goal)) for r in first.records if r.kind == "search"][:JOB_PAIRS]
     job = measure_jobs(first_model, first.cell, job_pairs, time_budget)
+    set_reports = [measure_set(name, count, seed) for name in names]
     versions = version_table("drake", "ompl", "toppra", "numpy")
-    return PlanBenchReport(pairs, seed, time_budget, reports, job, plan_goals(reports, job), versions)
+    return PlanBenchReport(pairs, seed, time_budget, reports, job, count, set_reports,
+                           plan_goals(reports, job, set_reports), versions)
