@@ -52,7 +52,7 @@ REACH_SAMPLES = 4096
 _REQUIRED = ("waypoints",)
 _OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
              "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
-             "plan", "planner", "plan_time_budget", "tcp_speed_limit")
+             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit")
 #: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have, and
 #: how the TCP gets there (move, via point, zone, speed).
 _POSE_EXTRA = ("target", "config", "move", "via", "zone", "speed")
@@ -139,7 +139,8 @@ class Job:
     what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
     none; then nothing is checked for collision); ``plan``: direct or collision_free (joint moves
     replaced by planned ones where the direct path comes too close); ``planner`` (an OMPL planner name)
-    and ``plan_time_budget`` [s] per planned move. ``document``: the file as read, so that errors found
+    and ``plan_time_budget`` [s] per planned move; ``plan_tilt_max`` [rad] or None: the largest angle between
+    the tool's z axis and the cell's vertical on planned moves (``pipeline.tilt``). ``document``: the file as read, so that errors found
     after reading (IK, collisions, timing) name the line of their field (``error``).
     """
 
@@ -165,6 +166,7 @@ class Job:
     plan: str = "direct"
     planner: str = DEFAULT_PLANNER
     plan_time_budget: float = PLAN_TIME_BUDGET_S
+    plan_tilt_max: float | None = None
     document: Document | None = None
     tcp_speed_limit: float | None = None
 
@@ -252,7 +254,8 @@ class _JobReader(Reader):
         joints_given = len(poses) < len(raw) or self.has(("start",))
         revolute = np.array([j.is_revolute for j in robot.spec.joints])
         angle_reason = ("joint values are given" if joints_given and revolute.any()
-                        else "pose waypoints use rpy" if any("rpy" in w for w in poses) else None)
+                        else "pose waypoints use rpy" if any("rpy" in w for w in poses)
+                        else "plan_tilt_max is given" if self.has(("plan_tilt_max",)) else None)
         length_reason = ("pose waypoints are given" if poses
                          else "prismatic joint values are given" if joints_given and not revolute.all()
                          else "a joint waypoint gives a zone" if any(isinstance(w, dict) and "zone" in w for w in raw)
@@ -544,22 +547,30 @@ class _JobReader(Reader):
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
             cell=self.cell,
             document=self.document,
-            **self.planning(),
+            **self.planning(angle_scale),
         )
 
-    def planning(self) -> dict:
-        """``plan``, ``planner`` and ``plan_time_budget``; planning needs a cell."""
+    def planning(self, angle_scale: float | None) -> dict:
+        """``plan``, ``planner``, ``plan_time_budget`` and ``plan_tilt_max`` (in the file's angle unit, at
+        most a quarter turn); planning needs a cell."""
         plan = self.choice(("plan",), PLAN_MODES, "direct")
-        for key in ("plan", "planner", "plan_time_budget"):
+        keys = ("planner", "plan_time_budget", "plan_tilt_max")
+        for key in ("plan",) + keys:
             if self.has((key,)) and self.cell is None:
                 self.fail((key,), "needs a cell to plan in (cell: path/to/cell.yaml)", self.get((key,)))
         if plan == "direct":
-            for key in ("planner", "plan_time_budget"):
+            for key in keys:
                 if self.has((key,)):
                     self.fail((key,), "has no effect with plan: direct (plan: collision_free plans)", self.get((key,)))
+        tilt = None
+        if self.has(("plan_tilt_max",)):
+            degrees = self.get(("angle_unit",)) == "deg"
+            tilt = angle_scale * self.number(("plan_tilt_max",), low=0.0, high=90.0 if degrees else np.pi / 2.0,
+                                             low_open=True, unit="deg" if degrees else "rad (are these degrees?)")
         return {"plan": plan, "planner": self.choice(("planner",), PLANNERS, DEFAULT_PLANNER),
                 "plan_time_budget": self.number(("plan_time_budget",), PLAN_TIME_BUDGET_S, low=0.0, high=600.0,
-                                                low_open=True, unit="s")}
+                                                low_open=True, unit="s"),
+                "plan_tilt_max": tilt}
 
 
 def _is_pose(raw_waypoint) -> bool:

@@ -15,6 +15,8 @@ clearance the certificate then proves.
 
 from __future__ import annotations
 
+import functools
+import heapq
 import time
 from dataclasses import dataclass
 
@@ -22,6 +24,7 @@ import numpy as np
 
 from .choices import DEFAULT_PLANNER, PLAN_TIME_BUDGET_S, PLANNERS
 from .errors import CollisionError, ConfigurationError, PlanningError
+from .ik import solve_analytic_unchecked
 from .path import PathError, make_path
 
 #: Extra distance to obstacles (beyond the clearance) and between links kept while planning [m].
@@ -33,23 +36,24 @@ SELF_PLANNING_MARGIN_M = 0.005
 ROPE_STEP = 3.0
 #: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m]; a found
 #: detour is then brought in by bisection (``Detour.lowered``), so a coarse step costs no lift.
-DETOUR_STEP_M = 0.1
+DETOUR_STEP_M = 0.05
 MAX_DETOUR_M = 0.6
 #: Offset steps the detour search goes on after the first way found a free one; bisections that bring
 #: a found detour in while its spline stays free.
 DETOUR_SPREAD = 3
-LOWER_ROUNDS = 5
+LOWER_ROUNDS = 2
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
-#: Configurations along a detour's spline are checked this far apart [rad].
+#: The tilt kept below a move's limit while planning [rad] (the timed spline departs from the edges).
+TILT_PLANNING_MARGIN_RAD = np.radians(2.0)
+#: Configurations along a detour's spline are checked this far apart [rad], every COARSE_STRIDE-th first.
 CURVE_STEP_RAD = 0.01
+COARSE_STRIDE = 8
 #: A via nudged from the joint values between the ends (``_nudged``): steps, tolerance [m], damping [m].
 NUDGE_ITERATIONS = 30
 NUDGE_TOLERANCE_M = 1e-4
 NUDGE_DAMPING = 0.01
-#: OMPL's random generator takes one seed per process (before its first sample).
-_seeded: list[int] = []
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,25 +85,66 @@ def path_length(waypoints: np.ndarray) -> float:
 
 class _Checks:
     """State and edge checks with the planning margins (``CollisionModel.padded_checker``: its edge
-    steps fine enough that a checked straight edge keeps the clearance between its steps). An end
-    (start or goal) that keeps the clearance but not the margins is still a valid state, and the edges
-    from it are checked against the clearance alone: the rest of the path keeps the margins."""
+    steps fine enough that a checked straight edge keeps the clearance between its steps), and with a
+    ``tilt`` limit (``pipeline.tilt.TiltLimit``, or None) the tool level within it less
+    TILT_PLANNING_MARGIN_RAD (or within the more tilted end's tilt, when larger) at every state and edge
+    step. An end (start or goal) that keeps the
+    clearance but not the margins is still a valid state, and the edges from it are checked against the
+    clearance alone: the rest of the path keeps the margins. Edge verdicts are remembered (a detour's
+    offsets share edges)."""
 
-    def __init__(self, model, ends: tuple[np.ndarray, ...]):
-        self.model = model
+    def __init__(self, model, ends: tuple[np.ndarray, ...], tilt=None):
+        self.model, self.tilt = model, tilt
+        if tilt is not None:
+            self.tilt_bound = max(tilt.max_rad - TILT_PLANNING_MARGIN_RAD, float(tilt.angles(model.robot, ends).max()))
         self.padded = model.padded_checker(PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M)
         self.tight = [end for end in ends if not self.padded.CheckConfigCollisionFree(end)]
+        self._edges: dict[bytes, bool] = {}
 
     def _is_tight(self, q: np.ndarray) -> bool:
         return any(np.array_equal(q, end) for end in self.tight)
 
+    def _level(self, Q: np.ndarray) -> bool:
+        return self.tilt is None or bool(np.all(self.tilt.angles(self.model.robot, Q) <= self.tilt_bound))
+
     def state(self, q: np.ndarray) -> bool:
-        return bool(self.padded.CheckConfigCollisionFree(q)) or self._is_tight(q)
+        return (bool(self.padded.CheckConfigCollisionFree(q)) or self._is_tight(q)) and self._level(q)
+
+    def states(self, Q: np.ndarray) -> bool:
+        """Every configuration of Q (k, dof) valid: every COARSE_STRIDE-th first (a collision usually
+        shows there), then the rest (one by one: Drake's parallel batch costs more per configuration
+        than it saves on this machine kind)."""
+        coarse = np.zeros(len(Q), dtype=bool)
+        coarse[::COARSE_STRIDE] = True
+        return self._level(Q) and all(self.state(q) for part in (Q[coarse], Q[~coarse]) for q in part)
 
     def edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        if self._is_tight(q_a) or self._is_tight(q_b):
-            return self.model.edge_is_free(q_a, q_b)
-        return bool(self.padded.CheckEdgeCollisionFreeParallel(q_a, q_b))
+        """The straight edge free: its configurations COARSE_STRIDE * CURVE_STEP_RAD apart first, the
+        middle one first and then by halves (most colliding edges end there, after few checks), then
+        Drake's edge check at its full resolution (serial: its parallel check is 5x slower on a busy
+        2-core machine), and the tilt at CURVE_STEP_RAD steps."""
+        key = q_a.tobytes() + q_b.tobytes()
+        if key not in self._edges:
+            checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
+            length = float(np.linalg.norm(q_b - q_a))
+            inner = q_a + halving_order(int(np.ceil(length / (COARSE_STRIDE * CURVE_STEP_RAD))))[:, None] * (q_b - q_a)
+            steps = np.linspace(0.0, 1.0, int(np.ceil(length / CURVE_STEP_RAD)) + 1)[:, None]
+            self._edges[key] = all(checker.CheckConfigCollisionFree(q) for q in inner) and bool(
+                checker.CheckEdgeCollisionFree(q_a, q_b)) and self._level(q_a + steps * (q_b - q_a))
+        return self._edges[key]
+
+    def polyline(self, vertices: np.ndarray) -> bool:
+        """Every edge of the polyline free, the longest (the likeliest to collide) first."""
+        edges = sorted(zip(vertices[:-1], vertices[1:]), key=lambda e: -float(np.linalg.norm(e[1] - e[0])))
+        return all(self.edge(a, b) for a, b in edges)
+
+
+@functools.lru_cache(maxsize=64)
+def halving_order(count: int) -> np.ndarray:
+    """Fractions in (0, 1) at most 1 / count apart, the middle first, then the middles of the halves,
+    and so on (van der Corput order): a collision anywhere along an edge shows after few checks."""
+    bits = max(1, int(np.ceil(np.log2(max(count, 2)))))
+    return np.array([int(format(k, f"0{bits}b")[::-1], 2) for k in range(1, 2**bits)]) / 2**bits
 
 
 def _check_endpoint(model, q: np.ndarray, which: str) -> None:
@@ -108,11 +153,11 @@ def _check_endpoint(model, q: np.ndarray, which: str) -> None:
 
 
 def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time_budget: float = PLAN_TIME_BUDGET_S,
-                    seed: int = 0) -> PlannedPath:
+                    seed: int = 0, tilt=None) -> PlannedPath:
     """A collision-free joint path from ``q_start`` to ``q_goal`` in ``model`` (see the module
     docstring); CollisionError when an end is not free, PlanningError when the planner finds nothing
-    within ``time_budget`` [s]. ``seed``: OMPL's seed, taken once per process (its generator cannot be
-    re-seeded), so a job's plan repeats run to run."""
+    within ``time_budget`` [s]. ``seed``: OMPL's seed for this plan (``seeded``), so the same ends give
+    the same path in any process; ``tilt``: a ``pipeline.tilt.TiltLimit`` the path keeps (None: none)."""
     if planner not in PLANNERS:
         raise ConfigurationError(f"unknown planner {planner!r}; choose one of {', '.join(PLANNERS)}")
     if not np.isfinite(time_budget) or time_budget <= 0.0:
@@ -120,7 +165,12 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     q_start, q_goal = (model.robot.as_configuration(q) for q in (q_start, q_goal))
     _check_endpoint(model, q_start, "start")
     _check_endpoint(model, q_goal, "goal")
-    checks = _Checks(model, (q_start, q_goal))
+    if tilt is not None:
+        for q, which in ((q_start, "start"), (q_goal, "goal")):
+            if not tilt.keeps(model.robot, q):
+                raise PlanningError(f"the {which} configuration tilts the tool {np.degrees(tilt.angles(model.robot, q)[0]):.1f}"
+                                    f" deg from the vertical, beyond the limit of {np.degrees(tilt.max_rad):g} deg")
+    checks = _Checks(model, (q_start, q_goal), tilt)
     if checks.edge(q_start, q_goal):
         straight = np.array([q_start, q_goal])
         length = path_length(straight)
@@ -156,18 +206,25 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
             for poses, seeds, along in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
                                         ([X_a, X_b], [q_start, q_goal], along))
             for solve in (_via, _nudged)]
-    found: list[tuple[Detour, float, np.ndarray]] = []
-    for offset in np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M):
-        for way in [w for w in ways if all(w is not f[0] for f in found)]:
-            vertices = way.vertices(offset)
-            if vertices is not None and all(checks.edge(a, b) for a, b in zip(vertices[:-1], vertices[1:])):
-                found.append((way, offset, vertices))
-        if found and offset >= found[0][1] + DETOUR_SPREAD * DETOUR_STEP_M - 1e-12:
-            break
-    if not found:
-        return None
-    way, offset, vertices = min(found, key=lambda f: round(polyline_time(robot.limits, f[2]), TIME_DECIMALS))
-    return vertices, way.lowered(offset, vertices)
+    offsets = np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M)
+    queue: list[tuple[float, int, int, np.ndarray]] = []
+
+    def push(k: int, first: int) -> None:
+        """Way k at its first offset from ``first`` on whose vias are free, queued by its estimate."""
+        for i in range(first, len(offsets)):
+            vertices = ways[k].vertices(offsets[i])
+            if vertices is not None:
+                heapq.heappush(queue, (round(polyline_time(robot.limits, vertices), TIME_DECIMALS), k, i, vertices))
+                return
+
+    for k in range(len(ways)):
+        push(k, 0)
+    while queue:
+        _, k, i, vertices = heapq.heappop(queue)
+        if checks.polyline(vertices):
+            return vertices, ways[k].lowered(offsets[i], vertices)
+        push(k, i + 1)
+    return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -228,7 +285,7 @@ def _curve_is_free(robot, checks, vertices: np.ndarray) -> bool:
     except PathError:
         return False
     s = np.linspace(0.0, 1.0, max(3, int(np.ceil(curve.length / CURVE_STEP_RAD)) + 1))
-    return all(checks.state(q) for q in curve(s))
+    return checks.states(curve(s))
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -257,17 +314,21 @@ def _nudged(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
     NUDGE_TOLERANCE_M or leaves the limits): a via that keeps the wrist as it is between the ends."""
     q, target, limits = seed.copy(), X[:3, 3], robot.limits
     for _ in range(NUDGE_ITERATIONS):
-        error = target - robot.fk(q)[:3, 3]
+        X_q, J = robot.fk_and_jacobian(q)
+        error = target - X_q[:3, 3]
         if np.linalg.norm(error) < NUDGE_TOLERANCE_M:
             return q if np.all((q >= limits.q_min) & (q <= limits.q_max)) else None
-        J = robot.jacobian(q)[:3]
+        J = J[:3]
         q = q + J.T @ np.linalg.solve(J @ J.T + NUDGE_DAMPING**2 * np.eye(3), error)
     return None
 
 
 def _via(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
-    """The IK solution of X nearest ``seed`` (None: out of reach)."""
-    result = robot.ik(X, q_seed=seed)
+    """The IK solution of X nearest ``seed`` (None: out of reach): the closed form alone where the arm
+    has one (an unreachable via costs it 50 us, the numeric fallback 5 ms), else the numeric methods."""
+    result = solve_analytic_unchecked(robot, X, seed)
+    if result is None:
+        result = robot.ik(X, q_seed=seed)
     if not result.success:
         return None
     return min((s.q for s in result.solutions), key=lambda q: float(np.linalg.norm(q - seed)), default=result.q)
@@ -311,13 +372,23 @@ def path_vertices(path, values) -> np.ndarray:
     return np.array([values(path.getState(k)) for k in range(path.getStateCount())])
 
 
+def seeded(seed: int) -> None:
+    """OMPL's generator of seeds set to ``seed`` (+ 1: OMPL refuses 0), so that every generator made from
+    here on (the planner's, its sampler's, the simplifier's) draws the same numbers in any process and
+    after any earlier plan. OMPL logs an error when its generator has already been used (that its
+    sampling is then not reproducible): not so when every plan seeds it first, so the log is silenced
+    for that call."""
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_NONE)
+    ou.RNG.setSeed(int(seed) + 1)
+    ou.setLogLevel(ou.LOG_WARN)
+
+
 def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, seed) -> PlannedPath:
     from ompl import base as ob, geometric as og, util as ou
 
-    ou.setLogLevel(ou.LOG_WARN)
-    if not _seeded:
-        ou.RNG.setSeed(int(seed) + 1)           # OMPL refuses 0
-        _seeded.append(seed)
+    seeded(seed)
     space, values, start, goal = joint_space(model.robot, q_start, q_goal)
     info = ob.SpaceInformation(space)
 

@@ -69,6 +69,10 @@ class JobOutcome:
             lines.append(f"peak/limit, the robot's own limits: {_ratios(own)}")
         if self.limit_report.clearance is not None:
             lines.append(f"cell {self.job.cell.name}: {self.limit_report.clearance}")
+        tilt = self.report["timing_details"].get("tilt")
+        if tilt is not None:
+            lines.append(f"planned moves keep the tool within {tilt['max_deg']:g} deg of the vertical: at most "
+                         f"{tilt['worst_deg']:.2f} deg (samples and between them)")
         planned = [(k, move["planned"]) for k, move in enumerate(self.report["program"]["moves"], start=1)
                    if move["planned"] is not None and move["planned"]["planner"] != "direct"]
         lines += [f"move to waypoint {k} planned by {plan['planner']}: {plan['plan_time_s'] * 1e3:.1f} ms search, "

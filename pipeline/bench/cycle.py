@@ -67,7 +67,7 @@ import numpy as np
 
 from ..errors import ConfigurationError, PipelineError
 from ..jobs import load_job, parse_job
-from ..planning import path_vertices
+from ..planning import path_vertices, seeded
 from ..poses import rotation_to_rpy, rpy_to_rotation
 from ..profile import Profile, certify, scale_limits
 from ..program import compile_job, lower_bound, time_program
@@ -207,15 +207,9 @@ def peer_plan(scene, q_a: np.ndarray, q_b: np.ndarray, budget: float) -> np.ndar
     """OMPL set up by hand, as ``bench plan``'s peer (and MoveIt's and MPlib's default): ``SimpleSetup`` over
     the joint box, a validity callback on the scene's Drake checker (its clearance), the motion validator at
     PEER_STEP_RAD, ``RRTConnect``, ``solve(budget)``, ``simplifySolution()``: the vertices (k, dof).
-    OMPL's generator is seeded as ``plan_joint_path`` seeds it (once per process), so a run repeats.
+    OMPL's generator is seeded per plan as ``plan_joint_path`` seeds it (``seeded``), so a run repeats.
     PeerError when it finds no exact solution within ``budget`` [s]."""
-    from ompl import util as ou
-
-    from .. import planning
-
-    if not planning._seeded:                    # the protocol of plan_joint_path: one seed per process
-        ou.RNG.setSeed(1)
-        planning._seeded.append(0)
+    seeded(0)
     setup, values = peer_setup(scene, q_a, q_b)
     setup.solve(budget)
     if not setup.haveExactSolutionPath():

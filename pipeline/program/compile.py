@@ -22,6 +22,7 @@ from ..ik import with_drake_model
 from ..ik.branches import branch_change_reason, choose_solution, configuration_labels
 from ..jobs import Job, JointWaypoint
 from ..planning import plan_joint_path
+from ..tilt import TiltLimit
 from ..tool import Tool
 from ..tool_moves import ToolMoveError, joint_path_along
 from ..tool_path import ToolMove, ToolPath
@@ -37,6 +38,7 @@ def compile_job(job: Job, scene=None) -> Program:
     solved = solve_waypoints(job, scene)
     targets = [w.q for w in solved]
     tracks = _tool_tracks(job, targets, scene)
+    tilt = None if job.plan_tilt_max is None else TiltLimit(job.cell.X_WB[:3, :3], job.plan_tilt_max)
     moves = []
     for k in range(1, len(job.waypoints)):
         waypoint = job.waypoints[k]
@@ -45,13 +47,14 @@ def compile_job(job: Job, scene=None) -> Program:
             targets[k] = track.along.samples[-1]        # where the IK along the track ends
         planned = None
         if not waypoint.is_tool_move and scene is not None and job.plan == "collision_free":
-            planned = plan_joint_path(scene, targets[k - 1], targets[k], job.planner, job.plan_time_budget, seed=k)
+            planned = plan_joint_path(scene, targets[k - 1], targets[k], job.planner, job.plan_time_budget, seed=k,
+                                      tilt=tilt)
         moves.append(Move(k, waypoint.move, targets[k], job.robot.fk(targets[k]), move_speed(job, waypoint),
                           waypoint.zone if k + 1 < len(job.waypoints) else 0.0, getattr(waypoint, "via", None),
                           planned, track))
     limits = dataclasses.replace(job.robot.limits, tcp_speed_max=job.tcp_speed_limit, tcp_accel_max=None)
     return Program(job.name, job.robot, Tool.of_job(job), job.cell, limits, job.tcp_accel_max, job.speed_scale, job.timing,
-                   job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan)
+                   job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan, tilt)
 
 
 def move_speed(job: Job, waypoint) -> float:

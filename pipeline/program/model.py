@@ -22,6 +22,7 @@ from ..cell import Cell
 from ..planning import PlannedPath
 from ..robot import Robot
 from ..robot_spec import Limits
+from ..tilt import TiltLimit
 from ..tool import Tool
 from ..tool_moves import ToolJointPath
 
@@ -118,7 +119,8 @@ class Program:
     (4, 4) [m], identity without one, and its shapes on the flange: ``pipeline.tool.Tool``), ``cell`` (None: none), ``limits`` (the robot's, with the job's safety
     TCP speed limit), ``tcp_accel_max`` [m/s^2] on tool moves (None: not limited), ``speed_scale``,
     ``timing`` method, ``path`` shape, ``dt`` [s], ``waypoints`` (how each was solved), ``moves``,
-    ``stops`` (waypoint indices where the motion rests, first and last included)."""
+    ``stops`` (waypoint indices where the motion rests, first and last included), ``plan`` (the job's),
+    ``tilt``: the TiltLimit its planned moves keep (``pipeline.tilt``; None: none)."""
 
     name: str
     robot: Robot
@@ -134,6 +136,7 @@ class Program:
     moves: tuple[Move, ...]
     stops: tuple[int, ...]
     plan: str = "direct"
+    tilt: TiltLimit | None = None
     details: dict = field(default_factory=dict)
 
     @property
@@ -156,6 +159,7 @@ class Program:
                 "cell": None if self.cell is None else self.cell.name, "speed_scale": self.speed_scale,
                 "tcp_speed_limit_m_s": self.limits.tcp_speed_max, "tcp_accel_max_m_s2": self.tcp_accel_max,
                 "timing": self.timing, "path": self.path, "plan": self.plan, "stops": list(self.stops),
+                "plan_tilt_max_deg": None if self.tilt is None else float(np.degrees(self.tilt.max_rad)),
                 "waypoints": [w.to_dict() for w in self.waypoints], "moves": [m.to_dict() for m in self.moves]}
 
 

@@ -320,11 +320,13 @@ class StretchPath:
         return 1.0
 
 
-def _smooth_plan(planned, limits, scene) -> JointPath | None:
+def _smooth_plan(planned, robot, scene, tilt) -> JointPath | None:
     """The C2 spline through a planned move's vertices (its ``smooth_waypoints`` where the planner gives
     them, else its edges' vertices, when there is an inner one) if it stays inside the joint limits and
-    keeps the clearance at configurations CHECK_STEP_RAD apart (None otherwise): every joint swings
-    smoothly through the vertices, where edges and blends would turn sharply at each."""
+    keeps the clearance (and the ``tilt`` limit, None: none) at configurations CHECK_STEP_RAD apart (None
+    otherwise): every joint swings smoothly through the vertices, where edges and blends would turn
+    sharply at each."""
+    limits = robot.limits
     vertices = planned.waypoints if planned.smooth_waypoints is None else planned.smooth_waypoints
     if len(vertices) < 3:
         return None
@@ -332,8 +334,10 @@ def _smooth_plan(planned, limits, scene) -> JointPath | None:
         curve = make_path(vertices, limits.q_min, limits.q_max, "spline")
     except PathError:
         return None
-    s = np.linspace(0.0, 1.0, max(3, int(np.ceil(curve.length / CHECK_STEP_RAD)) + 1))
-    return curve if scene is None or all(scene.is_free(q) for q in curve(s)) else None
+    Q = curve(np.linspace(0.0, 1.0, max(3, int(np.ceil(curve.length / CHECK_STEP_RAD)) + 1)))
+    if tilt is not None and not tilt.keeps(robot, Q):
+        return None
+    return curve if scene is None or all(scene.is_free(q) for q in Q) else None
 
 
 def _segments(program: Program, first: int, last: int, scene=None) -> tuple[list[Segment], list[Blend]]:
@@ -350,7 +354,8 @@ def _segments(program: Program, first: int, last: int, scene=None) -> tuple[list
             run = [m for m in moves[k:] if m.track is move.track]
             segments.append(Segment(move.track.along.path, tuple(run), "track"))
             k += len(run)
-        elif move.planned is not None and (curve := _smooth_plan(move.planned, limits, scene)) is not None:
+        elif move.planned is not None and (curve := _smooth_plan(move.planned, program.robot, scene,
+                                                                                    program.tilt)) is not None:
             segments.append(Segment(curve, (move,), "curve"))
             k += 1
         elif move.planned is not None:

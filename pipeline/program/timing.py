@@ -24,6 +24,7 @@ from ..errors import TimingError
 from ..profile import Profile, TcpSamples, TimingDetails, certify
 from ..schedule import LimitSchedule, joined_schedules
 from ..tcp import TcpMotion
+from ..tilt import certify_tilt
 from ..timing import time_path
 from .model import Program
 from .stretch import StretchPath
@@ -38,10 +39,12 @@ MAX_REFINEMENTS = 8
 class ProgramDetails(TimingDetails):
     """What timing a program did: per stretch its waypoints ``first``..``last``, ``duration_s``, its
     back end's ``timing`` details and the blends narrowed for the limits or the clearance; ``passages_s``:
-    the time [s] at which the motion passes (or stops at) each waypoint."""
+    the time [s] at which the motion passes (or stops at) each waypoint; ``tilt``: the tilt certificate of
+    the planned moves (``pipeline.tilt.TiltReport.to_dict``; None without a tilt limit)."""
 
     stretches: tuple[dict, ...]
     passages_s: tuple[float, ...]
+    tilt: dict | None = None
 
 
 def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
@@ -68,7 +71,20 @@ def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SA
         raise ClearanceError(clearance, joined, "", *program.stretches()[k])
     if not certificate.passed:
         raise TimingError(f"{program.timing} profile failed certification: {certificate}")
-    return dataclasses.replace(joined, certificate=certificate)
+    return dataclasses.replace(_tilt_certified(program, joined), certificate=certificate)
+
+
+def _tilt_certified(program: Program, profile: Profile) -> Profile:
+    """``profile`` with its planned moves' tilt certificate in its details (``pipeline.tilt``), as it is
+    without a tilt limit; TimingError when the tool leaves the limit."""
+    if program.tilt is None:
+        return profile
+    passages = profile.details.passages_s
+    spans = [(passages[m.end - 1], passages[m.end]) for m in program.moves if m.planned is not None]
+    report = certify_tilt(program.robot, program.tilt, profile, spans)
+    if not report.passed:
+        raise TimingError(f"the profile does not keep the tool level on its planned moves: {report}")
+    return dataclasses.replace(profile, details=dataclasses.replace(profile.details, tilt=report.to_dict()))
 
 
 def _time_stretch(program: Program, path: StretchPath | None, k: int, max_samples: int) -> Profile:
