@@ -338,7 +338,7 @@ def test_a_stretch_path_is_smooth_at_every_piece_boundary(smooth, pieces, monkey
     both sides within 1e-6 of their scale, and each derivative is the finite difference of the one below
     it, on both sides."""
     if not smooth:
-        monkeypatch.setattr(pipeline.program.stretch, "_smooth_plan", lambda planned, limits, scene: None)
+        monkeypatch.setattr(pipeline.program.stretch, "_smooth_plan", lambda planned, robot, scene, tilt: None)
     job = parse_job(gp7_job([A, {**B, "zone": 40}, {**C, "move": "linear"}], tcp_accel_max=2500), source="x.yaml")
     program = compile_job(job)
     q_a, q_b = program.targets[:2]
