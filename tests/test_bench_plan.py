@@ -18,6 +18,7 @@ from pipeline.bench.plan import (
     QueryRecord,
     cell_model,
     dense_polyline,
+    nearest_points,
     problem_set,
     query_document,
     recheck_profile,
@@ -153,14 +154,28 @@ def test_set_goals_judge_the_cubbies_and_the_search_sets():
     assert all(isinstance(g, Goal) and g.passed for g in good)
 
 
-def test_the_recheck_finds_the_straight_motion_through_the_wall():
+def test_the_recheck_finds_the_straight_motion_through_the_wall_with_few_distance_queries():
     model = cell_model("gp7_wall_cell")
     pick, place = np.radians([[30, 20, 10, 0, -60, 0], [-30, 20, 10, 0, -60, 0]])
-    through = recheck_profile(model, np.linspace(pick, place, 40))
-    assert not through.ok and through.obstacle_m < model.clearance_m
-    assert through.dense == 39 * 10 + 1 and through.measured > 40
+    Q = np.linspace(pick, place, 40)
+    through = recheck_profile(model, Q)
+    dense = subdivided(Q, 10)
+    deepest = min(model.clearance(q).obstacle for q in dense)
+    assert not through.ok and through.obstacle_m == deepest < 0.0 and through.screen_m == 0.0
+    assert through.dense == len(dense) and through.measured < len(dense) / 2
     still = recheck_profile(model, np.array([pick, pick, pick]))
-    assert still.ok and still.obstacle_m >= model.clearance_m and still.dense == 21
+    assert still.ok and still.obstacle_m == model.clearance(pick).obstacle >= model.clearance_m
+
+
+def test_the_nearest_points_are_the_nearest():
+    model = cell_model("gp7_wall_cell")
+    Q = list(subdivided(np.radians([[30, 20, 10, 0, -60, 0], [30, 60, 30, 0, -60, 0]]), 30))
+    distances = [model.clearance(q).obstacle for q in Q]
+    near, screen_m = nearest_points(model, Q, max(distances))
+    assert screen_m is not None and 0 < len(near) < len(Q)
+    closest = min(model.clearance(q).obstacle for q in near)
+    assert closest == min(distances) and all(d >= model.clearance_m + screen_m for q, d in zip(Q, distances)
+                                             if not any(q is n for n in near))
 
 
 def test_tcp_positions_compose_the_flange_with_the_tool():
