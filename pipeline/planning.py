@@ -26,6 +26,7 @@ from .choices import DEFAULT_PLANNER, PLAN_TIME_BUDGET_S, PLANNERS
 from .errors import CollisionError, ConfigurationError, PlanningError
 from .ik import solve_analytic_unchecked
 from .path import PathError, make_path
+from .roadmap import roadmap_of
 
 #: Extra distance to obstacles (beyond the clearance) and between links kept while planning [m].
 PLANNING_MARGIN_M = 0.01
@@ -42,6 +43,12 @@ MAX_DETOUR_M = 0.6
 #: a found detour in while its spline stays free.
 DETOUR_SPREAD = 3
 LOWER_ROUNDS = 2
+#: A straight detour's flange poses at most this far apart [m]; the most a joint may turn between two [rad]
+#: (more is a change of IK branch).
+STRAIGHT_STEP_M = 0.1
+MAX_STEP_TURN_RAD = 0.5
+#: Detours checked (best first) before the search takes over.
+MAX_DETOUR_CHECKS = 60
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
@@ -99,7 +106,7 @@ class _Checks:
             self.tilt_bound = max(tilt.max_rad - TILT_PLANNING_MARGIN_RAD, float(tilt.angles(model.robot, ends).max()))
         self.padded = model.padded_checker(PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M)
         self.tight = [end for end in ends if not self.padded.CheckConfigCollisionFree(end)]
-        self._edges: dict[bytes, bool] = {}
+        self._edges: dict[tuple, bool] = {}
 
     def _is_tight(self, q: np.ndarray) -> bool:
         return any(np.array_equal(q, end) for end in self.tight)
@@ -118,28 +125,39 @@ class _Checks:
         coarse[::COARSE_STRIDE] = True
         return self._level(Q) and all(self.state(q) for part in (Q[coarse], Q[~coarse]) for q in part)
 
-    def edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        """The straight edge free: its configurations COARSE_STRIDE * CURVE_STEP_RAD apart first, the
-        middle one first and then by halves (most colliding edges end there, after few checks), then
-        Drake's edge check at its full resolution (serial: its parallel check is 5x slower on a busy
-        2-core machine), and the tilt at CURVE_STEP_RAD steps."""
-        key = q_a.tobytes() + q_b.tobytes()
+    def coarse(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+        """The edge's configurations COARSE_STRIDE * CURVE_STEP_RAD apart free, the middle one first and
+        then by halves (a collision anywhere shows after few checks)."""
+        checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
+        length = float(np.linalg.norm(q_b - q_a))
+        inner = q_a + halving_order(int(np.ceil(length / (COARSE_STRIDE * CURVE_STEP_RAD))))[:, None] * (q_b - q_a)
+        return all(checker.CheckConfigCollisionFree(q) for q in inner)
+
+    def full(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+        """Drake's edge check at its full resolution (serial: its parallel check is 5x slower on a busy
+        2-core machine) and the tilt at CURVE_STEP_RAD steps."""
+        checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
+        steps = np.linspace(0.0, 1.0, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / CURVE_STEP_RAD)) + 1)
+        return bool(checker.CheckEdgeCollisionFree(q_a, q_b)) and self._level(q_a + steps[:, None] * (q_b - q_a))
+
+    def _remembered(self, check, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+        key = (check.__name__, q_a.tobytes(), q_b.tobytes())
         if key not in self._edges:
-            checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
-            length = float(np.linalg.norm(q_b - q_a))
-            inner = q_a + halving_order(int(np.ceil(length / (COARSE_STRIDE * CURVE_STEP_RAD))))[:, None] * (q_b - q_a)
-            steps = np.linspace(0.0, 1.0, int(np.ceil(length / CURVE_STEP_RAD)) + 1)[:, None]
-            self._edges[key] = all(checker.CheckConfigCollisionFree(q) for q in inner) and bool(
-                checker.CheckEdgeCollisionFree(q_a, q_b)) and self._level(q_a + steps * (q_b - q_a))
+            self._edges[key] = check(q_a, q_b)
         return self._edges[key]
 
+    def edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+        """The straight edge free: its coarse check, then its full one (each remembered)."""
+        return self._remembered(self.coarse, q_a, q_b) and self._remembered(self.full, q_a, q_b)
+
     def polyline(self, vertices: np.ndarray) -> bool:
-        """Every edge of the polyline free, the longest (the likeliest to collide) first."""
+        """Every edge of the polyline free: the coarse checks of all edges, the longest (the likeliest to
+        collide) first, before any full one."""
         edges = sorted(zip(vertices[:-1], vertices[1:]), key=lambda e: -float(np.linalg.norm(e[1] - e[0])))
-        return all(self.edge(a, b) for a, b in edges)
+        return all(self._remembered(self.coarse, a, b) for a, b in edges) and all(
+            self._remembered(self.full, a, b) for a, b in edges)
 
 
-@functools.lru_cache(maxsize=64)
 def halving_order(count: int) -> np.ndarray:
     """Fractions in (0, 1) at most 1 / count apart, the middle first, then the middles of the halves,
     and so on (van der Corput order): a collision anywhere along an edge shows after few checks."""
@@ -181,7 +199,24 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
         vertices, smooth = detour
         length = path_length(vertices)
         return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
+    roadmap = None if tilt is not None else roadmap_of(model, checks.state)
+    route = None if roadmap is None else roadmap.path(q_start, q_goal, checks)
+    if route is not None:
+        search_time = time.perf_counter() - began
+        shortcut = shortcut_path(checks, route)
+        return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
+                           path_length(route), path_length(shortcut))
     return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
+
+
+def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
+    """``vertices`` with every vertex skipped that a free straight edge can skip: from each kept vertex,
+    on to the farthest one it reaches by a free edge (deterministic, unlike OMPL's random shortcuts)."""
+    kept = [0]
+    while kept[-1] < len(vertices) - 1:
+        i = kept[-1]
+        kept.append(next(j for j in range(len(vertices) - 1, i, -1) if j == i + 1 or checks.edge(vertices[i], vertices[j])))
+    return vertices[kept]
 
 
 def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray):
@@ -206,6 +241,14 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
             for poses, seeds, along in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
                                         ([X_a, X_b], [q_start, q_goal], along))
             for solve in (_via, _nudged)]
+    ways += [Detour(robot, checks, (q_start, q_goal), [X_a, X_b], [q_start, q_goal], along, _via, STRAIGHT_STEP_M)
+             for along in directions]
+    if _branch_changes(robot, X_a, q_start, q_goal):
+        ways += [Detour(robot, checks, (q_start, q_goal), poses, seeds, [along[0] if X is X_a else along[1] for X in poses],
+                        _via)
+                 for along in directions[:2]
+                 for poses, seeds in (([X_a, X_a, X_b], [q_start, q_goal, q_goal]),
+                                      ([X_a, X_b, X_b], [q_start, q_start, q_goal]))]
     offsets = np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M)
     queue: list[tuple[float, int, int, np.ndarray]] = []
 
@@ -214,12 +257,14 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
         for i in range(first, len(offsets)):
             vertices = ways[k].vertices(offsets[i])
             if vertices is not None:
-                heapq.heappush(queue, (round(polyline_time(robot.limits, vertices), TIME_DECIMALS), k, i, vertices))
+                heapq.heappush(queue, (round(path_time(robot.limits, vertices), TIME_DECIMALS), k, i, vertices))
                 return
 
     for k in range(len(ways)):
         push(k, 0)
-    while queue:
+    for _ in range(MAX_DETOUR_CHECKS):
+        if not queue:
+            break
         _, k, i, vertices = heapq.heappop(queue)
         if checks.polyline(vertices):
             return vertices, ways[k].lowered(offsets[i], vertices)
@@ -230,7 +275,10 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
 @dataclass(frozen=True, eq=False)
 class Detour:
     """One way of detouring: vias at ``poses`` (flange poses) moved along ``along`` (a unit vector per
-    pose) by an offset, solved by ``solve(robot, pose, seed)`` from ``seeds``, between ``ends``."""
+    pose) by an offset, solved by ``solve(robot, pose, seed)`` from ``seeds``, between ``ends``; with a
+    ``step`` [m] the flange goes straight (and turns evenly) from each end or via to the next, through
+    poses at most ``step`` apart, each solved by ``_via`` from the one before (None: the vias alone,
+    joined by straight joint-space edges)."""
 
     robot: object
     checks: object
@@ -239,14 +287,34 @@ class Detour:
     seeds: list
     along: list
     solve: object
+    step: float | None = None
 
     def vertices(self, offset: float) -> np.ndarray | None:
-        """[start, vias..., goal] at ``offset`` [m] (None: a via out of reach or not free)."""
-        vias = [self.solve(self.robot, _moved(X, offset * way), seed)
-                for X, way, seed in zip(self.poses, self.along, self.seeds)]
+        """[start, vias..., goal] at ``offset`` [m], its edges unchecked (None: a via out of reach or not
+        free; on a straight way also a joint turning more than MAX_STEP_TURN_RAD between two of its poses)."""
+        moved = [_moved(X, offset * way) for X, way in zip(self.poses, self.along)]
+        if self.step is not None:
+            return self._straight(moved)
+        vias = [self.solve(self.robot, X, seed) for X, seed in zip(moved, self.seeds)]
         if any(v is None for v in vias) or not all(self.checks.state(v) for v in vias):
             return None
         return np.array([self.ends[0], *vias, self.ends[1]])
+
+    def _straight(self, moved: list) -> np.ndarray | None:
+        keys = [self.robot.fk(self.ends[0]), *moved, self.robot.fk(self.ends[1])]
+        vertices = [self.ends[0]]
+        for k, (X_a, X_b) in enumerate(zip(keys[:-1], keys[1:])):
+            count = max(1, int(np.ceil(np.linalg.norm(X_b[:3, 3] - X_a[:3, 3]) / self.step)))
+            last = k == len(keys) - 2
+            poses = interpolated_poses(X_a, X_b, np.arange(1, count + 1) / count)
+            for j, X in enumerate(poses):
+                end = j == count - 1
+                q = self.ends[1] if last and end else _via(self.robot, X, vertices[-1])
+                if q is None or np.abs(q - vertices[-1]).max() > MAX_STEP_TURN_RAD or (
+                        end and not last and not self.checks.state(q)):
+                    return None
+                vertices.append(q)
+        return np.array(vertices)
 
     def lowered(self, offset: float, vertices: np.ndarray) -> np.ndarray | None:
         """The vertices at the smallest offset below ``offset`` through which the spline keeps the
@@ -263,6 +331,17 @@ class Detour:
             else:
                 low = middle
         return best
+
+
+def path_time(limits, vertices: np.ndarray) -> float:
+    """An estimate of the time along a joint polyline (k, dof) followed without stopping at its vertices
+    (the spline through them) [s]: its length in time at each edge's slowest joint's top speed, from rest
+    to rest with the slowest joint's time to reach top speed (bang-bang below it)."""
+    cruise = float((np.abs(np.diff(vertices, axis=0)) / limits.qd_max).max(axis=1).sum())
+    if limits.qdd_max is None:
+        return cruise
+    rise = float((limits.qd_max / limits.qdd_max).max())
+    return cruise + rise if cruise >= rise else 2.0 * np.sqrt(cruise * rise)
 
 
 def polyline_time(limits, vertices: np.ndarray) -> float:
@@ -288,18 +367,43 @@ def _curve_is_free(robot, checks, vertices: np.ndarray) -> bool:
     return checks.states(curve(s))
 
 
+def _branch_changes(robot, X: np.ndarray, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+    """Whether the IK solutions of X nearest q_a and nearest q_b differ (q_a and q_b are on different
+    branches, e.g. of the wrist): then detours that change branch out in the open are tried too."""
+    a, b = _via(robot, X, q_a), _via(robot, X, q_b)
+    return a is not None and b is not None and float(np.abs(a - b).max()) > MAX_STEP_TURN_RAD
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / max(float(np.linalg.norm(v)), 1e-9)
 
 
+def interpolated_poses(X_a: np.ndarray, X_b: np.ndarray, fractions: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) the poses ``fractions`` (n,) of the way from X_a to X_b: position linear, orientation
+    turned evenly about the axis of the relative rotation (slerp, by Rodrigues' formula)."""
+    fractions = np.asarray(fractions, dtype=float)
+    R_a, R_ab = X_a[:3, :3], X_a[:3, :3].T @ X_b[:3, :3]
+    angle = float(np.arccos(np.clip((np.trace(R_ab) - 1.0) / 2.0, -1.0, 1.0)))
+    X = np.tile(np.eye(4), (len(fractions), 1, 1))
+    X[:, :3, 3] = (1.0 - fractions)[:, None] * X_a[:3, 3] + fractions[:, None] * X_b[:3, 3]
+    if angle < 1e-9:
+        X[:, :3, :3] = R_a
+        return X
+    if angle > np.pi - 1e-6:                   # half a turn: (R + I) / 2 = axis axis^T
+        M = (R_ab + np.eye(3)) / 2.0
+        i = int(np.argmax(np.diag(M)))
+        axis = M[:, i] / np.sqrt(M[i, i])
+    else:
+        axis = np.array([R_ab[2, 1] - R_ab[1, 2], R_ab[0, 2] - R_ab[2, 0], R_ab[1, 0] - R_ab[0, 1]]) / (2.0 * np.sin(angle))
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    theta = (fractions * angle)[:, None, None]
+    X[:, :3, :3] = R_a @ (np.eye(3) + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K))
+    return X
+
+
 def interpolated_pose(X_a: np.ndarray, X_b: np.ndarray, f: float) -> np.ndarray:
     """The pose a fraction ``f`` of the way from X_a to X_b (position linear, orientation slerp)."""
-    from scipy.spatial.transform import Rotation, Slerp
-
-    X = np.eye(4)
-    X[:3, :3] = Slerp([0.0, 1.0], Rotation.from_matrix([X_a[:3, :3], X_b[:3, :3]]))(f).as_matrix()
-    X[:3, 3] = (1.0 - f) * X_a[:3, 3] + f * X_b[:3, 3]
-    return X
+    return interpolated_poses(X_a, X_b, np.array([f]))[0]
 
 
 def _moved(X: np.ndarray, offset: np.ndarray) -> np.ndarray:
