@@ -1,16 +1,26 @@
-"""Collision-free joint paths: OMPL's sampling planners with Drake's checker as their validity checker.
+"""Collision-free joint paths, found fast and short for the tool, the same in any process.
 
-``plan_joint_path(model, q_start, q_goal)``: the straight joint-space edge when it is free, else the
-quickest free detour around the obstacles (``detour_path``: a via point or two moved up, back out
-along the tool or towards the base, the motion a programmer would teach, found without randomness),
-else a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``: a
-continuous joint searches half a turn beyond its start and goal values), each state checked by
-Drake's checker and each edge by Drake's parallel edge check, then OMPL's ``PathSimplifier`` on the
-result (vertex reduction, then rope shortcutting at ROPE_STEP). While planning, obstacles are kept
-PLANNING_MARGIN_M farther than the clearance and links SELF_PLANNING_MARGIN_M apart (the edges from a
-start or goal closer than that keep the clearance alone), with edge steps fine enough that no point
-dips by the margin between them, so the smooth path the timing draws through the vertices keeps the
-clearance the certificate then proves.
+``plan_joint_path(model, q_start, q_goal)`` tries, in order:
+
+1. the straight joint-space edge, when it is free;
+2. the detours a programmer would teach (``detour_path``: via points moved up, back out along the tool
+   or towards the base; the flange straight out along the tool, across and in; a change of IK branch
+   out in the open), best first by the time along them, at most MAX_DETOUR_CHECKS of them checked;
+3. the cell's lazy roadmap (``pipeline.roadmap``: made once per cell and process, its edges checked
+   when a query needs them and remembered), its route shortcut (``shortcut_path``);
+4. a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``:
+   a continuous joint searches half a turn beyond its start and goal values), then OMPL's
+   ``PathSimplifier`` (vertex reduction, then rope shortcutting at ROPE_STEP), its generator seeded per
+   plan (``seeded``).
+
+Every state is checked by Drake's checker and every edge by a coarse pass (the middle first, then by
+halves) before Drake's edge check, with obstacles kept PLANNING_MARGIN_M farther than the clearance and
+links SELF_PLANNING_MARGIN_M apart (the edges from a start or goal closer than that keep the clearance
+alone), with edge steps fine enough that no point dips by the margin between them, so the smooth path the
+timing draws through the vertices keeps the clearance the certificate then proves. With a tilt limit
+(``pipeline.tilt``) every state and edge step keeps the tool level too (the roadmap is then skipped: its
+verdicts hold for the unconstrained robot). Steps 1-3 are deterministic; the search is too when it ends
+within its budget.
 """
 
 from __future__ import annotations
@@ -35,28 +45,31 @@ SELF_PLANNING_MARGIN_M = 0.005
 #: 0.55 of the raw length in 56 ms median, 3 to 0.74 in 27 ms, vertex reduction alone to 0.87 in 11 ms
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
 ROPE_STEP = 3.0
-#: Offset steps and the largest offset of the detours tried before a search (``detour_path``) [m]; a found
-#: detour is then brought in by bisection (``Detour.lowered``), so a coarse step costs no lift.
-DETOUR_STEP_M = 0.05
-MAX_DETOUR_M = 0.6
-#: Offset steps the detour search goes on after the first way found a free one; bisections that bring
-#: a found detour in while its spline stays free.
-DETOUR_SPREAD = 3
-LOWER_ROUNDS = 2
+#: The offsets of the detours tried before a search (``detour_path``) [m], finer close in; a found detour
+#: is then brought in by bisection (``Detour.lowered``), so a coarse step costs no lift.
+DETOUR_OFFSETS_M = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.6)
+#: Bisections that bring a found detour in while its spline stays free.
+LOWER_ROUNDS = 3
 #: A straight detour's flange poses at most this far apart [m]; the most a joint may turn between two [rad]
 #: (more is a change of IK branch).
 STRAIGHT_STEP_M = 0.1
 MAX_STEP_TURN_RAD = 0.5
-#: Detours checked (best first) before the search takes over.
+#: How far an end's exit from a fixture (straight back along the tool) may go, the shortest that is free [m].
+EXIT_OFFSETS_M = (0.1, 0.2, 0.3)
+#: Detours checked (best first) before the roadmap takes over.
 MAX_DETOUR_CHECKS = 60
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
 #: The tilt kept below a move's limit while planning [rad] (the timed spline departs from the edges).
 TILT_PLANNING_MARGIN_RAD = np.radians(2.0)
-#: Configurations along a detour's spline are checked this far apart [rad], every COARSE_STRIDE-th first.
-CURVE_STEP_RAD = 0.01
-COARSE_STRIDE = 8
+#: Configurations along a detour's spline are checked this far apart [rad], every COARSE_STRIDE-th first
+#: (the program checks the spline it times again, and the certificate proves its clearance); an edge's
+#: coarse pass steps COARSE_STEP_RAD, the tilt along an edge TILT_STEP_RAD [rad].
+CURVE_STEP_RAD = 0.02
+COARSE_STRIDE = 4
+COARSE_STEP_RAD = 0.08
+TILT_STEP_RAD = 0.01
 #: A via nudged from the joint values between the ends (``_nudged``): steps, tolerance [m], damping [m].
 NUDGE_ITERATIONS = 30
 NUDGE_TOLERANCE_M = 1e-4
@@ -126,18 +139,18 @@ class _Checks:
         return self._level(Q) and all(self.state(q) for part in (Q[coarse], Q[~coarse]) for q in part)
 
     def coarse(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        """The edge's configurations COARSE_STRIDE * CURVE_STEP_RAD apart free, the middle one first and
+        """The edge's configurations COARSE_STEP_RAD apart free, the middle one first and
         then by halves (a collision anywhere shows after few checks)."""
         checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
         length = float(np.linalg.norm(q_b - q_a))
-        inner = q_a + halving_order(int(np.ceil(length / (COARSE_STRIDE * CURVE_STEP_RAD))))[:, None] * (q_b - q_a)
+        inner = q_a + halving_order(int(np.ceil(length / COARSE_STEP_RAD)))[:, None] * (q_b - q_a)
         return all(checker.CheckConfigCollisionFree(q) for q in inner)
 
     def full(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
         """Drake's edge check at its full resolution (serial: its parallel check is 5x slower on a busy
-        2-core machine) and the tilt at CURVE_STEP_RAD steps."""
+        2-core machine) and the tilt at TILT_STEP_RAD steps."""
         checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
-        steps = np.linspace(0.0, 1.0, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / CURVE_STEP_RAD)) + 1)
+        steps = np.linspace(0.0, 1.0, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / TILT_STEP_RAD)) + 1)
         return bool(checker.CheckEdgeCollisionFree(q_a, q_b)) and self._level(q_a + steps[:, None] * (q_b - q_a))
 
     def _remembered(self, check, q_a: np.ndarray, q_b: np.ndarray) -> bool:
@@ -199,14 +212,46 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
         vertices, smooth = detour
         length = path_length(vertices)
         return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
-    roadmap = None if tilt is not None else roadmap_of(model, checks.state)
-    route = None if roadmap is None else roadmap.path(q_start, q_goal, checks)
+    route = _roadmap_route(model, checks, q_start, q_goal, tilt, began + time_budget)
     if route is not None:
         search_time = time.perf_counter() - began
         shortcut = shortcut_path(checks, route)
         return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
                            path_length(route), path_length(shortcut))
-    return _search(model, checks, q_start, q_goal, planner, time_budget, seed)
+    return _search(model, checks, q_start, q_goal, planner, max(time_budget - (time.perf_counter() - began), 0.01), seed)
+
+
+def _roadmap_route(model, checks: _Checks, q_start, q_goal, tilt, deadline: float) -> np.ndarray | None:
+    """A route through the cell's roadmap (``pipeline.roadmap``; none with a tilt limit): from the ends
+    themselves, else from their exits (``_exit``: an end deep in a fixture has no roadmap node in view)."""
+    roadmap = None if tilt is not None else roadmap_of(model, checks.state)
+    if roadmap is None:
+        return None
+    route = roadmap.path(q_start, q_goal, checks, deadline)
+    if route is not None:
+        return route
+    out, back = _exit(model.robot, checks, q_start), _exit(model.robot, checks, q_goal)
+    middle = None if out is None or back is None else roadmap.path(out[-1], back[-1], checks, deadline)
+    return None if middle is None else np.vstack([out[:-1], middle, back[::-1][1:]])
+
+
+def _exit(robot, checks: _Checks, q: np.ndarray) -> np.ndarray | None:
+    """The way out of a fixture from q: the flange straight back along the tool by the first of
+    EXIT_OFFSETS_M whose path is free, through poses STRAIGHT_STEP_M apart (k, dof), q first; None when
+    none is."""
+    X = robot.fk(q)
+    for offset in EXIT_OFFSETS_M:
+        vertices = [q]
+        for X_f in interpolated_poses(X, _moved(X, -offset * X[:3, 2]), np.arange(1, int(np.ceil(offset / STRAIGHT_STEP_M)) + 1)
+                                      / np.ceil(offset / STRAIGHT_STEP_M)):
+            q_f = _via(robot, X_f, vertices[-1])
+            if q_f is None or np.abs(q_f - vertices[-1]).max() > MAX_STEP_TURN_RAD:
+                break
+            vertices.append(q_f)
+        else:
+            if checks.polyline(np.array(vertices)):
+                return np.array(vertices)
+    return None
 
 
 def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
@@ -220,17 +265,19 @@ def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
 
 
 def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray):
-    """The quickest of the shortest free detours around the obstacles, or None. Three directions, up
-    (world z), back (against the tools' z axes: out of a fixture the tool points into) and inward
-    (towards the base's axis), two shapes each: one via point (the flange midway between the ends,
-    its orientation halfway) and two (each end moved: out, across, in); each via solved two ways (the
-    pose by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those
-    joint values, ``_nudged``). Offsets grow by DETOUR_STEP_M up to MAX_DETOUR_M; each way keeps its
-    first offset whose vias and edges are free, and the search ends DETOUR_SPREAD steps after the first
-    way found one. Of these, the quickest by ``polyline_time``: (its vertices, every edge free; the
-    vertices brought as close in as the spline through them keeps the margins, ``Detour.lowered``: the
-    spline bulges beyond the edges a detour bends outwards; None when even the first spline does not),
-    or None. Deterministic: the same ends give the same path in any process."""
+    """The quickest free detour around the obstacles found among the first MAX_DETOUR_CHECKS checked,
+    or None. Three directions, up (world z), back (against the tools' z axes: out of a fixture the tool
+    points into) and inward (towards the base's axis), and three shapes: one via point (the flange midway
+    between the ends, its orientation halfway) and two (each end moved: out, across, in), each via solved
+    two ways (the pose by IK nearest the joint values it lies between, ``_via``; its position alone
+    nudged from those joint values, ``_nudged``); and the flange straight out, across and in through
+    poses STRAIGHT_STEP_M apart. Where the ends are on different IK branches, also vias that change
+    branch at an end's moved pose (up or back). Offsets grow through DETOUR_OFFSETS_M; every
+    way is queued at its first offset whose vias are free, by ``path_time``; the quickest is checked,
+    and when an edge is blocked, its way is queued again at its next offset. The first free one is kept
+    (its vertices; and the vertices brought as close in as the spline through them keeps the margins,
+    ``Detour.lowered``, None when even the first spline does not). Deterministic: the same ends give
+    the same path in any process."""
     robot = model.robot
     X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
     middle = interpolated_pose(X_a, X_b, 0.5)
@@ -249,26 +296,26 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
                  for along in directions[:2]
                  for poses, seeds in (([X_a, X_a, X_b], [q_start, q_goal, q_goal]),
                                       ([X_a, X_b, X_b], [q_start, q_start, q_goal]))]
-    offsets = np.arange(DETOUR_STEP_M, MAX_DETOUR_M + DETOUR_STEP_M / 2.0, DETOUR_STEP_M)
-    queue: list[tuple[float, int, int, np.ndarray]] = []
-
-    def push(k: int, first: int) -> None:
-        """Way k at its first offset from ``first`` on whose vias are free, queued by its estimate."""
-        for i in range(first, len(offsets)):
+    offsets = np.array(DETOUR_OFFSETS_M)
+    # entries (estimate, way, offset index, vertices or None): None until the entry is the quickest queued
+    # (its estimate then the one it inherited, no more than its own: farther out takes longer)
+    queue: list[tuple[float, int, int, np.ndarray | None]] = [(0.0, k, 0, None) for k in range(len(ways))]
+    checked = 0
+    while queue and checked < MAX_DETOUR_CHECKS:
+        estimate, k, i, vertices = heapq.heappop(queue)
+        if vertices is None:
             vertices = ways[k].vertices(offsets[i])
-            if vertices is not None:
+            if vertices is None:
+                if i + 1 < len(offsets):
+                    heapq.heappush(queue, (estimate, k, i + 1, None))
+            else:
                 heapq.heappush(queue, (round(path_time(robot.limits, vertices), TIME_DECIMALS), k, i, vertices))
-                return
-
-    for k in range(len(ways)):
-        push(k, 0)
-    for _ in range(MAX_DETOUR_CHECKS):
-        if not queue:
-            break
-        _, k, i, vertices = heapq.heappop(queue)
+            continue
+        checked += 1
         if checks.polyline(vertices):
             return vertices, ways[k].lowered(offsets[i], vertices)
-        push(k, i + 1)
+        if i + 1 < len(offsets):
+            heapq.heappush(queue, (estimate, k, i + 1, None))
     return None
 
 

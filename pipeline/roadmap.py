@@ -14,6 +14,7 @@ its nodes: ~1,000 collision checks).
 
 from __future__ import annotations
 
+import time
 import weakref
 
 import numpy as np
@@ -25,8 +26,10 @@ END_NEIGHBOURS = 20
 ROADMAP_SEED = 0
 #: Most draws per node kept (a cell where fewer than 1 in 20 configurations is free has no roadmap).
 MAX_DRAWS_PER_NODE = 20
-#: Most shortest-path searches per query.
-MAX_LAZY_ROUNDS = 100
+#: A route is given up when it would take longer (at top speed) than this many times the straight
+#: edge plus ROUTE_SLACK_S [s]: no detour a programmer would keep.
+ROUTE_FACTOR = 6.0
+ROUTE_SLACK_S = 1.0
 
 _roadmaps: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
@@ -70,10 +73,13 @@ class Roadmap:
     def _weights(self, A: np.ndarray, B: np.ndarray) -> np.ndarray:
         return np.abs((B - A) / self.qd_max).max(axis=1) + 1e-12
 
-    def path(self, q_start: np.ndarray, q_goal: np.ndarray, checks) -> np.ndarray | None:
+    def path(self, q_start: np.ndarray, q_goal: np.ndarray, checks, deadline: float) -> np.ndarray | None:
         """The shortest free path from ``q_start`` to ``q_goal`` through the roadmap (k, dof), ends
-        included, or None (none within MAX_LAZY_ROUNDS searches). ``checks``: the query's
-        ``pipeline.planning._Checks`` (its coarse and full edge checks)."""
+        included, or None: none shorter than ROUTE_FACTOR times the straight edge plus ROUTE_SLACK_S, or
+        none found by ``deadline`` (``time.perf_counter``). ``checks``: the query's
+        ``pipeline.planning._Checks`` (its coarse and full edge checks). Whether a free route exists
+        within the limit does not depend on what earlier queries found out: the answer is the same in any
+        process, unless the deadline cuts it short."""
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import dijkstra
 
@@ -85,12 +91,13 @@ class Roadmap:
         verdicts = np.concatenate([self.verdicts, np.zeros(2 * END_NEIGHBOURS, dtype=np.int8)])
         index = self.index | {(int(a), int(b)): len(self.pairs) + k for k, (a, b) in enumerate(pairs[len(self.pairs):])}
         Q = np.vstack([self.Q, ends])
+        longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
         try:
-            for _ in range(MAX_LAZY_ROUNDS):
+            while time.perf_counter() < deadline:
                 open_ = verdicts >= 0
                 graph = coo_matrix((weights[open_], (pairs[open_, 0], pairs[open_, 1])), shape=(n + 2, n + 2)).tocsr()
                 distance, previous = dijkstra(graph, directed=False, indices=n, return_predecessors=True)
-                if not np.isfinite(distance[n + 1]):
+                if not distance[n + 1] <= longest:
                     return None
                 route = [n + 1]
                 while route[-1] != n:
