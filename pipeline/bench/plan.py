@@ -503,8 +503,8 @@ def tcp_positions(robot, X_FT: np.ndarray, Q: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Motion:
-    """One contestant on one query: ``found`` (a path within the budget), ``plan_s`` [s] (the search,
-    wall clock, failures included at the time they took), ``profiled`` (a profile was made),
+    """One contestant on one query: ``found`` (a path within the budget), ``plan_s`` [s] (the planner's
+    whole time, wall clock, failures included at the time they took), ``profiled`` (a profile was made),
     ``certified`` (it passed our judge, clearance included), the re-check's verdict ``rechecked`` and
     smallest obstacle distance ``min_distance_m`` [m], ``tcp_ratio`` (TCP path along the profile / straight
     distance [1]), ``time_ratio`` (duration / rest-to-rest bound [1]), ``duration_s`` [s], ``vertices``
