@@ -133,8 +133,22 @@ def check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndarr
 
 
 def _spline_pieces(s_knots: np.ndarray, waypoints: np.ndarray):
+    if len(s_knots) == 3:
+        return _polynomial_pieces(_parabola(s_knots, waypoints))
     cubic = CubicSpline(s_knots, waypoints, bc_type="not-a-knot" if len(s_knots) > 2 else "natural", axis=0)
     return _polynomial_pieces(cubic)
+
+
+def _parabola(s_knots: np.ndarray, waypoints: np.ndarray) -> PPoly:
+    """The not-a-knot cubic spline through three knots, the parabola through them, made directly (SciPy's
+    CubicSpline solves a dense 3 x 3 system for it, 1-5 ms through its batched solver)."""
+    h = np.diff(s_knots)
+    first, second = (waypoints[1] - waypoints[0]) / h[0], (waypoints[2] - waypoints[1]) / h[1]
+    curvature = (second - first) / (s_knots[2] - s_knots[0])
+    zero = np.zeros_like(curvature)
+    c = np.array([[zero, zero], [curvature, curvature], [first - curvature * h[0], first + curvature * h[0]],
+                  [waypoints[0], waypoints[1]]])
+    return PPoly(c, s_knots)
 
 
 def _polynomial_pieces(poly: PPoly):

@@ -57,7 +57,7 @@ MAX_STEP_TURN_RAD = 0.5
 #: How far an end's exit from a fixture (straight back along the tool) may go, the shortest that is free [m].
 EXIT_OFFSETS_M = (0.1, 0.2, 0.3)
 #: Detours checked (best first) before the roadmap takes over.
-MAX_DETOUR_CHECKS = 60
+MAX_DETOUR_CHECKS = 40
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
@@ -66,7 +66,7 @@ TILT_PLANNING_MARGIN_RAD = np.radians(2.0)
 #: Configurations along a detour's spline are checked this far apart [rad], every COARSE_STRIDE-th first
 #: (the program checks the spline it times again, and the certificate proves its clearance); an edge's
 #: coarse pass steps COARSE_STEP_RAD, the tilt along an edge TILT_STEP_RAD [rad].
-CURVE_STEP_RAD = 0.02
+CURVE_STEP_RAD = 0.03
 COARSE_STRIDE = 4
 COARSE_STEP_RAD = 0.08
 TILT_STEP_RAD = 0.01
@@ -237,20 +237,23 @@ def _roadmap_route(model, checks: _Checks, q_start, q_goal, tilt, deadline: floa
 
 def _exit(robot, checks: _Checks, q: np.ndarray) -> np.ndarray | None:
     """The way out of a fixture from q: the flange straight back along the tool by the first of
-    EXIT_OFFSETS_M whose path is free, through poses STRAIGHT_STEP_M apart (k, dof), q first; None when
-    none is."""
+    EXIT_OFFSETS_M whose path is free, through poses STRAIGHT_STEP_M apart (k, dof), q first, its
+    orientation kept (``_via``) or, where the arm cannot keep it (a joint at its limit), let free
+    (``_nudged``); None when none is free."""
     X = robot.fk(q)
     for offset in EXIT_OFFSETS_M:
-        vertices = [q]
-        for X_f in interpolated_poses(X, _moved(X, -offset * X[:3, 2]), np.arange(1, int(np.ceil(offset / STRAIGHT_STEP_M)) + 1)
-                                      / np.ceil(offset / STRAIGHT_STEP_M)):
-            q_f = _via(robot, X_f, vertices[-1])
-            if q_f is None or np.abs(q_f - vertices[-1]).max() > MAX_STEP_TURN_RAD:
-                break
-            vertices.append(q_f)
-        else:
-            if checks.polyline(np.array(vertices)):
-                return np.array(vertices)
+        count = int(np.ceil(offset / STRAIGHT_STEP_M))
+        poses = interpolated_poses(X, _moved(X, -offset * X[:3, 2]), np.arange(1, count + 1) / count)
+        for solve in (_via, _nudged):
+            vertices = [q]
+            for X_f in poses:
+                q_f = solve(robot, X_f, vertices[-1])
+                if q_f is None or np.abs(q_f - vertices[-1]).max() > MAX_STEP_TURN_RAD:
+                    break
+                vertices.append(q_f)
+            else:
+                if checks.polyline(np.array(vertices)):
+                    return np.array(vertices)
     return None
 
 

@@ -22,7 +22,7 @@ import numpy as np
 #: Nodes, neighbours per node, the neighbours a query's start and goal are joined to, the seed.
 ROADMAP_NODES = 1000
 ROADMAP_NEIGHBOURS = 10
-END_NEIGHBOURS = 20
+END_NEIGHBOURS = 30
 ROADMAP_SEED = 0
 #: Most draws per node kept (a cell where fewer than 1 in 20 configurations is free has no roadmap).
 MAX_DRAWS_PER_NODE = 20
@@ -104,7 +104,8 @@ class Roadmap:
                     route.append(int(previous[route[-1]]))
                 route.reverse()
                 edges = [index.get((a, b), index.get((b, a))) for a, b in zip(route[:-1], route[1:])]
-                if _checked(Q, pairs, verdicts, [k for k in edges if verdicts[k] == 0], checks):
+                unknown = sorted((k for k in edges if verdicts[k] == 0), key=lambda k: (k < len(self.pairs), -weights[k]))
+                if _checked(Q, pairs, verdicts, unknown, checks):
                     return Q[route]
             return None
         finally:
@@ -112,8 +113,9 @@ class Roadmap:
 
 
 def _checked(Q: np.ndarray, pairs: np.ndarray, verdicts: np.ndarray, unknown: list[int], checks) -> bool:
-    """Whether the ``unknown`` edges (indices into ``pairs``) are free: the coarse checks of all first,
-    then the full ones, each verdict kept in ``verdicts``."""
+    """Whether the ``unknown`` edges (indices into ``pairs``; those joining the query's ends first, then
+    the longest: the likeliest to be blocked) are free: the coarse checks of all first, then the full
+    ones, each verdict kept in ``verdicts``."""
     for stage in (checks.coarse, checks.full):
         for k in unknown:
             if verdicts[k] == 0 and not stage(Q[pairs[k, 0]], Q[pairs[k, 1]]):

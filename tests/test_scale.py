@@ -1,7 +1,8 @@
 """Batches and maps on Dask (``pipeline.scale``): the demo jobs on a 2-worker LocalCluster equal their
 serial runs (``python -m pipeline run``, each in a process of its own) file for file, jobs that plan
 repeat their own run whatever ran before them, a map on the workers equals the one computed in this
-process, a worker killed mid-run loses nothing, failed jobs are rows, bad input is typed, and the
+process, a job planned by detours, the roadmap and OMPL gives the same profile in any process, a worker
+killed mid-run loses nothing, failed jobs are rows, bad input is typed, and the
 command line (``batch``, ``reach``: exit codes, one-line errors, nothing written when interrupted).
 
 Every cluster here is a LocalCluster on 127.0.0.1 (worker processes, no dashboard); every output goes to
@@ -235,8 +236,7 @@ def test_importing_the_package_starts_no_dask_and_no_drake():
 @pytest.mark.slow                                  # planned jobs in fresh processes: about 15 s
 def test_a_job_that_plans_gets_the_plans_of_its_own_run_whatever_ran_before_it(tmp_path):
     """Two copies of the demo cell job in one batch (in this process, which has planned before) plan as a
-    fresh `python -m pipeline run` of it does, byte for byte (its moves take deterministic detours; OMPL,
-    when a move needs it, takes one seed per process)."""
+    fresh `python -m pipeline run` of it does, byte for byte (its moves take deterministic detours)."""
     for name in ("first", "second"):
         shutil.copy(JOBS / "gp7_cell_pick_place.yaml", tmp_path / f"{name}.yaml")
         text = (tmp_path / f"{name}.yaml").read_text().replace("../../models/", f"{ROOT}/models/")
@@ -247,6 +247,36 @@ def test_a_job_that_plans_gets_the_plans_of_its_own_run_whatever_ran_before_it(t
     assert first == second == (tmp_path / "run" / "gp7_cell_pick_place" / "profile.csv").read_bytes()
     moves = json.loads((tmp_path / "batch" / "first" / "report.json").read_text())["program"]["moves"]
     assert [move["planned"]["planner"] for move in moves if move["planned"]] == ["detour", "detour"]
+
+
+def shelf_job(path: Path) -> Path:
+    """A job through five targets of the IRB 1600 bookshelf problem set (``bench plan``): its planned moves
+    take a detour, the cell's roadmap and OMPL's RRTConnect."""
+    from pipeline.bench.plan import cell_file
+    from pipeline.bench.plan_sets import problem_set, set_model
+
+    queries = problem_set("irb1600_bookshelf", set_model("irb1600_bookshelf"), count=20, seed=0).queries[4:8]
+    targets = [queries[0].start] + [q.goal for q in queries]
+    path.write_text(f"cell: {cell_file('irb1600_bookshelf')}\nangle_unit: rad\nplan: collision_free\nwaypoints:\n"
+                    + "".join(f"  - {[float(v) for v in q]}\n" for q in targets))
+    return path
+
+
+@pytest.mark.slow                                  # a Dask batch and a fresh process: about 30 s
+def test_a_job_planned_by_detours_the_roadmap_and_ompl_is_the_same_in_any_process(client, tmp_path):
+    """The same profile, byte for byte: in a fresh ``python -m pipeline run``, twice in this process (the
+    second with the cell's roadmap already warm), and in a Dask batch of two copies on 2 workers."""
+    path = shelf_job(tmp_path / "shelf.yaml")
+    shutil.copy(path, tmp_path / "copy.yaml")
+    run_serially([path], tmp_path / "run")
+    for name in ("here_1", "here_2"):
+        assert main(["run", str(path), "--out", str(tmp_path / name)]) == 0
+    run_batch([path, tmp_path / "copy.yaml"], tmp_path / "batch", client=client)
+    profiles = [(tmp_path / folder / "profile.csv").read_bytes()
+                for folder in ("run/shelf", "here_1", "here_2", "batch/shelf", "batch/copy")]
+    assert all(profile == profiles[0] for profile in profiles)
+    moves = json.loads((tmp_path / "run" / "shelf" / "report.json").read_text())["program"]["moves"]
+    assert {"detour", "roadmap", "RRTConnect"} <= {move["planned"]["planner"] for move in moves}
 
 
 # -- failed jobs are rows -------------------------------------------------------------------------------

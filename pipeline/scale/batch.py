@@ -2,8 +2,8 @@
 
 Every job file (a folder stands for the ``*.yaml`` / ``*.yml`` files in it, sorted) is read and checked
 here; each job is then run by ``runner.run_job`` in a task of its own (a Dask worker, or this process
-without a client; a job that plans in a Python process of its own there, see ``run_one``) into a
-temporary folder on that machine, and its files come back as bytes, so a cluster needs no shared disk. ``out_dir`` is replaced whole (``io.staged_output``): ``<job name>/``
+without a client) into a temporary folder on that machine, and its files come back as bytes, so a
+cluster needs no shared disk. ``out_dir`` is replaced whole (``io.staged_output``): ``<job name>/``
 per job that succeeded (exactly what ``run`` writes), ``summary.csv`` and ``summary.json``.
 
 A job that fails (a file that does not read, an unreachable pose, a timing or collision error, even
@@ -17,9 +17,6 @@ from __future__ import annotations
 import csv
 import io as text_io
 import logging
-import pickle
-import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -92,26 +89,10 @@ def _row(name: str, source: str, status: str, error: BaseException | None = None
 
 
 def run_one(job, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobRun:
-    """Run one validated job and return its row and files (a Dask task): in this process (``run_here``),
-    or, for a job that plans in a cell, in a Python process of its own (``fresh``), as ``python -m
-    pipeline run`` does: OMPL takes one seed per process (``planning``), so a second job planned in a
-    process would get other plans than its own ``run`` and than the same job on another worker."""
-    if job.cell is not None and job.plan != "direct":
-        return _in_fresh_process(job, max_samples)
+    """Run one validated job and return its row and files (a Dask task), in this process: its plans are
+    the same as its own ``python -m pipeline run`` gives (``pipeline.planning`` seeds OMPL per plan, and
+    a cell's roadmap answers a query alike whatever ran before)."""
     return run_here(job, max_samples)
-
-
-def _in_fresh_process(job, max_samples: int) -> JobRun:
-    began = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="dh-pipeline-batch-") as folder:
-        given, taken = Path(folder) / "job.pickle", Path(folder) / "run.pickle"
-        given.write_bytes(pickle.dumps((job, max_samples)))
-        done = subprocess.run([sys.executable, "-m", "pipeline.scale.fresh", str(given), str(taken)],
-                              capture_output=True, text=True)
-        if done.returncode == 0 and taken.is_file():
-            return pickle.loads(taken.read_bytes())
-    error = RuntimeError(f"the job's own process ended with status {done.returncode}: {done.stderr.strip()[-300:]}")
-    return JobRun(_row(job.name, job.source, INTERNAL, error), compute_s=time.perf_counter() - began)
 
 
 def run_here(job, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobRun:
