@@ -56,8 +56,10 @@ STRAIGHT_STEP_M = 0.1
 MAX_STEP_TURN_RAD = 0.5
 #: How far an end's exit from a fixture (straight back along the tool) may go, the shortest that is free [m].
 EXIT_OFFSETS_M = (0.1, 0.2, 0.3)
-#: Detours checked (best first) before the roadmap takes over.
+#: Detours checked (best first) before the roadmap takes over; then detours checked while they are
+#: quicker than the roadmap's route (by ``path_time``).
 MAX_DETOUR_CHECKS = 40
+MAX_QUICKER_CHECKS = 60
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
@@ -216,6 +218,11 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     if route is not None:
         search_time = time.perf_counter() - began
         shortcut = shortcut_path(checks, route)
+        quicker = detour_path(model, checks, q_start, q_goal, MAX_QUICKER_CHECKS, path_time(model.robot.limits, shortcut))
+        if quicker is not None:
+            vertices, smooth = quicker
+            length = path_length(vertices)
+            return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
         return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
                            path_length(route), path_length(shortcut))
     return _search(model, checks, q_start, q_goal, planner, max(time_budget - (time.perf_counter() - began), 0.01), seed)
@@ -267,9 +274,10 @@ def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
     return vertices[kept]
 
 
-def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray):
-    """The quickest free detour around the obstacles found among the first MAX_DETOUR_CHECKS checked,
-    or None. Three directions, up (world z), back (against the tools' z axes: out of a fixture the tool
+def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray,
+                max_checks: int = MAX_DETOUR_CHECKS, quicker_than: float = np.inf):
+    """The quickest free detour around the obstacles found among the first ``max_checks`` checked whose
+    estimate (``path_time``) is below ``quicker_than`` [s], or None. Three directions, up (world z), back (against the tools' z axes: out of a fixture the tool
     points into) and inward (towards the base's axis), and three shapes: one via point (the flange midway
     between the ends, its orientation halfway) and two (each end moved: out, across, in), each via solved
     two ways (the pose by IK nearest the joint values it lies between, ``_via``; its position alone
@@ -304,7 +312,7 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     # (its estimate then the one it inherited, no more than its own: farther out takes longer)
     queue: list[tuple[float, int, int, np.ndarray | None]] = [(0.0, k, 0, None) for k in range(len(ways))]
     checked = 0
-    while queue and checked < MAX_DETOUR_CHECKS:
+    while queue and checked < max_checks and queue[0][0] < quicker_than:
         estimate, k, i, vertices = heapq.heappop(queue)
         if vertices is None:
             vertices = ways[k].vertices(offsets[i])
