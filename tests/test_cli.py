@@ -143,12 +143,13 @@ def test_the_console_script_is_main_under_its_own_name(capsys):
 def test_demo_cells_resolve_by_name_and_an_unknown_name_lists_them(capsys):
     from pipeline.cell import cell_names, load_cell, resolve_cell_path
 
-    assert cell_names() == ["gp7_shelf_cell", "gp7_wall_cell"]
+    names = sorted(path.stem for path in (ROOT / "models" / "cells").glob("*.yaml"))
+    assert cell_names() == names and {"gp7_shelf_cell", "gp7_wall_cell", "irb1600_bookshelf"} <= set(names)
     assert resolve_cell_path("gp7_wall_cell").samefile(ROOT / "models" / "cells" / "gp7_wall_cell.yaml")
     assert load_cell("gp7_shelf_cell").name == "gp7_shelf_cell"
     assert main(["check-cell", "gp7_wal"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: gp7_wal: ") and "demo cells: gp7_shelf_cell, gp7_wall_cell" in err
+    assert err.startswith("error: gp7_wal: ") and f"demo cells: {', '.join(names)}" in err
 
 
 def test_a_job_names_a_demo_cell_from_any_directory(tmp_path, monkeypatch):
@@ -159,7 +160,8 @@ def test_a_job_names_a_demo_cell_from_any_directory(tmp_path, monkeypatch):
     doc = {"cell": "gp7_wall_cell", "angle_unit": "deg", "waypoints": [[0, 0, 0, 0, -90, 0], [10, 0, 0, 0, -90, 0]]}
     job = parse_job(doc, "job.yaml", base_dir=tmp_path)
     assert job.cell.name == "gp7_wall_cell" and job.robot.name == "gp7"
-    with pytest.raises(JobFileError, match=r"job.yaml:.*cell: .*demo cells: gp7_shelf_cell, gp7_wall_cell"):
+    with pytest.raises(JobFileError, match=r"job.yaml:.*cell: .*demo cells: gp7_bookshelf, gp7_box, gp7_shelf_cell, "
+                                           r"gp7_table_clutter, gp7_wall_cell, irb1600_"):
         parse_job({**doc, "cell": "gp7_wal"}, "job.yaml", base_dir=tmp_path)
 
 
