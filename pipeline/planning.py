@@ -110,10 +110,9 @@ class _Checks:
     steps fine enough that a checked straight edge keeps the clearance between its steps), and with a
     ``tilt`` limit (``pipeline.tilt.TiltLimit``, or None) the tool level within it less
     TILT_PLANNING_MARGIN_RAD (or within the more tilted end's tilt, when larger) at every state and edge
-    step. An end (start or goal) that keeps the
-    clearance but not the margins is still a valid state, and the edges from it are checked against the
-    clearance alone: the rest of the path keeps the margins. Edge verdicts are remembered (a detour's
-    offsets share edges)."""
+    step. An end (start or goal) that keeps the clearance but not the margins is still a valid state, and
+    the edges from it are checked against the clearance alone: the rest of the path keeps the margins.
+    Edge verdicts are remembered (a detour's offsets share edges)."""
 
     def __init__(self, model, ends: tuple[np.ndarray, ...], tilt=None):
         self.model, self.tilt = model, tilt
@@ -173,6 +172,7 @@ class _Checks:
             self._remembered(self.full, a, b) for a, b in edges)
 
 
+@functools.lru_cache(maxsize=256)
 def halving_order(count: int) -> np.ndarray:
     """Fractions in (0, 1) at most 1 / count apart, the middle first, then the middles of the halves,
     and so on (van der Corput order): a collision anywhere along an edge shows after few checks."""
@@ -198,11 +198,11 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     q_start, q_goal = (model.robot.as_configuration(q) for q in (q_start, q_goal))
     _check_endpoint(model, q_start, "start")
     _check_endpoint(model, q_goal, "goal")
-    if tilt is not None:
-        for q, which in ((q_start, "start"), (q_goal, "goal")):
-            if not tilt.keeps(model.robot, q):
-                raise PlanningError(f"the {which} configuration tilts the tool {np.degrees(tilt.angles(model.robot, q)[0]):.1f}"
-                                    f" deg from the vertical, beyond the limit of {np.degrees(tilt.max_rad):g} deg")
+    for q, which in ((q_start, "start"), (q_goal, "goal")):
+        if tilt is not None and not tilt.keeps(model.robot, q):
+            tilted = float(np.degrees(tilt.angles(model.robot, q)[0]))
+            raise PlanningError(f"the {which} configuration tilts the tool {tilted:.1f} deg from the vertical, beyond "
+                                f"the limit of {np.degrees(tilt.max_rad):g} deg")
     checks = _Checks(model, (q_start, q_goal), tilt)
     if checks.edge(q_start, q_goal):
         straight = np.array([q_start, q_goal])
@@ -211,21 +211,26 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     began = time.perf_counter()
     detour = detour_path(model, checks, q_start, q_goal)
     if detour is not None:
-        vertices, smooth = detour
-        length = path_length(vertices)
-        return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
+        return _detour_plan(detour, began)
     route = _roadmap_route(model, checks, q_start, q_goal, tilt, began + time_budget)
     if route is not None:
         search_time = time.perf_counter() - began
         shortcut = shortcut_path(checks, route)
-        quicker = detour_path(model, checks, q_start, q_goal, MAX_QUICKER_CHECKS, path_time(model.robot.limits, shortcut))
+        quicker = detour_path(model, checks, q_start, q_goal, MAX_QUICKER_CHECKS,
+                              path_time(model.robot.limits, shortcut))
         if quicker is not None:
-            vertices, smooth = quicker
-            length = path_length(vertices)
-            return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
+            return _detour_plan(quicker, began)
         return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
                            path_length(route), path_length(shortcut))
-    return _search(model, checks, q_start, q_goal, planner, max(time_budget - (time.perf_counter() - began), 0.01), seed)
+    budget_left = max(time_budget - (time.perf_counter() - began), 0.01)
+    return _search(model, checks, q_start, q_goal, planner, budget_left, seed)
+
+
+def _detour_plan(detour: tuple, began: float) -> PlannedPath:
+    """The PlannedPath of ``detour_path``'s (vertices, smooth vertices), searched since ``began`` [s]."""
+    vertices, smooth = detour
+    length = path_length(vertices)
+    return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
 
 
 def _roadmap_route(model, checks: _Checks, q_start, q_goal, tilt, deadline: float) -> np.ndarray | None:
@@ -270,15 +275,17 @@ def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
     kept = [0]
     while kept[-1] < len(vertices) - 1:
         i = kept[-1]
-        kept.append(next(j for j in range(len(vertices) - 1, i, -1) if j == i + 1 or checks.edge(vertices[i], vertices[j])))
+        kept.append(next(j for j in range(len(vertices) - 1, i, -1)
+                         if j == i + 1 or checks.edge(vertices[i], vertices[j])))
     return vertices[kept]
 
 
 def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray,
                 max_checks: int = MAX_DETOUR_CHECKS, quicker_than: float = np.inf):
     """The quickest free detour around the obstacles found among the first ``max_checks`` checked whose
-    estimate (``path_time``) is below ``quicker_than`` [s], or None. Three directions, up (world z), back (against the tools' z axes: out of a fixture the tool
-    points into) and inward (towards the base's axis), and three shapes: one via point (the flange midway
+    estimate (``path_time``) is below ``quicker_than`` [s], or None. Three directions, up (world z), back
+    (against the tools' z axes: out of a fixture the tool points into) and inward (towards the base's
+    axis), and three shapes: one via point (the flange midway
     between the ends, its orientation halfway) and two (each end moved: out, across, in), each via solved
     two ways (the pose by IK nearest the joint values it lies between, ``_via``; its position alone
     nudged from those joint values, ``_nudged``); and the flange straight out, across and in through
@@ -302,8 +309,8 @@ def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarra
     ways += [Detour(robot, checks, (q_start, q_goal), [X_a, X_b], [q_start, q_goal], along, _via, STRAIGHT_STEP_M)
              for along in directions]
     if _branch_changes(robot, X_a, q_start, q_goal):
-        ways += [Detour(robot, checks, (q_start, q_goal), poses, seeds, [along[0] if X is X_a else along[1] for X in poses],
-                        _via)
+        ways += [Detour(robot, checks, (q_start, q_goal), poses, seeds,
+                        [along[0] if X is X_a else along[1] for X in poses], _via)
                  for along in directions[:2]
                  for poses, seeds in (([X_a, X_a, X_b], [q_start, q_goal, q_goal]),
                                       ([X_a, X_b, X_b], [q_start, q_start, q_goal]))]
@@ -452,7 +459,8 @@ def interpolated_poses(X_a: np.ndarray, X_b: np.ndarray, fractions: np.ndarray) 
         i = int(np.argmax(np.diag(M)))
         axis = M[:, i] / np.sqrt(M[i, i])
     else:
-        axis = np.array([R_ab[2, 1] - R_ab[1, 2], R_ab[0, 2] - R_ab[2, 0], R_ab[1, 0] - R_ab[0, 1]]) / (2.0 * np.sin(angle))
+        axis = np.array([R_ab[2, 1] - R_ab[1, 2], R_ab[0, 2] - R_ab[2, 0], R_ab[1, 0] - R_ab[0, 1]])
+        axis /= 2.0 * np.sin(angle)
     K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
     theta = (fractions * angle)[:, None, None]
     X[:, :3, :3] = R_a @ (np.eye(3) + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K))

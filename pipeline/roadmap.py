@@ -87,16 +87,18 @@ class Roadmap:
         ends = np.array([q_start, q_goal])
         _, near = self.tree.query(ends / self.qd_max, END_NEIGHBOURS, p=np.inf)
         pairs = np.vstack([self.pairs, np.stack([np.repeat([n, n + 1], END_NEIGHBOURS), near.ravel()], axis=1)])
-        weights = np.concatenate([self.weights, self._weights(ends.repeat(END_NEIGHBOURS, axis=0), self.Q[near.ravel()])])
+        weights = np.concatenate([self.weights,
+                                  self._weights(ends.repeat(END_NEIGHBOURS, axis=0), self.Q[near.ravel()])])
         verdicts = np.concatenate([self.verdicts, np.zeros(2 * END_NEIGHBOURS, dtype=np.int8)])
-        index = self.index | {(int(a), int(b)): len(self.pairs) + k for k, (a, b) in enumerate(pairs[len(self.pairs):])}
+        index = self.index | {(int(a), int(b)): len(self.pairs) + k
+                              for k, (a, b) in enumerate(pairs[len(self.pairs):])}
         Q = np.vstack([self.Q, ends])
         longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
         try:
             while time.perf_counter() < deadline:
                 open_ = verdicts >= 0
-                graph = coo_matrix((weights[open_], (pairs[open_, 0], pairs[open_, 1])), shape=(n + 2, n + 2)).tocsr()
-                distance, previous = dijkstra(graph, directed=False, indices=n, return_predecessors=True)
+                graph = coo_matrix((weights[open_], (pairs[open_, 0], pairs[open_, 1])), shape=(n + 2, n + 2))
+                distance, previous = dijkstra(graph.tocsr(), directed=False, indices=n, return_predecessors=True)
                 if not distance[n + 1] <= longest:
                     return None
                 route = [n + 1]
@@ -104,7 +106,8 @@ class Roadmap:
                     route.append(int(previous[route[-1]]))
                 route.reverse()
                 edges = [index.get((a, b), index.get((b, a))) for a, b in zip(route[:-1], route[1:])]
-                unknown = sorted((k for k in edges if verdicts[k] == 0), key=lambda k: (k < len(self.pairs), -weights[k]))
+                unknown = sorted((k for k in edges if verdicts[k] == 0),
+                                 key=lambda k: (k < len(self.pairs), -weights[k]))
                 if _checked(Q, pairs, verdicts, unknown, checks):
                     return Q[route]
             return None
