@@ -18,8 +18,8 @@ took), the two contestants taking turns in an order rotated from pair to pair (m
 alike), each once on a pair that needs a search before the timing (imports, caches):
 
 * ours: ``plan_joint_path(model, q_a, q_b, time_budget=2.0)`` (the straight edge when it keeps the
-  planner's margins, else OMPL RRTConnect with Drake's checker and parallel edge checks, then vertex
-  reduction and rope shortcutting): the whole call, and its own search and shortcut times;
+  planner's margins, else a detour, a route through the cell's roadmap or OMPL RRTConnect: see
+  ``pipeline.planning``): the whole call, and its own search and shortcut times;
 * the peer, what a user writes by hand: OMPL's ``SimpleSetup`` over the same joint box, the state
   validity checker a Python callback on the same Drake checker (``CheckConfigCollisionFree``, the same
   clearance padding), OMPL's default discrete motion validator stepping PEER_STEP_RAD (the validity
