@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..collision import SELF_CLEARANCE_M
 from ..configurations import matches
 from ..errors import ConfigurationError, PipelineError
 from ..poses import make_pose
@@ -46,6 +47,8 @@ from ..tool import rigid_inverse
 ARM_CONFIGURATION = {"shoulder": "front", "elbow": "up"}
 #: The cells' gripper: the TCP 120 mm along the flange z [m].
 X_FT = make_pose(np.eye(3), [0.0, 0.0, 0.120])
+#: How far beyond the cell's clearance every target keeps from the obstacles [m].
+TARGET_MARGIN_M = 0.001
 #: Draws of one target's region before the set is given up.
 MAX_DRAWS_PER_TARGET = 500
 #: Each robot's scene scale (the cells' sizes relative to the GP7's) [1].
@@ -170,11 +173,14 @@ def tcp_pose(model, q: np.ndarray) -> np.ndarray:
 
 def solve_target(model, X_WT: np.ndarray, q_ref: np.ndarray) -> np.ndarray | None:
     """The collision-free IK solution in ARM_CONFIGURATION (of every closed-form branch) of the TCP pose X_WT
-    (4, 4) [m] nearest q_ref (dof,) [rad]; None when none is free (or IK fails)."""
+    (4, 4) [m] nearest q_ref (dof,) [rad], TARGET_MARGIN_M beyond the cell's clearance (a motion from a
+    target right at the clearance cannot be certified: the motion may stray a fraction of a millimetre
+    between samples); None when none is (or IK fails)."""
     X_BF = rigid_inverse(model.cell.X_WB) @ X_WT @ rigid_inverse(X_FT)
     result = model.robot.ik(X_BF)
     candidates = [s.q for s in result.solutions if matches(s.branch, ARM_CONFIGURATION)] if result.success else []
-    free = [q for q in candidates if model.is_free(q)]
+    roomy = model.padded_checker(TARGET_MARGIN_M, SELF_CLEARANCE_M)
+    free = [q for q in candidates if roomy.CheckConfigCollisionFree(q)]
     if not free:
         return None
     return min(free, key=lambda q: float(np.linalg.norm(q - q_ref)))
