@@ -1,7 +1,7 @@
 """Batches and maps on Dask (``pipeline.scale``): the demo jobs on a 2-worker LocalCluster equal their
 serial runs (``python -m pipeline run``, each in a process of its own) file for file, jobs that plan
 repeat their own run whatever ran before them, a map on the workers equals the one computed in this
-process, a job planned by detours, the roadmap and OMPL gives the same profile in any process, a worker
+process, a job planned by detours and the roadmap gives the same profile in any process, a worker
 killed mid-run loses nothing, failed jobs are rows, bad input is typed, and the
 command line (``batch``, ``reach``: exit codes, one-line errors, nothing written when interrupted).
 
@@ -251,7 +251,7 @@ def test_a_job_that_plans_gets_the_plans_of_its_own_run_whatever_ran_before_it(t
 
 def shelf_job(path: Path) -> Path:
     """A job through five targets of the IRB 1600 bookshelf problem set (``bench plan``): its planned moves
-    take a detour, the cell's roadmap and OMPL's RRTConnect."""
+    take a detour and routes through the cell's roadmap (OMPL's search: ``tests/test_planning.py``)."""
     from pipeline.bench.plan import cell_file
     from pipeline.bench.plan_sets import problem_set, set_model
 
@@ -263,7 +263,7 @@ def shelf_job(path: Path) -> Path:
 
 
 @pytest.mark.slow                                  # a Dask batch and a fresh process: about 30 s
-def test_a_job_planned_by_detours_the_roadmap_and_ompl_is_the_same_in_any_process(client, tmp_path):
+def test_a_job_planned_by_detours_and_the_roadmap_is_the_same_in_any_process(client, tmp_path):
     """The same profile, byte for byte: in a fresh ``python -m pipeline run``, twice in this process (the
     second with the cell's roadmap already warm), and in a Dask batch of two copies on 2 workers."""
     path = shelf_job(tmp_path / "shelf.yaml")
@@ -276,7 +276,7 @@ def test_a_job_planned_by_detours_the_roadmap_and_ompl_is_the_same_in_any_proces
                 for folder in ("run/shelf", "here_1", "here_2", "batch/shelf", "batch/copy")]
     assert all(profile == profiles[0] for profile in profiles)
     moves = json.loads((tmp_path / "run" / "shelf" / "report.json").read_text())["program"]["moves"]
-    assert {"detour", "roadmap", "RRTConnect"} <= {move["planned"]["planner"] for move in moves}
+    assert {"detour", "roadmap"} <= {move["planned"]["planner"] for move in moves}
 
 
 # -- failed jobs are rows -------------------------------------------------------------------------------
