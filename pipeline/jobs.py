@@ -139,9 +139,10 @@ class Job:
     what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
     none; then nothing is checked for collision); ``plan``: direct or collision_free (joint moves
     replaced by planned ones where the direct path comes too close); ``planner`` (an OMPL planner name)
-    and ``plan_time_budget`` [s] per planned move; ``plan_tilt_max`` [rad] or None: the largest angle between
-    the tool's z axis and the cell's vertical on planned moves (``pipeline.tilt``). ``document``: the file as read, so that errors found
-    after reading (IK, collisions, timing) name the line of their field (``error``).
+    and ``plan_time_budget`` [s] per planned move; ``plan_tilt_max`` [rad] or None: the largest angle
+    between the tool's z axis and the cell's vertical on planned moves (``pipeline.tilt``). ``document``:
+    the file as read, so that errors found after reading (IK, collisions, timing) name the line of their
+    field (``error``).
     """
 
     name: str
