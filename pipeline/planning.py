@@ -3,7 +3,7 @@
 ``plan_joint_path(model, q_start, q_goal)`` tries, in order:
 
 1. the straight joint-space edge, when it is free;
-2. the detours a programmer would teach (``detour_path``: via points moved up, back out along the tool
+2. the detours a programmer would teach (``DetourSearch``: via points moved up, back out along the tool
    or towards the base; the flange straight out along the tool, across and in; a change of IK branch
    out in the open), best first by the time along them, at most MAX_DETOUR_CHECKS of them checked;
 3. the cell's lazy roadmap (``pipeline.roadmap``: made once per cell and process, its edges checked
@@ -45,7 +45,7 @@ SELF_PLANNING_MARGIN_M = 0.005
 #: 0.55 of the raw length in 56 ms median, 3 to 0.74 in 27 ms, vertex reduction alone to 0.87 in 11 ms
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
 ROPE_STEP = 3.0
-#: The offsets of the detours tried before a search (``detour_path``) [m], finer close in; a found detour
+#: The offsets of the detours tried before a search (``DetourSearch``) [m], finer close in; a found detour
 #: is then brought in by bisection (``Detour.lowered``), so a coarse step costs no lift.
 DETOUR_OFFSETS_M = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.6)
 #: Bisections that bring a found detour in while its spline stays free.
@@ -56,10 +56,10 @@ STRAIGHT_STEP_M = 0.1
 MAX_STEP_TURN_RAD = 0.5
 #: How far an end's exit from a fixture (straight back along the tool) may go, the shortest that is free [m].
 EXIT_OFFSETS_M = (0.1, 0.2, 0.3)
-#: Detours checked (best first) before the roadmap takes over; then detours checked while they are
+#: Detours checked (best first) before the roadmap takes over; then the next ones checked while they are
 #: quicker than the roadmap's route (by ``path_time``).
 MAX_DETOUR_CHECKS = 40
-MAX_QUICKER_CHECKS = 60
+MAX_QUICKER_CHECKS = 20
 #: Detours whose estimated times agree to this many decimals [s] are a tie, won by the first way tried
 #: (up and back coincide for a tool pointing down: their times differ only by the CPU's round-off).
 TIME_DECIMALS = 6
@@ -81,7 +81,7 @@ NUDGE_DAMPING = 0.01
 @dataclass(frozen=True, eq=False)
 class PlannedPath:
     """A collision-free joint path: ``waypoints`` (k, dof) from start to goal [rad or m], every edge free;
-    ``planner`` ("direct" when the straight edge was free, "detour" for ``detour_path``'s); ``plan_time_s``
+    ``planner`` ("direct" when the straight edge was free, "detour" for ``DetourSearch``'s, "roadmap"); ``plan_time_s``
     (search) and ``simplify_time_s``; joint-space path lengths (Euclidean) ``length_before`` and
     ``length_after`` simplification [rad]; ``smooth_waypoints``: a detour's vertices brought closer in,
     through which the C2 spline (not the edges) keeps the planning margins (None: none)."""
@@ -209,15 +209,15 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
         length = path_length(straight)
         return PlannedPath(straight, "direct", 0.0, 0.0, length, length)
     began = time.perf_counter()
-    detour = detour_path(model, checks, q_start, q_goal)
+    detours = DetourSearch(model, checks, q_start, q_goal)
+    detour = detours.next(MAX_DETOUR_CHECKS)
     if detour is not None:
         return _detour_plan(detour, began)
     route = _roadmap_route(model, checks, q_start, q_goal, tilt, began + time_budget)
     if route is not None:
         search_time = time.perf_counter() - began
         shortcut = shortcut_path(checks, route)
-        quicker = detour_path(model, checks, q_start, q_goal, MAX_QUICKER_CHECKS,
-                              path_time(model.robot.limits, shortcut))
+        quicker = detours.next(MAX_QUICKER_CHECKS, path_time(model.robot.limits, shortcut))
         if quicker is not None:
             return _detour_plan(quicker, began)
         return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
@@ -227,7 +227,8 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
 
 
 def _detour_plan(detour: tuple, began: float) -> PlannedPath:
-    """The PlannedPath of ``detour_path``'s (vertices, smooth vertices), searched since ``began`` [s]."""
+    """The PlannedPath of a detour (``DetourSearch.next``'s vertices, smooth vertices), searched since
+    ``began`` [s]."""
     vertices, smooth = detour
     length = path_length(vertices)
     return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
@@ -257,16 +258,23 @@ def _exit(robot, checks: _Checks, q: np.ndarray) -> np.ndarray | None:
         count = int(np.ceil(offset / STRAIGHT_STEP_M))
         poses = interpolated_poses(X, _moved(X, -offset * X[:3, 2]), np.arange(1, count + 1) / count)
         for solve in (_via, _nudged):
-            vertices = [q]
-            for X_f in poses:
-                q_f = solve(robot, X_f, vertices[-1])
-                if q_f is None or np.abs(q_f - vertices[-1]).max() > MAX_STEP_TURN_RAD:
-                    break
-                vertices.append(q_f)
-            else:
-                if checks.polyline(np.array(vertices)):
-                    return np.array(vertices)
+            chain = _chained(robot, poses, q, solve)
+            if chain is not None and checks.polyline(np.array([q, *chain])):
+                return np.array([q, *chain])
     return None
+
+
+def _chained(robot, poses, q: np.ndarray, solve) -> list | None:
+    """Joint values at each of ``poses`` (flange), each solved by ``solve(robot, pose, seed)`` from the one
+    before, the first from q (q itself not included); None when one is out of reach or a joint turns more
+    than MAX_STEP_TURN_RAD between two (a change of IK branch)."""
+    chain = [q]
+    for X in poses:
+        q_next = solve(robot, X, chain[-1])
+        if q_next is None or np.abs(q_next - chain[-1]).max() > MAX_STEP_TURN_RAD:
+            return None
+        chain.append(q_next)
+    return chain[1:]
 
 
 def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
@@ -280,61 +288,64 @@ def shortcut_path(checks: _Checks, vertices: np.ndarray) -> np.ndarray:
     return vertices[kept]
 
 
-def detour_path(model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray,
-                max_checks: int = MAX_DETOUR_CHECKS, quicker_than: float = np.inf):
-    """The quickest free detour around the obstacles found among the first ``max_checks`` checked whose
-    estimate (``path_time``) is below ``quicker_than`` [s], or None. Three directions, up (world z), back
-    (against the tools' z axes: out of a fixture the tool points into) and inward (towards the base's
-    axis), and three shapes: one via point (the flange midway
-    between the ends, its orientation halfway) and two (each end moved: out, across, in), each via solved
-    two ways (the pose by IK nearest the joint values it lies between, ``_via``; its position alone
-    nudged from those joint values, ``_nudged``); and the flange straight out, across and in through
-    poses STRAIGHT_STEP_M apart. Where the ends are on different IK branches, also vias that change
-    branch at an end's moved pose (up or back). Offsets grow through DETOUR_OFFSETS_M; every
-    way is queued at its first offset whose vias are free, by ``path_time``; the quickest is checked,
-    and when an edge is blocked, its way is queued again at its next offset. The first free one is kept
-    (its vertices; and the vertices brought as close in as the spline through them keeps the margins,
-    ``Detour.lowered``, None when even the first spline does not). Deterministic: the same ends give
-    the same path in any process."""
-    robot = model.robot
-    X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
-    middle = interpolated_pose(X_a, X_b, 0.5)
-    inward = -middle[:3, 3] * np.array([1.0, 1.0, 0.0])
-    directions = ([np.array([0.0, 0.0, 1.0])] * 2, [-X_a[:3, 2], -X_b[:3, 2]], [_unit(inward)] * 2)
-    ways = [Detour(robot, checks, (q_start, q_goal), poses, seeds, along, solve)
-            for along in directions
-            for poses, seeds, along in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
-                                        ([X_a, X_b], [q_start, q_goal], along))
-            for solve in (_via, _nudged)]
-    ways += [Detour(robot, checks, (q_start, q_goal), [X_a, X_b], [q_start, q_goal], along, _via, STRAIGHT_STEP_M)
-             for along in directions]
-    if _branch_changes(robot, X_a, q_start, q_goal):
-        ways += [Detour(robot, checks, (q_start, q_goal), poses, seeds,
-                        [along[0] if X is X_a else along[1] for X in poses], _via)
-                 for along in directions[:2]
-                 for poses, seeds in (([X_a, X_a, X_b], [q_start, q_goal, q_goal]),
-                                      ([X_a, X_b, X_b], [q_start, q_start, q_goal]))]
-    offsets = np.array(DETOUR_OFFSETS_M)
-    # entries (estimate, way, offset index, vertices or None): None until the entry is the quickest queued
-    # (its estimate then the one it inherited, no more than its own: farther out takes longer)
-    queue: list[tuple[float, int, int, np.ndarray | None]] = [(0.0, k, 0, None) for k in range(len(ways))]
-    checked = 0
-    while queue and checked < max_checks and queue[0][0] < quicker_than:
-        estimate, k, i, vertices = heapq.heappop(queue)
-        if vertices is None:
-            vertices = ways[k].vertices(offsets[i])
+class DetourSearch:
+    """The detours around the obstacles between two ends, checked quickest first (``next``). Three
+    directions, up (world z), back (against the tools' z axes: out of a fixture the tool points into) and
+    inward (towards the base's axis), and three shapes: one via point (the flange midway between the ends,
+    its orientation halfway) and two (each end moved: out, across, in), each via solved two ways (the pose
+    by IK nearest the joint values it lies between, ``_via``; its position alone nudged from those joint
+    values, ``_nudged``); and the flange straight out, across and in through poses STRAIGHT_STEP_M apart.
+    Where the ends are on different IK branches, also vias that change branch at an end's moved pose (up
+    or back). Offsets grow through DETOUR_OFFSETS_M; every way is queued at its first offset whose vias are
+    free, by ``path_time``; the quickest is checked, and when an edge is blocked, its way is queued again
+    at its next offset. Deterministic: the same ends give the same detours in any process."""
+
+    def __init__(self, model, checks: "_Checks", q_start: np.ndarray, q_goal: np.ndarray):
+        robot = model.robot
+        X_a, X_b = robot.fk(q_start), robot.fk(q_goal)
+        middle = interpolated_pose(X_a, X_b, 0.5)
+        inward = -middle[:3, 3] * np.array([1.0, 1.0, 0.0])
+        directions = ([np.array([0.0, 0.0, 1.0])] * 2, [-X_a[:3, 2], -X_b[:3, 2]], [_unit(inward)] * 2)
+        ways = [Detour(robot, checks, (q_start, q_goal), poses, seeds, along, solve)
+                for along in directions
+                for poses, seeds, along in (([middle], [(q_start + q_goal) / 2.0], [_unit(along[0] + along[1])]),
+                                            ([X_a, X_b], [q_start, q_goal], along))
+                for solve in (_via, _nudged)]
+        ways += [Detour(robot, checks, (q_start, q_goal), [X_a, X_b], [q_start, q_goal], along, _via,
+                        STRAIGHT_STEP_M) for along in directions]
+        if _branch_changes(robot, X_a, q_start, q_goal):
+            ways += [Detour(robot, checks, (q_start, q_goal), poses, seeds,
+                            [along[0] if X is X_a else along[1] for X in poses], _via)
+                     for along in directions[:2]
+                     for poses, seeds in (([X_a, X_a, X_b], [q_start, q_goal, q_goal]),
+                                          ([X_a, X_b, X_b], [q_start, q_start, q_goal]))]
+        self.limits, self.checks, self.ways, self.offsets = robot.limits, checks, ways, np.array(DETOUR_OFFSETS_M)
+        # entries (estimate, way, offset index, vertices or None): None until the entry is the quickest
+        # queued (its estimate then the one it inherited, no more than its own: farther out takes longer)
+        self.queue: list[tuple[float, int, int, np.ndarray | None]] = [(0.0, k, 0, None) for k in range(len(ways))]
+
+    def next(self, max_checks: int, quicker_than: float = np.inf):
+        """The first free detour among the next ``max_checks`` checked, while their estimates
+        (``path_time``) stay below ``quicker_than`` [s] (the queue goes on from where the last call left
+        it): (its vertices; and the vertices brought as close in as the spline through them keeps the
+        margins, ``Detour.lowered``, None when even the first spline does not), or None."""
+        queue, checked = self.queue, 0
+        while queue and checked < max_checks and queue[0][0] < quicker_than:
+            estimate, k, i, vertices = heapq.heappop(queue)
             if vertices is None:
-                if i + 1 < len(offsets):
-                    heapq.heappush(queue, (estimate, k, i + 1, None))
-            else:
-                heapq.heappush(queue, (round(path_time(robot.limits, vertices), TIME_DECIMALS), k, i, vertices))
-            continue
-        checked += 1
-        if checks.polyline(vertices):
-            return vertices, ways[k].lowered(offsets[i], vertices)
-        if i + 1 < len(offsets):
-            heapq.heappush(queue, (estimate, k, i + 1, None))
-    return None
+                vertices = self.ways[k].vertices(self.offsets[i])
+                if vertices is None:
+                    if i + 1 < len(self.offsets):
+                        heapq.heappush(queue, (estimate, k, i + 1, None))
+                else:
+                    heapq.heappush(queue, (round(path_time(self.limits, vertices), TIME_DECIMALS), k, i, vertices))
+                continue
+            checked += 1
+            if self.checks.polyline(vertices):
+                return vertices, self.ways[k].lowered(self.offsets[i], vertices)
+            if i + 1 < len(self.offsets):
+                heapq.heappush(queue, (estimate, k, i + 1, None))
+        return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -372,14 +383,15 @@ class Detour:
             count = max(1, int(np.ceil(np.linalg.norm(X_b[:3, 3] - X_a[:3, 3]) / self.step)))
             last = k == len(keys) - 2
             poses = interpolated_poses(X_a, X_b, np.arange(1, count + 1) / count)
-            for j, X in enumerate(poses):
-                end = j == count - 1
-                q = self.ends[1] if last and end else _via(self.robot, X, vertices[-1])
-                if q is None or np.abs(q - vertices[-1]).max() > MAX_STEP_TURN_RAD or (
-                        end and not last and not self.checks.state(q)):
-                    return None
-                vertices.append(q)
-        return np.array(vertices)
+            chain = _chained(self.robot, poses[:-1] if last else poses, vertices[-1], _via)
+            if chain is None:
+                return None
+            vertices += chain
+            if not last and not self.checks.state(vertices[-1]):         # a via
+                return None
+        if np.abs(self.ends[1] - vertices[-1]).max() > MAX_STEP_TURN_RAD:
+            return None
+        return np.array(vertices + [self.ends[1]])
 
     def lowered(self, offset: float, vertices: np.ndarray) -> np.ndarray | None:
         """The vertices at the smallest offset below ``offset`` through which the spline keeps the
