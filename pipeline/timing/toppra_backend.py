@@ -37,10 +37,11 @@ from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 from ..schedule import LimitSchedule
 from ..tcp import PathLimits
+from .reachability import canonical_rows, solve_rows
 
 #: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
 #: benchmark paths, see ``python -m pipeline bench timing``), and of the retries.
-GRIDPOINTS = 2000
+GRIDPOINTS = 1000
 RETRY_GRIDPOINTS = (3000, 6000)
 #: Grid points for the joint path of a tool move (through dense IK samples, shape ``samples``): on
 #: 0.5 m lines of the GP7 the duration is within 1e-6 of the 2000-point solve's, at a quarter of the time.
@@ -48,6 +49,10 @@ SAMPLE_PATH_GRIDPOINTS = 500
 #: Grid density floors: uniform points per waypoint segment, and points per smooth piece of the path.
 POINTS_PER_SEGMENT = 60
 POINTS_PER_PIECE = 8
+#: Grid points per bending length of the path, and the most points per unit of s, in multiples of the grid's
+#: count (at a stop, where dq/ds vanishes, the bending length does too).
+BEND_DENSITY = 80.0
+MAX_DENSITY = 16.0
 #: Grid points closer than this in s are one point [1]: toppra meets its constraints to its solver's
 #: tolerance, and on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is
 #: noise (a schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its
@@ -59,12 +64,14 @@ MIN_GRID_GAP = 1e-7
 PATH_SPEED_CAP = 1e2
 PATH_ACCELERATION_CAP = 1e4
 PATH_JERK_CAP = 1e6
-#: Samples per grid interval in the dense limit check; the TCP's limits (a Jacobian per sample) are
-#: checked on every TCP_CHECK_STRIDE-th of them (its speed and acceleration vary slowly along a grid
+#: Where the dense check samples each grid interval, in fractions of its duration: the solver meets the
+#: limits at both ends of every interval (``solve_grid_timing``; the output samples are judged again), and
+#: between them what strays is a smooth bulge of the path's curvature (on the benchmark paths the largest
+#: missed by these three samples, against 64 per interval, is below 1e-9 of a limit). The TCP's limits (a
+#: Jacobian per sample) are checked on the middle sample (its speed and acceleration vary slowly along an
 #: interval; the output samples are all checked).
-CHECK_SAMPLES_PER_INTERVAL = 32
-TCP_CHECK_STRIDE = 16
-TCP_ROWS = slice(None, None, TCP_CHECK_STRIDE)
+CHECK_FRACTIONS = np.array([0.25, 0.5, 0.75])
+TCP_ROWS = slice(1, None, len(CHECK_FRACTIONS))
 #: Slow down by this much more than the measured excess, so the check passes with room [1]; for the
 #: output samples, rounds of checking them (a slow-down moves them) and their margin (certify allows 1e-6).
 STRETCH_MARGIN = 1e-9
@@ -74,7 +81,7 @@ OUTPUT_MARGIN = 1e-7
 #: REFINE_EXCESS (smaller excesses are left to the uniform slow-down), the pieces each is split into,
 #: and the largest grid refining may make, in multiples of the first grid.
 REFINE_ROUNDS = 3
-REFINE_EXCESS = 5e-4
+REFINE_EXCESS = 1e-4
 REFINE_SPLIT = 4
 REFINE_GROWTH = 4
 
@@ -118,18 +125,31 @@ class ScaledPath:
 
 
 def grid_for(path: JointPath, count: int, include=()) -> np.ndarray:
-    """Grid in s: ``count`` uniform points (at least ``POINTS_PER_SEGMENT`` per waypoint segment) and
-    every breakpoint of the path, with each smooth piece split at least ``POINTS_PER_PIECE`` times:
-    inside every interval the path is smooth and short, so the dense check sees every acceleration
-    peak; and the points ``include`` (a schedule's bounds, where the limits change)."""
+    """Grid in s: ``count`` points (at least ``POINTS_PER_SEGMENT`` per waypoint segment), denser where
+    the path bends (``bending_points``), and every breakpoint of the path, with each smooth piece split at
+    least ``POINTS_PER_PIECE`` times: inside every interval the path is smooth and short, so the dense
+    check sees every acceleration peak; and the points ``include`` (a schedule's bounds, where the limits
+    change)."""
     breakpoints = path.breakpoints
     # A tool move's joint path passes through dense IK samples, not waypoints: no floor per segment.
     segments = 1 if path.shape == "samples" else len(path.waypoints) - 1
-    uniform = np.linspace(0.0, 1.0, max(count, POINTS_PER_SEGMENT * segments))
+    spread = bending_points(path, max(count, POINTS_PER_SEGMENT * segments))
     pieces = (breakpoints[:-1, None] + np.diff(breakpoints)[:, None] * np.arange(POINTS_PER_PIECE) / POINTS_PER_PIECE)
-    grid = with_points(np.concatenate([uniform, pieces.ravel(), [1.0]]), include, MIN_GRID_GAP)
+    grid = with_points(np.concatenate([spread, pieces.ravel(), [1.0]]), include, MIN_GRID_GAP)
     close = np.flatnonzero(np.diff(grid) < MIN_GRID_GAP)            # of two points that close, the later goes
     return np.delete(grid, np.where(close + 2 == len(grid), close, close + 1))   # (the end, 1, stays)
+
+
+def bending_points(path: JointPath, count: int) -> np.ndarray:
+    """Points in s from 0 to 1, ``count`` per unit of s where the path is straight and BEND_DENSITY per
+    unit of its bending length max|dq/ds| / max|d2q/ds2| where that is closer (up to MAX_DENSITY x
+    ``count``): the limits are met at the grid points, and between them the joint velocities and
+    accelerations stray by about (ds / bending length)^2 / 8 (see ``solve_grid_timing``)."""
+    s = np.linspace(0.0, 1.0, count + 1)
+    d1, d2 = np.abs(path(s, 1)).max(axis=1), np.abs(path(s, 2)).max(axis=1)
+    density = np.clip(BEND_DENSITY * d2 / np.maximum(d1, 1e-300), count, MAX_DENSITY * count)
+    cumulative = np.concatenate([[0.0], np.cumsum((density[:-1] + density[1:]) / 2.0 * np.diff(s))])
+    return np.interp(np.linspace(0.0, cumulative[-1], int(np.ceil(cumulative[-1])) + 1), cumulative, s)
 
 
 def with_points(points: np.ndarray, include, gap: float) -> np.ndarray:
@@ -246,21 +266,52 @@ class GridTiming:
         index = np.searchsorted(self.s, np.clip(points, 0.0, 1.0))
         return self.t[np.minimum(index, len(self.s) - 1)]
 
-    def dense_times(self, per_interval: int) -> np.ndarray:
-        """``per_interval`` + 1 evenly spaced times in every grid interval, both ends included (the
-        end a hair inside, so that a jump of d2q/ds2 at a breakpoint is seen from both sides) [s]."""
-        fractions = np.append(np.arange(per_interval) / per_interval, 1.0 - 1e-9)
+    def times_inside(self, fractions: np.ndarray) -> np.ndarray:
+        """The times [s] at ``fractions`` (k,) of every grid interval's duration, interval by interval."""
         return (self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel()
 
 
 def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None, extra=()) -> GridTiming | None:
-    """toppra's solution on ``grid`` (s values, or a point count for ``grid_for``) as a GridTiming in
-    the time unit of ``limits`` (as ``path.limits`` gives them), or None when toppra fails on it."""
-    grid = grid_for(path.path, grid) if np.isscalar(grid) else grid
-    _, sd, _ = toppra_instance(path, limits, grid, torques, extra).compute_parameterization(0.0, 0.0)
-    if sd is None or not np.all(np.isfinite(sd)):
+    """The time-optimal timing on ``grid`` (s values, or a point count for ``grid_for``) as a GridTiming in
+    the time unit of ``limits`` (as ``path.limits`` gives them), or None when no timing meets them on it.
+
+    TOPP-RA (``reachability``) with the joint speeds bounding sd^2 at every grid point and the joint
+    accelerations limited at both ends of every interval (at s_{i+1} with the interval's own u_i and
+    x_i + 2 ds u_i, and d2q/ds2 from the interval's side), so that between grid points they stray only
+    by the path's curvature within an interval; torques (``scaled_inverse_dynamics``) and the ``extra``
+    toppra constraints (the TCP's, a schedule's joint speeds) in the form toppra gives them."""
+    s = grid_for(path.path, grid) if np.isscalar(grid) else np.asarray(grid, dtype=float)
+    d1, d2 = path(s, 1), path(s, 2)
+    end1, end2 = d1[1:].copy(), d2[1:].copy()
+    jumps = np.flatnonzero(np.isin(s[1:], path.path.breakpoints[1:-1]))       # the interval's side of s_{i+1}
+    if jumps.size:
+        left = np.nextafter(s[1:][jumps], -np.inf)
+        end1[jumps], end2[jumps] = path(left, 1), path(left, 2)
+    end1 += 2.0 * np.diff(s)[:, None] * end2
+    alpha, beta = [np.hstack([d1[:-1], -d1[:-1], end1, -end1])], [np.hstack([d2[:-1], -d2[:-1], end2, -end2])]
+    gamma = [np.tile(limits.qdd_max, (len(end1), 4))]
+    with np.errstate(divide="ignore"):
+        x_hi = np.min((limits.qd_max / np.abs(d1)) ** 2, axis=1)
+    x_lo = np.zeros_like(x_hi)
+    constraints = list(extra)
+    if torques is not None:
+        import toppra.constraint
+
+        tau_max = np.append(limits.tau_max, np.ones(path.dof - path.path.dof))
+        constraints.append(toppra.constraint.JointTorqueConstraint(
+            torques, np.stack([-tau_max, tau_max], axis=1), np.zeros(path.dof),
+            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation))
+    for constraint in constraints:
+        rows, xbound = canonical_rows(constraint, _toppra_path(path), s)
+        if rows is not None:
+            for stacked, row in zip((alpha, beta, gamma), rows):
+                stacked.append(row)
+        if xbound is not None:
+            x_lo, x_hi = np.maximum(x_lo, xbound[:, 0]), np.minimum(x_hi, xbound[:, 1])
+    x, _ = solve_rows(s, *(rows[0] if len(rows) == 1 else np.hstack(rows) for rows in (alpha, beta, gamma)), x_lo, x_hi)
+    if x is None:
         return None
-    return GridTiming.from_grid(grid, sd)
+    return GridTiming.from_grid(s, np.sqrt(np.maximum(x, 0.0)))
 
 
 def time_unit(limits: Limits, distance: float) -> float:
@@ -274,24 +325,40 @@ def time_unit(limits: Limits, distance: float) -> float:
     return 1.0 / float(max(times))
 
 
-def _refined(timing: GridTiming, path: JointPath, limits: PathLimits) -> np.ndarray | None:
-    """The grid with every interval whose dense check against ``limits`` exceeds a limit by more than
-    REFINE_EXCESS split in REFINE_SPLIT (None: no interval does)."""
-    ratios = np.maximum(*limits.sample_ratios(*timing.at(path, timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)),
-                                              tcp_rows=TCP_ROWS))
-    over = ratios.reshape(len(timing.u), CHECK_SAMPLES_PER_INTERVAL + 1).max(axis=1) > 1.0 + REFINE_EXCESS
-    if not over.any():
-        return None
-    lo, width = timing.s[:-1][over], np.diff(timing.s)[over]
-    added = lo[:, None] + width[:, None] * np.arange(1, REFINE_SPLIT) / REFINE_SPLIT
-    return np.unique(np.concatenate([timing.s, added.ravel()]))
+@dataclass(frozen=True, eq=False)
+class DenseCheck:
+    """A timing's samples at CHECK_FRACTIONS of every grid interval (``samples``: s, q,
+    qd, qdd at them) and each interval's largest speed and acceleration ratios (``interval_ratios`` (N,)
+    [1], the larger of the two) and their peaks (``peaks``: speed, acceleration [1])."""
+
+    samples: tuple
+    interval_ratios: np.ndarray
+    peaks: tuple[float, float]
+
+    @classmethod
+    def of(cls, timing: GridTiming, path: JointPath, limits: PathLimits) -> "DenseCheck":
+        samples = timing.at(path, timing.times_inside(CHECK_FRACTIONS))
+        speed, accel = limits.sample_ratios(*samples, tcp_rows=TCP_ROWS)
+        per_interval = np.maximum(speed, accel).reshape(len(timing.u), len(CHECK_FRACTIONS))
+        return cls(samples, per_interval.max(axis=1), (float(speed.max()), float(accel.max())))
+
+    def refined(self, timing: GridTiming) -> np.ndarray | None:
+        """``timing``'s grid with every interval that exceeds a limit by more than REFINE_EXCESS split in
+        REFINE_SPLIT (None: no interval does)."""
+        over = self.interval_ratios > 1.0 + REFINE_EXCESS
+        if not over.any():
+            return None
+        lo, width = timing.s[:-1][over], np.diff(timing.s)[over]
+        added = lo[:, None] + width[:, None] * np.arange(1, REFINE_SPLIT) / REFINE_SPLIT
+        return np.unique(np.concatenate([timing.s, added.ravel()]))
 
 
 def _solve_refined(path: JointPath, limits: PathLimits, gridpoints: int, inverse_dynamics=None):
-    """(GridTiming [s], retried grid sizes) with REFINE_ROUNDS of interval splitting; TimingError when
-    toppra fails on every grid. Without torques toppra sees the path in units of its length and time
-    in units of (the median velocity limit / that length), and the timing is scaled back exactly. A
-    schedule's bounds are on every grid, its joint speeds and the TCP's limits constrain each grid point."""
+    """(GridTiming [s], retried grid sizes, its DenseCheck) with up to REFINE_ROUNDS of splitting the
+    intervals the dense check finds over a limit and solving again (without torques); TimingError when
+    no grid has a solution. The solver sees the path in units of its length and time in units of
+    ``time_unit``, and the timing is scaled back exactly. A schedule's bounds are on every grid, its joint
+    speeds and the TCP's limits constrain each grid point."""
     distance = max(path.length, 1e-300)
     unit = time_unit(limits.limits, distance)
     view = ScaledPath(path, distance)
@@ -309,17 +376,19 @@ def _solve_refined(path: JointPath, limits: PathLimits, gridpoints: int, inverse
         if timing is not None:
             break
     else:
-        raise TimingError(f"toppra found no feasible time parameterisation on {attempts} grid points "
+        raise TimingError(f"no feasible time parameterisation on {attempts} grid points "
                           f"(path through {len(path.waypoints)} waypoints)")
     timing = real(timing)
     largest = REFINE_GROWTH * len(timing.s)
+    check = DenseCheck.of(timing, path, limits)
     for _ in range(REFINE_ROUNDS if inverse_dynamics is None else 0):
-        grid = _refined(timing, path, limits)
+        grid = check.refined(timing)
         refined = None if grid is None or len(grid) > largest else solve_grid_timing(view, scaled, grid, extra=extra)
         if refined is None:
             break
         timing = real(refined)
-    return timing, tuple(attempts[: attempts.index(used)])
+        check = DenseCheck.of(timing, path, limits)
+    return timing, tuple(attempts[: attempts.index(used)]), check
 
 
 def _extra_constraints(path: JointPath, view: ScaledPath, scaled: Limits, limits: PathLimits, unit: float) -> tuple:
@@ -391,14 +460,11 @@ def solve_toppra(path: JointPath, limits: Limits, gridpoints: int | None = None,
         q_grid = path(grid_for(path, gridpoints))
         check_holding_torques(q_grid, torques(q_grid, np.zeros_like(q_grid), np.zeros_like(q_grid)), limits)
     judge = PathLimits(limits, tcp, schedule)
-    timing, retried = _solve_refined(path, judge, gridpoints, torques)
-    check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    checked = timing.at(path, check_t)
-    peaks = judge.peaks(*checked, tcp_rows=TCP_ROWS)
-    stretch = stretch_for(peaks, 1.0)
+    timing, retried, check = _solve_refined(path, judge, gridpoints, torques)
+    stretch = stretch_for(check.peaks, 1.0)
     if torques is not None:
-        stretch = max(stretch, torque_stretch(*checked[1:], limits, torques))
-    return ToppraSolution(path, judge, timing, stretch, retried, int(check_t.size), peaks,
+        stretch = max(stretch, torque_stretch(*check.samples[1:], limits, torques))
+    return ToppraSolution(path, judge, timing, stretch, retried, len(check.samples[0]), check.peaks,
                           time.perf_counter() - start)
 
 
