@@ -287,8 +287,10 @@ class _JobReader(Reader):
         target = self.choice((*path, "target"), TARGET_KINDS, FULL_POSE)
         config = None
         if self.has((*path, "config")):
+            from .ik.branches import configuration_family     # the IK kernels only where a waypoint names a branch
+
             try:
-                config = parse_configuration(self.get((*path, "config")))
+                config = parse_configuration(self.get((*path, "config")), *configuration_family(robot))
             except ConfigurationError as exc:
                 self.fail((*path, "config"), str(exc), self.get((*path, "config")))
         move = self.choice((*path, "move"), MOVES, "joint")

@@ -1,10 +1,12 @@
-"""Closed-form IK for 6R arms whose last three axes meet (a spherical wrist), from the DH table itself.
+"""Closed-form IK for 6R arms of two families, from the DH table itself: a spherical wrist (the last
+three axes meet: ``pipeline.ik.closed_form``) and three parallel axes (axes 2, 3, 4 parallel, axes 5
+and 6 meeting: the UR family, ``pipeline.ik.three_parallel``).
 
 Nothing is hand-coded per robot. The joint screws are read off our FK at q = 0 (product of
-exponentials, ``X_BE(q) = e^{xi_1 q_1} ... e^{xi_6 q_6} X_BE(0)``); the compiled solver
-(``pipeline.ik.closed_form``, Paden-Kahan subproblems) takes them from here, so standard and modified
-DH tables, signs and offsets are all handled alike. This module derives that geometry (or says why
-an arm does not fit it) and turns the solver's arrays into IkResults with named branches.
+exponentials, ``X_BE(q) = e^{xi_1 q_1} ... e^{xi_6 q_6} X_BE(0)``); the compiled solvers (Paden-Kahan
+subproblems) take them from here, so standard and modified DH tables, signs and offsets are all
+handled alike. This module derives that geometry (or says why an arm fits neither family) and turns
+the solvers' arrays (one layout for both) into IkResults with named branches.
 """
 
 from __future__ import annotations
@@ -13,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import closed_form
+from . import closed_form, three_parallel
+from ..configurations import SPHERICAL_WRIST, THREE_PARALLEL
 from .result import FULL_POSE, TWO_PI, IkResult, IkTarget, Solutions, pose_errors
 
 #: Axes closer than this [m] meet; directions closer than this [1] are parallel.
@@ -49,9 +52,10 @@ def _closest_points(p1, w1, p2, w2) -> tuple[np.ndarray, float]:
 class AnalyticSolver:
     """The closed-form solver of one robot, or why the robot does not fit it (``applicable`` False).
 
-    ``axes`` (6, 3) unit joint axes and ``points`` (6, 3) points on them at q = 0, base frame [m];
-    ``wrist_centre`` c at q = 0; ``X_BE0`` the end pose at q = 0; ``geometry`` all of them packed for
-    the kernels (``closed_form``'s layout).
+    ``family``: ``configurations.SPHERICAL_WRIST`` or ``THREE_PARALLEL``; ``axes`` (6, 3) unit joint
+    axes and ``points`` (6, 3) points on them at q = 0, base frame [m]; ``wrist_centre`` c at q = 0 (the
+    wrist centre, or where axes 5 and 6 meet); ``X_BE0`` the end pose at q = 0; ``geometry`` all of them
+    packed for ``kernels`` (the family's compiled module); ``labels`` the branch names by label code.
     """
 
     applicable: bool
@@ -61,6 +65,9 @@ class AnalyticSolver:
     wrist_centre: np.ndarray | None = None
     X_BE0: np.ndarray | None = None
     geometry: np.ndarray | None = None
+    family: str = ""
+    kernels: object = None
+    labels: tuple[str, ...] = ()
 
 
 def analytic_solver_for(robot) -> AnalyticSolver:
@@ -69,7 +76,7 @@ def analytic_solver_for(robot) -> AnalyticSolver:
 
 
 def derive_solver(robot) -> AnalyticSolver:
-    """The closed-form solver of a robot (or why it does not fit), from its DH table."""
+    """The closed-form solver of a robot (or why it fits neither family), from its DH table."""
     spec = robot.spec
     revolute = sum(j.is_revolute for j in spec.joints)
     if spec.dof != 6 or revolute != 6:
@@ -78,25 +85,58 @@ def derive_solver(robot) -> AnalyticSolver:
     frames, X_BE0 = robot.joint_frames(np.zeros(6))
     axes = frames[:, :3, 2] * np.array([j.sign for j in spec.joints])[:, None]
     points = frames[:, :3, 3].copy()
+    reason = _not_spherical(spec.name, axes, points)
+    if not reason:
+        centre, _ = _closest_points(points[3], axes[3], points[4], axes[4])
+        return AnalyticSolver(True, "", axes, points, centre, X_BE0, closed_form.pack_geometry(axes, points, centre,
+                                                                                               X_BE0),
+                              SPHERICAL_WRIST, closed_form, LABELS)
+    if _not_three_parallel(axes, points):
+        return AnalyticSolver(False, reason)
+    centre, _ = _closest_points(points[4], axes[4], points[5], axes[5])
+    return AnalyticSolver(True, "", axes, points, centre, X_BE0, three_parallel.pack_geometry(axes, points, centre,
+                                                                                              X_BE0),
+                          THREE_PARALLEL, three_parallel, THREE_PARALLEL_LABELS)
+
+
+def _not_spherical(name: str, axes: np.ndarray, points: np.ndarray) -> str:
+    """Why the axes (6, 3) and points (6, 3) at q = 0 are no spherical-wrist arm ("" when they are one)."""
     if np.linalg.norm(_cross(axes[3], axes[4])) < GEOMETRY_TOLERANCE:
-        return AnalyticSolver(False, f"{spec.name}: axes 4 and 5 are parallel: no spherical wrist")
+        return f"{name}: axes 4 and 5 are parallel: no spherical wrist"
     centre, gap = _closest_points(points[3], axes[3], points[4], axes[4])
     offset6 = centre - points[5]
     distance6 = float(np.linalg.norm(offset6 - axes[5] * _dot(axes[5], offset6)))
     if gap > GEOMETRY_TOLERANCE or distance6 > GEOMETRY_TOLERANCE:
-        return AnalyticSolver(False, f"{spec.name}: axes 4, 5, 6 do not meet in one point "
-                                     f"(gaps {gap:.3g} m, {distance6:.3g} m): no spherical wrist")
+        return (f"{name}: axes 4, 5, 6 do not meet in one point (gaps {gap:.3g} m, {distance6:.3g} m): no spherical "
+                "wrist, nor axes 2, 3, 4 parallel with axes 5 and 6 meeting (the UR family)")
     if np.linalg.norm(_cross(axes[1], axes[2])) > GEOMETRY_TOLERANCE:
-        return AnalyticSolver(False, f"{spec.name}: axes 2 and 3 are not parallel")
+        return f"{name}: axes 2 and 3 are not parallel"
     if np.linalg.norm(_cross(axes[0], axes[1])) < GEOMETRY_TOLERANCE:
-        return AnalyticSolver(False, f"{spec.name}: axes 1 and 2 are parallel")
-    return AnalyticSolver(True, "", axes, points, centre, X_BE0, closed_form.pack_geometry(axes, points, centre, X_BE0))
+        return f"{name}: axes 1 and 2 are parallel"
+    return ""
 
 
-#: Branch names by label code (closed_form's FRONT | UP | FLIP bits).
+def _not_three_parallel(axes: np.ndarray, points: np.ndarray) -> bool:
+    """Whether the arm is not of the UR family: axes 2, 3, 4 parallel, axis 1 not parallel to them,
+    axes 5 and 6 meeting and neither parallel to axis 4, and non-zero upper arm and forearm."""
+    n = axes[1]
+    parallel = np.linalg.norm(_cross(n, axes[2:4]), axis=-1) < GEOMETRY_TOLERANCE
+    apart = [np.linalg.norm(_cross(axes[i], axes[j])) > GEOMETRY_TOLERANCE for i, j in ((0, 1), (4, 5), (1, 4))]
+    if not (parallel.all() and all(apart)):
+        return True
+    _, gap = _closest_points(points[4], axes[4], points[5], axes[5])
+    links = [np.linalg.norm(_cross(n, points[i + 1] - points[i])) for i in (1, 2)]
+    return gap > GEOMETRY_TOLERANCE or min(links) < GEOMETRY_TOLERANCE
+
+
+#: Branch names by label code: closed_form's FRONT | UP | FLIP bits, three_parallel's RIGHT | UP | WRIST_UP.
 LABELS = tuple(", ".join((f"shoulder {'front' if code & closed_form.FRONT else 'back'}",
                           f"elbow {'up' if code & closed_form.UP else 'down'}",
                           f"wrist {'flip' if code & closed_form.FLIP else 'noflip'}")) for code in range(8))
+THREE_PARALLEL_LABELS = tuple(", ".join((f"shoulder {'right' if code & three_parallel.RIGHT else 'left'}",
+                                         f"elbow {'up' if code & three_parallel.UP else 'down'}",
+                                         f"wrist {'up' if code & three_parallel.WRIST_UP else 'down'}"))
+                              for code in range(8))
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,18 +150,18 @@ class BranchSolutions:
 
 def solve_branches(robot, solver: AnalyticSolver, X_target: np.ndarray, seed: np.ndarray) -> BranchSolutions:
     """Every closed-form branch of one target X (4, 4) [m], in limits or not; the seed breaks singular ties."""
-    Q, reachable = closed_form.raw_branches(solver.geometry, X_target, seed, robot.limits.q_min[0],
-                                            robot.limits.q_max[0])
+    Q, reachable = solver.kernels.raw_branches(solver.geometry, X_target, seed, robot.limits.q_min[0],
+                                               robot.limits.q_max[0])
     return BranchSolutions(Q, reachable, tuple(configuration_labels_of(robot, solver, Q)))
 
 
 def configuration_labels_of(robot, solver: AnalyticSolver, Q: np.ndarray) -> list[str]:
     """The branch label of each configuration Q (N, 6) of a robot the closed form fits (from any IK
-    method): its wrist centre by our FK, then ``closed_form.label_code``."""
+    method): its wrist centre by our FK, then the family's ``label_code``."""
     Q = np.ascontiguousarray(Q, dtype=float)
     codes = np.empty(len(Q), dtype=np.int64)
-    closed_form.label_codes(solver.geometry, robot._chain, Q, codes)
-    return [LABELS[code] for code in codes.tolist()]
+    solver.kernels.label_codes(solver.geometry, robot._chain, Q, codes)
+    return [solver.labels[code] for code in codes.tolist()]
 
 
 def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
@@ -148,11 +188,11 @@ def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
 
 def _solve_one(robot, solver: AnalyticSolver, X: np.ndarray, seed: np.ndarray) -> IkResult:
     out = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS))
-    numbers = closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
+    numbers = solver.kernels.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
     if numbers[closed_form.COUNT] > SINGLE_CAPACITY:
         out = np.empty((int(numbers[closed_form.COUNT]), closed_form.SOLUTION_COLUMNS))
-        numbers = closed_form.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
-    return _result(robot, out, numbers, X)
+        numbers = solver.kernels.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
+    return _result(robot, solver.labels, out, numbers, X)
 
 
 def _for_kernel(array: np.ndarray) -> np.ndarray:
@@ -168,8 +208,8 @@ SINGLE_CAPACITY, BATCH_CAPACITY = 64, 32
 
 
 def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: str = FULL_POSE) -> list[IkResult]:
-    """Closed-form IK of N targets (N, 4, 4) with seeds (N, 6), compiled; one IkResult each. Arms
-    without a spherical wrist that EAIK decomposes (the UR family) go to ``subproblem``."""
+    """Closed-form IK of N targets (N, 4, 4) with seeds (N, 6), compiled; one IkResult each. Arms of
+    neither family that EAIK decomposes go to ``subproblem``."""
     solver = analytic_solver_for(robot)
     if not solver.applicable and kind == FULL_POSE:
         from .subproblem import solve_subproblem_batch, subproblem_solver_for   # EAIK only where it is used
@@ -182,19 +222,20 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
     X_targets, seeds = _for_kernel(X_targets), _for_kernel(seeds)
     out = np.empty((len(X_targets), BATCH_CAPACITY, closed_form.SOLUTION_COLUMNS))
     info = np.empty((len(X_targets), closed_form.INFO))
-    closed_form.solve_batch(solver.geometry, robot._chain, robot._limit_rows, X_targets, seeds, out, info)
+    solver.kernels.solve_batch(solver.geometry, robot._chain, robot._limit_rows, X_targets, seeds, out, info)
     results = []
     for n, X in enumerate(X_targets):
         if info[n, closed_form.COUNT] > BATCH_CAPACITY:
             results.append(solve_analytic(robot, IkTarget(X), seeds[n]))
         else:
-            results.append(_result(robot, out[n], info[n].tolist(), X))
+            results.append(_result(robot, solver.labels, out[n], info[n].tolist(), X))
     return results
 
 
-def _result(robot, out: np.ndarray, numbers, X_target: np.ndarray) -> IkResult:
+def _result(robot, labels: tuple[str, ...], out: np.ndarray, numbers, X_target: np.ndarray) -> IkResult:
     """An IkResult from a closed-form kernel's ``out`` and ``info`` entries (``numbers``, a sequence) of
-    one target (out is the caller's own buffer: the result keeps views of it)."""
+    one target, its branches named by ``labels`` (out is the caller's own buffer: the result keeps views
+    of it)."""
     count, reachable = int(numbers[closed_form.COUNT]), int(numbers[closed_form.REACHABLE])
     if count == 0:
         q = out[0, :6].copy()
@@ -202,8 +243,8 @@ def _result(robot, out: np.ndarray, numbers, X_target: np.ndarray) -> IkResult:
         return IkResult(False, q, position_error, rotation_error, 1, "analytic", _failure_reason(robot, numbers), (),
                         details={"branches_reachable": reachable})
     return IkResult(True, out[0, :6], numbers[closed_form.FIRST_POSITION_ERROR],
-                    numbers[closed_form.FIRST_ROTATION_ERROR], 1, "analytic", "", Solutions(out[:count], LABELS, 6),
-                    details={"branches_reachable": reachable, "branch": LABELS[int(numbers[closed_form.FIRST_CODE])]})
+                    numbers[closed_form.FIRST_ROTATION_ERROR], 1, "analytic", "", Solutions(out[:count], labels, 6),
+                    details={"branches_reachable": reachable, "branch": labels[int(numbers[closed_form.FIRST_CODE])]})
 
 
 def _failure_reason(robot, info) -> str:

@@ -1,8 +1,9 @@
 """IK branches (configurations) by name, and the one rule for keeping a branch along a pose sequence.
 
-For 6R arms with a spherical wrist (where the closed form applies) every joint vector has a
-configuration: shoulder front|back, elbow up|down, wrist flip|noflip (see ``analytic._labels``; how a
-user names one: ``pipeline.configurations``).
+For 6R arms the closed form solves every joint vector has a configuration: with a spherical wrist
+shoulder front|back, elbow up|down, wrist flip|noflip (``closed_form.label_code``); in the UR family
+(axes 2, 3, 4 parallel) shoulder left|right, elbow up|down, wrist up|down (``three_parallel``'s
+definitions). How a user names one: ``pipeline.configurations``.
 
 The rule (``choose_solution``), used by the job runner and ``robot.ik_path`` alike: among a pose's
 in-limit solutions, each revolute joint shifted by 2 pi to the representative nearest the previous
@@ -21,13 +22,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..configurations import matches
+from ..configurations import FAMILY_TITLES, SPHERICAL_WRIST, matches
 from .analytic import analytic_solver_for, closest_limit_violation, configuration_labels_of, solve_branches
 from .result import IkResult, wrap_into_limits
 
+def configuration_family(robot) -> tuple[str, str]:
+    """(the family whose configuration names a robot takes, its name) for ``parse_configuration``:
+    the closed form's family, a spherical wrist's names for arms of neither (they have none, and
+    ``choose_solution`` says so)."""
+    solver = analytic_solver_for(robot)
+    return (solver.family if solver.applicable else SPHERICAL_WRIST), robot.name
+
+
 def configuration_labels(robot, Q) -> list[str]:
     """The configuration label of each joint vector Q (N, dof) ("" for arms without named
-    configurations: no spherical wrist)."""
+    configurations: neither a spherical wrist nor the UR family)."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     solver = analytic_solver_for(robot)
     return configuration_labels_of(robot, solver, Q) if solver.applicable else [""] * len(Q)
@@ -61,9 +70,10 @@ def choose_solution(robot, result: IkResult, previous_q: np.ndarray, previous_br
     allowed = [k for k, label in enumerate(labels) if not config or matches(label, config)]
     if not allowed:
         named = ", ".join(f"{k} {v}" for k, v in config.items())
-        reason = (f"{robot.name} has no named configurations (they need 6 revolute joints with a spherical wrist)"
-                  if not any(labels) else f"no in-limit solution has the configuration asked for ({named}); the "
-                  f"solutions: {'; '.join(sorted(set(labels)))}")
+        reason = (f"{robot.name} has no named configurations (they need 6 revolute joints with "
+                  f"{' or '.join(FAMILY_TITLES.values())})" if not any(labels) else
+                  f"no in-limit solution has the configuration asked for ({named}); the solutions: "
+                  f"{'; '.join(sorted(set(labels)))}")
         return BranchChoice(None, "", previous_branch, False, len(Q), reason=reason)
     distance = np.linalg.norm(Q - previous_q, axis=1)
     k = min(allowed, key=lambda i: distance[i])

@@ -18,7 +18,9 @@ branch's); a variant with a value on a limit is verified again, as that value ma
 there. Limits are inclusive: a value within LIMIT_SLACK outside a limit is put on it. A joint whose range
 spans more than WIDE_RANGE, four turns (or is continuous), gets one 2 pi variant, the one nearest the
 seed, and the number of variants it has is counted rather than enumerated; narrower joints get every
-variant.
+variant, unless the branch has more than MAX_LISTED_VARIANTS of them in all (a UR arm's +-360 deg
+ranges: 64): then each joint's variant nearest the seed alone is listed and the rest counted. The
+counts are ``Solutions.variants``; ``result.limit_variants`` enumerates them on demand.
 
 Layouts: ``geometry`` (GEOMETRY_ROWS, 3, of ``pack_geometry``) holds w (rows AXES), r (rows POINTS), c
 (row CENTRE) and X0 (its rotation in rows R0, its position in row P0), then what follows from them
@@ -49,6 +51,9 @@ REACH_SLACK = 1e-9
 LIMIT_SLACK = 1e-9
 #: A joint with a wider range than this (four turns) gets one 2 pi variant, the nearest the seed [rad].
 WIDE_RANGE = 8.0 * math.pi + 1e-9
+#: A branch with more in-limit 2 pi variants than this (the product over its joints: 64 for a UR arm's
+#: +-360 deg ranges) is listed once, each joint's variant nearest the seed; the rest are counted.
+MAX_LISTED_VARIANTS = 16
 #: q1 values tried at a shoulder singularity besides the seed's, spread evenly over its limits.
 SHOULDER_SAMPLES = 12
 #: Two solutions within this (largest joint difference) are one [rad or m].
@@ -388,16 +393,92 @@ def _variant_count(q, limits):
 
 
 @njit(cache=True, fastmath=FUSED)
-def _solve(geometry, chain, limits, X, seed, out, info):
-    """The solutions of one target X into out, its numbers into info (see the module's layouts)."""
-    capacity = out.shape[0]
+def _start(out, info):
+    """Clear ``info`` for a new target; returns the per-target scratch: a joint's in-limit variants
+    (6, 5: at most 5 below WIDE_RANGE), their counts (6,), a configuration (6,) and the nearest
+    branch so far (6,) with its error (of ``_keep_nearest``)."""
     info[:] = 0.0
     info[VIOLATING_JOINT] = -1.0
-    values = np.empty((6, 5))                      # a joint's in-limit variants (at most 5 below WIDE_RANGE)
-    counts = np.zeros(6, dtype=np.int64)
-    q = np.empty(6)
-    best = np.zeros(6)
-    best_error, best_violation = np.inf, np.inf
+    return np.empty((6, 5)), np.zeros(6, dtype=np.int64), np.empty(6), np.zeros(6), np.full(1, np.inf)
+
+
+@njit(cache=True, fastmath=FUSED)
+def _keep_nearest(raw, e_p, e_r, best, best_error):
+    """Remember the branch raw (a 6-tuple) as the one nearest the target when its errors are the smallest yet."""
+    if e_p + e_r < best_error[0]:
+        best_error[0] = e_p + e_r
+        for j in range(6):
+            best[j] = raw[j]
+
+
+@njit(cache=True, fastmath=FUSED)
+def _limit_values(raw, seed, limits, values, counts, info):
+    """Each joint's in-limit 2 pi variants of the verified branch raw (a 6-tuple) into values and
+    counts; returns how many configurations they make (0: none in the limits, the smallest violation
+    then kept in ``info``). A branch of more than MAX_LISTED_VARIANTS keeps each joint's variant
+    nearest the seed alone (the others are counted, ``_variant_count``)."""
+    total, worst, worst_joint = 1, 0.0, -1
+    for j in range(6):
+        written, violation = _joint_values(raw[j], seed[j], limits[0, j], limits[1, j], values[j])
+        counts[j] = written
+        total *= written
+        if violation > worst:
+            worst, worst_joint = violation, j
+    if total == 0:
+        if info[VIOLATING_JOINT] < 0.0 or worst < info[VIOLATION]:
+            info[VIOLATING_JOINT], info[VIOLATION] = worst_joint, worst
+        return 0
+    if total > MAX_LISTED_VARIANTS:
+        for j in range(6):
+            nearest = 0
+            for k in range(1, counts[j]):
+                if abs(values[j, k] - seed[j]) < abs(values[j, nearest] - seed[j]):
+                    nearest = k
+            values[j, 0], counts[j] = values[j, nearest], 1
+        total = 1
+    return total
+
+
+@njit(cache=True, fastmath=FUSED)
+def _write_variants(chain, limits, X, values, counts, total, e_p, e_r, code, variants, q, out, m):
+    """The ``total`` configurations of ``_limit_values`` (a branch with errors e_p [m], e_r [rad], its
+    label code and variant count) into out from row m on (rows past its capacity only counted); a
+    value put on a limit is verified again by FK. Returns the next row."""
+    capacity = out.shape[0]
+    for combo in range(total):
+        rest, on_limit = combo, False
+        for j in range(6):
+            q[j] = values[j, rest % counts[j]]
+            on_limit |= q[j] == limits[0, j] or q[j] == limits[1, j]
+            rest //= counts[j]
+        errors = _pose_error(chain, q, X) if on_limit else (e_p, e_r)
+        if errors[0] > POSITION_TOLERANCE or errors[1] > ROTATION_TOLERANCE:
+            continue                                          # put on a limit and no longer exact
+        if m < capacity:
+            out[m, :6] = q
+            out[m, POSITION_ERROR], out[m, ROTATION_ERROR] = errors
+            out[m, CODE], out[m, VARIANTS] = code, variants
+        m += 1
+    return m
+
+
+@njit(cache=True, fastmath=FUSED)
+def finish(out, info, m, seed, best):
+    """Close a target's ``info`` after m rows were written: sorted and distinct (nearest the seed
+    first) with the first one's numbers, or with no solution the nearest branch in ``out[0, :6]``."""
+    info[COUNT] = m
+    if m == 0:
+        out[0, :6] = best
+    elif m <= out.shape[0]:
+        info[COUNT] = _sort_distinct(out, m, seed)
+        info[FIRST_POSITION_ERROR], info[FIRST_ROTATION_ERROR] = out[0, POSITION_ERROR], out[0, ROTATION_ERROR]
+        info[FIRST_CODE] = out[0, CODE]
+
+
+@njit(cache=True, fastmath=FUSED)
+def _solve(geometry, chain, limits, X, seed, out, info):
+    """The solutions of one target X into out, its numbers into info (see the module's layouts)."""
+    values, counts, q, best, best_error = _start(out, info)
     goal_axes = _goal_axes(geometry, X)
     p_wrist = wrist_centre(geometry, X)
     phi, spread, reach1 = _shoulder(geometry, p_wrist)
@@ -414,50 +495,19 @@ def _solve(geometry, chain, limits, X, seed, out, info):
                 arm_pose, arm_code = moved_pose(chain, base_pose(chain), arm, 0, 3), -1
             raw = _branch(geometry, arm, d, m6, z_centre, z_offset, singular, k % 2, seed)
             info[REACHABLE] += 1
-            for j in range(6):
-                q[j] = raw[j]
             e_p, e_r = pose_errors(moved_pose(chain, arm_pose, raw, 3, 6), X, POSE)
-            if e_p + e_r < best_error:
-                best[:], best_error = q, e_p + e_r
+            _keep_nearest(raw, e_p, e_r, best, best_error)
             if e_p > POSITION_TOLERANCE or e_r > ROTATION_TOLERANCE:
                 continue
             info[VERIFIED] += 1
-            total, worst, worst_joint = 1, 0.0, -1
-            for j in range(6):
-                written, violation = _joint_values(raw[j], seed[j], limits[0, j], limits[1, j], values[j])
-                counts[j] = written
-                total *= written
-                if violation > worst:
-                    worst, worst_joint = violation, j
+            total = _limit_values(raw, seed, limits, values, counts, info)
             if total == 0:
-                if worst < best_violation:
-                    best_violation = worst
-                    info[VIOLATING_JOINT], info[VIOLATION] = worst_joint, worst
                 continue
             if arm_code < 0:                   # shoulder and elbow bits: the same for both wrists
                 arm_code = label_code(geometry, p_wrist, raw) & (FRONT | UP)
-            code, variants = arm_code | (FLIP if raw[4] < 0.0 else 0), _variant_count(raw, limits)
-            for combo in range(total):
-                rest, on_limit = combo, False
-                for j in range(6):
-                    q[j] = values[j, rest % counts[j]]
-                    on_limit |= q[j] == limits[0, j] or q[j] == limits[1, j]
-                    rest //= counts[j]
-                errors = _pose_error(chain, q, X) if on_limit else (e_p, e_r)
-                if errors[0] > POSITION_TOLERANCE or errors[1] > ROTATION_TOLERANCE:
-                    continue                                          # put on a limit and no longer exact
-                if m < capacity:
-                    out[m, :6] = q
-                    out[m, POSITION_ERROR], out[m, ROTATION_ERROR] = errors
-                    out[m, CODE], out[m, VARIANTS] = code, variants
-                m += 1
-    info[COUNT] = m
-    if m == 0:
-        out[0, :6] = best
-    elif m <= capacity:
-        info[COUNT] = _sort_distinct(out, m, seed)
-        info[FIRST_POSITION_ERROR], info[FIRST_ROTATION_ERROR] = out[0, POSITION_ERROR], out[0, ROTATION_ERROR]
-        info[FIRST_CODE] = out[0, CODE]
+            m = _write_variants(chain, limits, X, values, counts, total, e_p, e_r,
+                                arm_code | (FLIP if raw[4] < 0.0 else 0), _variant_count(raw, limits), q, out, m)
+    finish(out, info, m, seed, best)
 
 
 @njit(cache=True, fastmath=FUSED)

@@ -23,18 +23,21 @@ Where no answer of a target is exact (the UR arms' upright pose, say: elbow stre
 aligned and a double root in q1 at once), the target is solved again with joint 1 fixed at each q1
 EAIK answered (its 5R decomposition) before it counts as out of reach.
 
+Since the UR family has a compiled closed form of its own (``three_parallel``), ``analytic`` sends
+EAIK only the arms of neither compiled family; this module stays the independent check of both
+(tests/test_ik_ur.py, tests/test_ik_subproblem.py).
+
 Branch labels ("shoulder X, elbow Y, wrist Z"), from the joint axes a_i and points r_i of each
 solution (our FK; a_i with the joint's positive direction):
 
-* arms the spherical-wrist solver fits: its labels (``analytic.configuration_labels_of``);
+* arms with a spherical wrist: the compiled solver's labels (``analytic.configuration_labels_of``);
 * arms with axes 2, 3, 4 parallel (the UR family), with p_w the wrist point (the foot on axis 6 of
-  the common perpendicular of axes 5 and 6; where they meet, for UR arms):
-  - shoulder ``right`` if a_1 . (a_2 x (p_w - r_1)) >= 0, else ``left``: seen from above (axis 1
-    pointing at the viewer), axis 2 points to the right of the direction from axis 1 to the wrist;
-  - elbow ``up`` if the elbow (axis 3) lies above (base z) the line from the shoulder (axis 2) to
-    wrist 1 (axis 4), all three taken in one plane normal to axis 2, else ``down``;
-  - wrist ``up`` if a_5 . (a_4 x a_6) >= 0, else ``down``: turning axis 4 towards axis 6 about
-    axis 5 is positive (on the UR tables, 0 <= q5 <= pi);
+  the common perpendicular of axes 5 and 6; where they meet, for UR arms), ``three_parallel``'s
+  definitions computed here apart, in NumPy (K = a_2 . (p_w - r_1), the same for every q):
+  - shoulder ``right`` if K a_1 . (a_2 x (p_w - r_1)) >= 0 (K = 0: its sign taken as +), else ``left``;
+  - elbow ``up`` if a_2 . ((r_4 - r_2) x (r_3 - r_2)) has the sign of a_1 . (a_2 x (p_w - r_1)), else
+    ``down``;
+  - wrist ``up`` if a_5 . (a_4 x a_6) >= 0, else ``down``;
 * other arms: "" (no named configurations).
 """
 
@@ -56,6 +59,7 @@ from .analytic import (
     closest_limit_violation,
     configuration_labels_of,
 )
+from ..configurations import SPHERICAL_WRIST
 from .result import (
     FULL_POSE,
     POSITION_TOLERANCE,
@@ -137,7 +141,7 @@ def _derive_solver(robot) -> SubproblemSolver:
 
 def _label_style(robot, H: np.ndarray, P: np.ndarray, X_BE0: np.ndarray) -> tuple[str, np.ndarray | None]:
     """How solutions of this arm are labelled, and (three parallel axes) p_w in the end frame [m]."""
-    if analytic_solver_for(robot).applicable:
+    if analytic_solver_for(robot).family == SPHERICAL_WRIST:
         return SPHERICAL, None
     parallel = [np.linalg.norm(np.cross(H[i], H[i + 1])) < GEOMETRY_TOLERANCE for i in range(5)]
     if not (parallel[1] and parallel[2]) or parallel[0] or parallel[4]:
@@ -158,12 +162,10 @@ def branch_labels(robot, solver: SubproblemSolver, Q: np.ndarray) -> np.ndarray:
     a = frames[..., :3, 2] * np.array([j.sign for j in robot.spec.joints])[:, None]
     r = frames[..., :3, 3]
     p_wrist = np.einsum("mij,j->mi", X[:, :3, :3], solver.wrist_point_end) + X[:, :3, 3]
-    right = _dot(a[:, 0], _cross(a[:, 1], p_wrist - r[:, 0])) >= 0.0
-    shoulder, elbow, wrist1 = (r[:, i] - a[:, 1] * _dot(a[:, 1], r[:, i] - r[:, 1])[:, None] for i in (1, 2, 3))
-    line = wrist1 - shoulder
-    line /= np.maximum(np.linalg.norm(line, axis=-1, keepdims=True), np.finfo(float).tiny)
-    offset = elbow - shoulder
-    elbow_up = (offset - line * _dot(offset, line)[:, None])[:, 2] >= 0.0
+    side = _dot(a[:, 0], _cross(a[:, 1], p_wrist - r[:, 0]))
+    offset = _dot(a[:, 1], p_wrist - r[:, 0])
+    right = np.where(np.abs(offset) > GEOMETRY_TOLERANCE, offset, 1.0) * side >= 0.0
+    elbow_up = _dot(a[:, 1], _cross(r[:, 3] - r[:, 1], r[:, 2] - r[:, 1])) * side >= 0.0
     wrist_up = _dot(a[:, 4], _cross(a[:, 3], a[:, 5])) >= 0.0
     return np.array([f"shoulder {'right' if s else 'left'}, elbow {'up' if e else 'down'}, "
                      f"wrist {'up' if w else 'down'}" for s, e, w in zip(right, elbow_up, wrist_up)], dtype=object)
