@@ -12,6 +12,7 @@ This module is the public front door: the robot, its files and errors are import
 
 import importlib
 
+from . import progress  # noqa: F401  (first: it says so while Numba compiles the kernels on first use)
 from .errors import (
     CellFileError,
     CollisionError,

@@ -1,14 +1,24 @@
 """Progress display for long work (batch IK, benchmarks, big jobs): a one-line counter on a terminal,
-silent when standard error is not a terminal (pipes, CI, notebooks, tests) or PIPELINE_PROGRESS=0."""
+silent when standard error is not a terminal (pipes, CI, notebooks, tests) or PIPELINE_PROGRESS=0; and a
+notice while Numba compiles the kernels on first use on a machine (on a terminal and in notebooks)."""
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 import time
 
+from numba.core import event
+
 #: Redraw at most this often [s].
 REDRAW_INTERVAL = 0.2
+#: What compiling the kernels takes on first use on this machine kind, all of them (measured with an empty
+#: NUMBA_CACHE_DIR: 18-22 s); a burst of compiling that takes longer than COMPILE_REPORT_S says how long.
+FIRST_COMPILE_S = 20
+COMPILE_REPORT_S = 1.0
+
+log = logging.getLogger(__name__)
 
 
 def progress_enabled(stream=None) -> bool:
@@ -43,3 +53,45 @@ class Progress:
         if self.enabled:
             self.stream.write("\n")
             self.stream.flush()
+
+
+class CompileNotice(event.Listener):
+    """Says once per process, when Numba starts compiling (its disk cache misses: the first use on a machine,
+    or after an upgrade), that it compiles once and about how long it takes, and after each burst of compiling
+    longer than COMPILE_REPORT_S how long it took: on a terminal and in a notebook (``notice_enabled``), and
+    to the log."""
+
+    def __init__(self, stream=None):
+        self.stream = stream
+        self.depth, self.said, self.started = 0, False, 0.0
+
+    def on_start(self, event) -> None:
+        if self.depth == 0:
+            self.started = time.perf_counter()
+            if not self.said:
+                self.said = True
+                self._say(f"compiling the kinematics once for this machine (about {FIRST_COMPILE_S} s; later runs "
+                          "load them from the cache) ...")
+        self.depth += 1
+
+    def on_end(self, event) -> None:
+        self.depth -= 1
+        spent = time.perf_counter() - self.started
+        if self.depth == 0 and spent > COMPILE_REPORT_S:
+            self._say(f"compiled in {spent:.1f} s")
+
+    def _say(self, text: str) -> None:
+        log.info(text)
+        stream = sys.stderr if self.stream is None else self.stream
+        if notice_enabled(stream):
+            stream.write(text + "\n")
+            stream.flush()
+
+
+def notice_enabled(stream) -> bool:
+    """Progress on ``stream`` (a terminal), or in a Jupyter kernel (its stderr is not a terminal but is shown)."""
+    return progress_enabled(stream) or (os.environ.get("PIPELINE_PROGRESS", "1") != "0" and "ipykernel" in sys.modules)
+
+
+COMPILE_NOTICE = CompileNotice()
+event.register("numba:compile", COMPILE_NOTICE)
