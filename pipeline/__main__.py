@@ -195,6 +195,10 @@ def cmd_bench(args) -> int:
         from .bench.scale import run_scale_benchmark
 
         report = run_scale_benchmark(robot=args.robot, poses=args.poses, seed=args.seed)
+    elif args.suite == "job":
+        from .bench.job import run_job_benchmark
+
+        report = run_job_benchmark(None if args.jobs is None else _names(args.jobs, ()), repeats=args.repeats)
     elif args.suite == "cartesian":
         from .bench.cartesian import ROBOTS, run_cartesian_benchmark
 
@@ -376,7 +380,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "Time one part of the pipeline beside the libraries it is compared with, in the same run (the\n"
                   "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
                   ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale", "job"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -394,6 +398,9 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     bench.add_argument("--programs", type=POSITIVE, default=20, metavar="N",
                        help="cycle only: seeded random pick-and-place programs per cell (default 20)")
     bench.add_argument("--cells", help="cycle only: comma-separated demo cells (default gp7_wall_cell,gp7_shelf_cell)")
+    bench.add_argument("--jobs", help="job only: comma-separated job files (default: the demo jobs with a cell)")
+    bench.add_argument("--repeats", type=POSITIVE, default=5, metavar="N",
+                       help="job only: fresh processes per job and measurement (default 5)")
     bench.add_argument("--targets", type=POSITIVE, default=1000, help="ik: targets per robot (default 1000)")
     bench.add_argument("--poses", type=POSITIVE, default=1_000_000, metavar="N",
                        help="scale only: poses of the timed map (default 1,000,000)")

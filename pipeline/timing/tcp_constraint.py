@@ -1,5 +1,6 @@
 """The TCP's speed and acceleration limits along a joint path, and joint speed limits that change along it
-(a schedule's), as toppra constraints and as copp rows.
+(a schedule's), as constraints of the TOPP-RA passes (in toppra's canonical form, ``compute_constraint_params``;
+``reachability.canonical_rows``) and as copp rows.
 
 Along the path the TCP moves with v = p'(s) sd and a = p'(s) sdd + p''(s) sd^2 (``TcpMotion.along``).
 The speed limit is a bound on sd^2 at each grid point, (v_max / |p'|)^2. The acceleration vector lies
@@ -13,7 +14,6 @@ binding row.
 from __future__ import annotations
 
 import numpy as np
-import toppra.constraint
 
 from ..path import JointPath
 from ..tcp import PathLimits, TcpMotion
@@ -54,21 +54,20 @@ def accel_rows(p1: np.ndarray, p2: np.ndarray, accel_max: np.ndarray, unit: floa
     return F, np.repeat(bound[:, None], ACCEL_DIRECTIONS, axis=1)
 
 
-class TcpConstraint(toppra.constraint.LinearConstraint):
+class TcpConstraint:
     """TCP speed (and acceleration, where limited) along ``path`` (real units) within ``limits`` (a
-    PathLimits: the TCP's limits at each grid point), for toppra in time units of 1 / ``unit`` [1/s] (see
+    PathLimits: the TCP's limits at each grid point), for the solver in time units of 1 / ``unit`` [1/s] (see
     ``toppra_backend.time_unit``).
 
     The acceleration is limited at each grid point s_i and at the end of its interval, s_{i+1}, which
     the constant path acceleration u_i of the interval reaches with x = sd^2 = x_i + 2 (s_{i+1} - s_i) u_i:
-    rows (p'(s_{i+1}) + 2 ds p''(s_{i+1})) u_i + p''(s_{i+1}) x_i, linear in (u_i, x_i) as toppra needs,
+    rows (p'(s_{i+1}) + 2 ds p''(s_{i+1})) u_i + p''(s_{i+1}) x_i, linear in (u_i, x_i) as the solver needs,
     with the interval's own limit and the path's derivatives on the interval's side (d2q/ds2 may jump at
     s_{i+1}). Where p' changes fast against p'' (a turn in place: p' = 0 and p'' not)
-    the rows at s_i alone leave u_i free, and toppra's grid solution swings between bang-bang path
+    the rows at s_i alone leave u_i free, and the grid solution swings between bang-bang path
     accelerations that exceed the limit inside every interval, however fine the grid."""
 
     def __init__(self, tcp: TcpMotion, path: JointPath, limits: PathLimits, unit: float, dof: int):
-        super().__init__()
         self.tcp, self.path, self.limits, self.unit, self.dof = tcp, path, limits, unit, dof
 
     def compute_constraint_params(self, path, gridpoints):
@@ -94,12 +93,11 @@ class TcpConstraint(toppra.constraint.LinearConstraint):
         return a, b, np.zeros_like(a), F, np.hstack([g, end_g]), None, xbound
 
 
-class VaryingSpeedConstraint(toppra.constraint.LinearConstraint):
+class VaryingSpeedConstraint:
     """Joint speed limits ``qd_max`` (dof,) (in the solver's units, the path speed cap last) x the joint speed
     factor of ``limits`` (a PathLimits) at each grid point; the cap is not scaled: a bound on sd^2."""
 
     def __init__(self, qd_max: np.ndarray, limits: PathLimits):
-        super().__init__()
         self.qd_max, self.limits, self.dof = qd_max, limits, len(qd_max)
 
     def compute_constraint_params(self, path, gridpoints):

@@ -278,8 +278,9 @@ def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None, extr
     TOPP-RA (``reachability``) with the joint speeds bounding sd^2 at every grid point and the joint
     accelerations limited at both ends of every interval (at s_{i+1} with the interval's own u_i and
     x_i + 2 ds u_i, and d2q/ds2 from the interval's side), so that between grid points they stray only
-    by the path's curvature within an interval; torques (``scaled_inverse_dynamics``) and the ``extra``
-    toppra constraints (the TCP's, a schedule's joint speeds) in the form toppra gives them."""
+    by the path's curvature within an interval; torques (``scaled_inverse_dynamics``, by toppra's torque
+    constraint) at both ends too, and the ``extra`` constraints (the TCP's, a schedule's joint speeds,
+    ``tcp_constraint``) in toppra's canonical form."""
     s = grid_for(path.path, grid) if np.isscalar(grid) else np.asarray(grid, dtype=float)
     d1, d2 = path(s, 1), path(s, 2)
     end1, end2 = d1[1:].copy(), d2[1:].copy()
@@ -293,16 +294,16 @@ def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None, extr
     with np.errstate(divide="ignore"):
         x_hi = np.min((limits.qd_max / np.abs(d1)) ** 2, axis=1)
     x_lo = np.zeros_like(x_hi)
-    constraints = list(extra)
+    constraints = [(constraint, path) for constraint in extra]
     if torques is not None:
-        import toppra.constraint
+        import toppra.constraint            # its torque rows (inverse dynamics per grid point); toppra imports pyplot
 
         tau_max = np.append(limits.tau_max, np.ones(path.dof - path.path.dof))
-        constraints.append(toppra.constraint.JointTorqueConstraint(
+        constraints.append((toppra.constraint.JointTorqueConstraint(
             torques, np.stack([-tau_max, tau_max], axis=1), np.zeros(path.dof),
-            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation))
-    for constraint in constraints:
-        rows, xbound = canonical_rows(constraint, _toppra_path(path), s)
+            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation), _toppra_path(path)))
+    for constraint, seen_as in constraints:
+        rows, xbound = canonical_rows(constraint, seen_as, s)
         if rows is not None:
             for stacked, row in zip((alpha, beta, gamma), rows):
                 stacked.append(row)
@@ -394,7 +395,7 @@ def _solve_refined(path: JointPath, limits: PathLimits, gridpoints: int, inverse
 def _extra_constraints(path: JointPath, view: ScaledPath, scaled: Limits, limits: PathLimits, unit: float) -> tuple:
     """The constraints beyond the joints' own (``scaled``: their limits in the solver's units): the TCP's
     where ``limits`` limit it, the schedule's joint speeds where it slows them."""
-    from .tcp_constraint import TcpConstraint, VaryingSpeedConstraint   # toppra only when it is used
+    from .tcp_constraint import TcpConstraint, VaryingSpeedConstraint
 
     extra = []
     if limits.limits_tcp:
