@@ -20,7 +20,9 @@ from pipeline.bench.ik import (
     OPW,
     PEERS,
     RTB_1,
+    ROBOTS,
     RTB_100,
+    UR5_FILE,
     IkRobotReport,
     IkRow,
     OpwPeer,
@@ -30,6 +32,7 @@ from pipeline.bench.ik import (
     ours_name,
     run_ik_benchmark,
 )
+from pipeline.configurations import SPHERICAL_WRIST, THREE_PARALLEL
 from pipeline.errors import ConfigurationError
 from pipeline.ik.result import within_limits
 from pipeline.poses import rpy_position_to_pose
@@ -79,7 +82,7 @@ def test_json_and_table(report):
     assert data["passed"] is False and len(data["goals"]) == len(report.goals)
     table = report.format_table()
     assert "strict" in table and "gp7" in table and "median" in table
-    assert "(fastest numeric peer, " in table and "Goals (issue 15):" in table
+    assert "(fastest numeric peer, " in table and "Goals (issues 15, 25):" in table
 
 
 def test_goals_without_our_rows_are_not_measured(report):
@@ -152,9 +155,9 @@ def _row(name: str, median_us: float, p95_us: float, strict_pct: float = 100.0) 
                  p95_us=p95_us)
 
 
-def _robot(name: str, *rows: IkRow, unavailable=None) -> IkRobotReport:
+def _robot(name: str, *rows: IkRow, unavailable=None, family: str = "", found: float | None = None) -> IkRobotReport:
     return IkRobotReport(robot_name=name, convention="standard", dof=6, rows=rows, ratio={}, fastest_peer=RTB_100,
-                         unavailable=unavailable or {})
+                         unavailable=unavailable or {}, family=family, original_found_pct=found)
 
 
 def test_goals_verdicts():
@@ -177,6 +180,42 @@ def test_goals_verdicts():
     assert list(goals) == list(expected)
     for name, (value, passed) in expected.items():
         assert goals[name].value == pytest.approx(value) and goals[name].passed is passed, name
+
+
+def test_ur_family_goals_verdicts():
+    """The UR family's goals: against the spherical-wrist robots' median of medians and RTB_100, strict
+    success and the original configuration found, on each UR-family robot alone."""
+    analytic = ours_name("analytic")
+    gp7 = _robot("gp7", _row(analytic, 10.0, 20.0), _row(RTB_100, 100.0, 200.0), family=SPHERICAL_WRIST)
+    irb = _robot("irb1600", _row(analytic, 14.0, 20.0), family=SPHERICAL_WRIST)
+    lrmate = _robot("lrmate200id", _row(analytic, 20.0, 20.0), family=SPHERICAL_WRIST)
+    ur5 = _robot("ur5", _row(analytic, 21.0, 40.0, 99.9), _row(RTB_100, 50.0, 90.0), family=THREE_PARALLEL,
+                 found=100.0)
+    goals = {goal.name: goal for goal in evaluate_goals((gp7, irb, lrmate, ur5)) if goal.name.startswith("ur5")
+             and "jacobian" not in goal.name}
+    expected = {
+        f"ur5: {analytic} / the spherical-wrist robots' (the median of theirs), median time [x]": (1.5, True),
+        f"ur5: {analytic} / {RTB_100}, median time [x]": (0.42, True),
+        f"ur5: {analytic} strict success [%]": (99.9, False),
+        "ur5: the original configuration among the closed form's branches [%]": (100.0, True),
+    }
+    assert list(goals) == list(expected)
+    for name, (value, passed) in expected.items():
+        assert goals[name].value == pytest.approx(value) and goals[name].passed is passed, name
+    alone = evaluate_goals((ur5,))[1]
+    assert alone.value is None and not alone.passed and "no spherical-wrist robot" in alone.bound
+
+
+def test_a_small_run_of_the_ur5_reports_its_family_and_the_original_configuration():
+    assert str(UR5_FILE) in ROBOTS
+    report = run_ik_benchmark(robots=("gp7", str(UR5_FILE)), targets=4, seed=2, methods=("analytic",))
+    gp7, ur5 = report.robots
+    assert (gp7.family, ur5.family) == (SPHERICAL_WRIST, THREE_PARALLEL)
+    assert ur5.original_found_pct == 100.0 and gp7.original_found_pct == 100.0
+    goals = {goal.name: goal for goal in report.goals if goal.name.startswith("ur5")}
+    assert goals[f"ur5: {ours_name('analytic')} strict success [%]"].passed
+    assert goals["ur5: the original configuration among the closed form's branches [%]"].passed
+    assert "closed form: three parallel axes" in report.format_table()
 
 
 def test_goals_with_a_missing_peer_or_robot_are_not_measured():

@@ -9,7 +9,7 @@ import math
 import pytest
 
 from pipeline.__main__ import main
-from pipeline.bench.scale import CLUSTER_WORKERS, SPEEDUP_GOAL, run_scale_benchmark, step_for
+from pipeline.bench.scale import CLUSTER_WORKERS, SPEEDUP_GOAL, UR_RATE_GOAL, run_scale_benchmark, step_for
 from pipeline.robot import load_robot
 from pipeline.scale.reach import plan_map
 
@@ -37,13 +37,24 @@ def test_the_report_has_every_figure_and_an_honest_verdict(report):
     assert report.estimate_64_s == pytest.approx(expected)
     assert report.full_poses > report.map_poses and report.full_step_m == 0.025
     assert report.full_here_s == pytest.approx(report.full_poses / report.rate_2_workers) and report.full_64_s > 0
-    (speedup, identical) = report.goals
+    (speedup, identical, ur) = report.goals
     assert speedup.passed == (report.speedup >= SPEEDUP_GOAL) and identical.passed
+    assert report.ur_robot == "ur5" and ur.value == pytest.approx(report.ur_rate_in_process / report.rate_in_process)
+    assert ur.passed == (ur.value >= UR_RATE_GOAL) and "ur5" in ur.bound
     text = report.format_table()
     assert "speed-up" in text and "per-chunk overhead" in text and "estimate for 64 workers" in text
     assert "what this machine gives 2 processes now" in text
-    assert text.count("  PASS  ") + text.count("  FAIL  ") == 2
+    assert text.count("  PASS  ") + text.count("  FAIL  ") == 3 and "the UR family: ur5's map" in text
     assert report.to_dict()["passed"] == report.passed
+
+
+@pytest.mark.slow
+def test_without_a_ur_arm_its_goal_is_not_measured():
+    """Two more Dask clusters (about 9 s): the slow suite."""
+    report = run_scale_benchmark(poses=3_000, measure_poses=2_000, orientations=2, seed=1, overhead_tasks=2,
+                                 ur_robot=None)
+    ur = report.goals[2]
+    assert ur.value is None and not ur.passed and "not measured" in ur.bound and report.ur_rate_in_process is None
 
 
 def test_the_cli_refuses_no_poses(capsys):

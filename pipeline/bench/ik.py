@@ -38,11 +38,18 @@ exact (not least-squares) branches, each joint shifted by 2 pi into its limits w
 the in-limit solution nearest the seed (none: reported failure). Ours pays for all of that (and for
 verifying every branch by FK).
 
+Per robot, besides the rows: the closed form's family (``spherical wrist``, ``three parallel axes``:
+the UR family) and how often the target's own configuration is among its branches (modulo 2 pi: a
+branch is listed once when its 2 pi variants are many), seeded as timed, not timed.
+
 Goals (issue 15), ratios of median (or p95) times in the same run: on ``GOAL_ROBOT`` (GP7) our
 closed form single call <= 0.2x ``RTB_100`` and <= 2x ``OPW``, and one ``ik_batch`` call <= 10 µs
 per target; on every robot of the run damped least squares (``jacobian``) <= 1.0x ``RTB_100``
-median, p95 <= 3x ``RTB_100``'s p95, strict success >= 99.9 %. A goal whose row did not run is
-reported as not measured (and not passed).
+median, p95 <= 3x ``RTB_100``'s p95, strict success >= 99.9 %. Goals (issue 25) on every UR-family
+robot of the run (the UR5 of tests/data, in the default robots when the checkout has it): our closed
+form single call <= 2x the median of the spherical-wrist robots' closed-form medians and <= 0.5x
+``RTB_100`` median, strict success 100 %, the original configuration among the branches on 100 % of
+the targets. A goal whose row did not run is reported as not measured (and not passed).
 """
 
 from __future__ import annotations
@@ -50,6 +57,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -58,13 +66,17 @@ from ..errors import ConfigurationError
 from ..poses import make_pose, rpy_to_rotation
 from ..progress import Progress
 from ..ik import METHODS as IK_METHODS
-from ..ik.result import is_strict, make_target, pose_errors, within_limits, wrap_into_limits
+from ..configurations import SPHERICAL_WRIST, THREE_PARALLEL
+from ..ik.analytic import analytic_solver_for
+from ..ik.result import TWO_PI, is_strict, make_target, pose_errors, within_limits, wrap_into_limits
 from ..versions import version_table
 from ..robot import Robot, load_robot
 from .goals import Goal, GoalReport, goal_lines
 
 METHODS = ("analytic", "jacobian", "drake")
-ROBOTS = ("gp7", "lrmate200id", "irb1600", "arm6")
+#: A UR5 (UR's DH table and limits, tests/data): the UR family's closed form, in a checkout only.
+UR5_FILE = Path(__file__).resolve().parents[2] / "tests" / "data" / "ur5.yaml"
+ROBOTS = ("gp7", "lrmate200id", "irb1600", "arm6") + ((str(UR5_FILE),) if UR5_FILE.is_file() else ())
 
 RTB_1 = "RTB ik_LM (C++), 1 search"
 RTB_100 = "RTB ik_LM (C++), up to 100 searches"
@@ -89,6 +101,11 @@ ANALYTIC_BATCH_GOAL_US = 10.0     # one ik_batch call, time per target [µs]
 DLS_MEDIAN_GOAL_RATIO = 1.0       # ours: jacobian median / RTB_100 median
 DLS_P95_GOAL_RATIO = 3.0          # ours: jacobian p95 / RTB_100 p95
 DLS_STRICT_GOAL_PCT = 99.9        # ours: jacobian strict success [%]
+UR_SPHERICAL_GOAL_RATIO = 2.0     # UR family: ours analytic median / the spherical-wrist robots' median
+UR_RTB_GOAL_RATIO = 0.5           # UR family: ours analytic median / RTB_100 median
+UR_STRICT_GOAL_PCT = 100.0        # UR family: ours analytic strict success [%], and the original found [%]
+#: Two joint vectors this close modulo 2 pi [rad] are one configuration.
+SAME_CONFIGURATION = 1e-6
 
 
 def ours_name(method: str) -> str:
@@ -127,7 +144,9 @@ class IkRow:
 class IkRobotReport:
     """All rows of one robot, ours first. ``ratio[ours][peer]``: ours median / peer median time
     (above 1: ours takes longer); ``fastest_peer``: the numeric peer with the smallest median time.
-    ``unavailable``: methods or peers that could not run, with the reason."""
+    ``unavailable``: methods or peers that could not run, with the reason. ``family``: the closed
+    form's (``configurations.SPHERICAL_WRIST``, ``THREE_PARALLEL``; "" for none); ``original_found_pct``:
+    targets whose own configuration is among the closed form's solutions [%] (None: not run)."""
 
     robot_name: str
     convention: str
@@ -136,10 +155,16 @@ class IkRobotReport:
     ratio: dict[str, dict[str, float]]
     fastest_peer: str
     unavailable: dict[str, str]
+    family: str = ""
+    original_found_pct: float | None = None
 
     def format_lines(self) -> list[str]:
         """The robot's table, its time ratios, what could not run and the calls that raised."""
-        lines = [f"{self.robot_name} ({self.convention} DH, {self.dof} dof)", *_table(self.rows)]
+        family = f", closed form: {self.family}" if self.family else ""
+        lines = [f"{self.robot_name} ({self.convention} DH, {self.dof} dof{family})", *_table(self.rows)]
+        if self.original_found_pct is not None:
+            lines.append(f"  the target's own configuration among the closed form's branches: "
+                         f"{self.original_found_pct:.1f} % of the targets")
         medians = {row.name: row.median_us for row in self.rows}
         for name, ratios in self.ratio.items():
             analytic = name.startswith(ours_name("analytic"))
@@ -176,7 +201,7 @@ class IkBenchReport(GoalReport):
         ]
         for robot in self.robots:
             lines += ["", *robot.format_lines()]
-        lines += goal_lines("Goals (issue 15):", self.goals, self.versions)
+        lines += goal_lines("Goals (issues 15, 25):", self.goals, self.versions)
         return "\n".join(lines)
 
 
@@ -572,15 +597,31 @@ def benchmark_robot(robot: Robot, targets: int, seed: int, methods: tuple[str, .
             median_us=float(np.median(times[k])) / 1e3, p95_us=float(np.percentile(times[k], 95)) / 1e3,
             first_error=first_error[k],
         ))
+    found = None
     if "analytic" in methods and ours_name("analytic") not in unavailable:
         rows.append(analytic_batch_row(robot, Q_target, Q_seed))
+        found = original_found_pct(robot, Q_target, Q_seed)
     ours_rows = [r for r in rows if r.ours]
     peer_rows = [r for r in rows if not r.ours]
     numeric_rows = [r for r in peer_rows if r.name in NUMERIC_PEERS]
     fastest = min(numeric_rows, key=lambda r: r.median_us).name if numeric_rows else ""
     ratio = {o.name: {p.name: o.median_us / p.median_us for p in peer_rows} for o in ours_rows}
+    solver = analytic_solver_for(robot)
     return IkRobotReport(robot_name=robot.name, convention=robot.spec.convention, dof=robot.dof,
-                         rows=tuple(rows), ratio=ratio, fastest_peer=fastest, unavailable=unavailable)
+                         rows=tuple(rows), ratio=ratio, fastest_peer=fastest, unavailable=unavailable,
+                         family=solver.family if solver.applicable else "", original_found_pct=found)
+
+
+def original_found_pct(robot: Robot, Q_target: np.ndarray, Q_seed: np.ndarray) -> float:
+    """How many targets (the FK of Q_target (N, dof)) have their own configuration among the closed
+    form's solutions (seeded with Q_seed), comparing modulo 2 pi [%]."""
+    results = robot.ik_batch(robot.fk_batch(Q_target), Q_seed, method="analytic")
+    found = 0
+    for q, result in zip(Q_target, results):
+        Q = np.array([s.q for s in result.solutions]).reshape(-1, robot.dof)
+        difference = (Q - q + math.pi) % TWO_PI - math.pi
+        found += bool(len(Q)) and bool((np.abs(difference).max(axis=1) <= SAME_CONFIGURATION).any())
+    return 100.0 * found / len(Q_target)
 
 
 def analytic_batch_row(robot: Robot, Q_target: np.ndarray, Q_seed: np.ndarray) -> IkRow:
@@ -658,10 +699,39 @@ def _dls_goals(robot: IkRobotReport) -> tuple[Goal, ...]:
     )
 
 
+def _ur_goals(robot: IkRobotReport, spherical: list[IkRobotReport]) -> tuple[Goal, ...]:
+    """The UR family's goals on one robot of it, against the ``spherical`` wrist robots of the run."""
+    analytic = ours_name("analytic")
+    row = _row(robot, analytic)
+    medians = [other.median_us for other in (_row(s, analytic) for s in spherical) if other is not None]
+    reference = float(np.median(medians)) if medians else None
+    value = None if row is None or reference is None else row.median_us / reference
+    why = _not_measured(robot, (analytic,)) or (f"; their median {reference:.3g} µs" if medians else
+                                                "; not measured: no spherical-wrist robot with "
+                                                f"{analytic} in this run")
+    strict = None if row is None else row.strict_pct
+    name = robot.robot_name
+    return (
+        Goal(f"{name}: {analytic} / the spherical-wrist robots' (the median of theirs), median time [x]", value,
+             f"<= {UR_SPHERICAL_GOAL_RATIO:g}{why}",
+             value is not None and value <= UR_SPHERICAL_GOAL_RATIO),
+        _ratio_goal(robot, analytic, RTB_100, "median_us", UR_RTB_GOAL_RATIO),
+        Goal(f"{name}: {analytic} strict success [%]", strict, f">= {UR_STRICT_GOAL_PCT:g}"
+             f"{_not_measured(robot, (analytic,))}", strict is not None and strict >= UR_STRICT_GOAL_PCT),
+        Goal(f"{name}: the original configuration among the closed form's branches [%]", robot.original_found_pct,
+             f">= {UR_STRICT_GOAL_PCT:g}{_not_measured(robot, (analytic,))}",
+             robot.original_found_pct is not None and robot.original_found_pct >= UR_STRICT_GOAL_PCT),
+    )
+
+
 def evaluate_goals(robots: tuple[IkRobotReport, ...]) -> tuple[Goal, ...]:
-    """The closed form's goals on ``GOAL_ROBOT``, then damped least squares' on every robot of the run."""
+    """The closed form's goals on ``GOAL_ROBOT``, the UR family's on each of its robots, then damped least
+    squares' on every robot of the run."""
     goal_robot = next((robot for robot in robots if robot.robot_name == GOAL_ROBOT), None)
-    return (*_closed_form_goals(goal_robot), *(goal for robot in robots for goal in _dls_goals(robot)))
+    spherical = [robot for robot in robots if robot.family == SPHERICAL_WRIST]
+    return (*_closed_form_goals(goal_robot),
+            *(goal for robot in robots if robot.family == THREE_PARALLEL for goal in _ur_goals(robot, spherical)),
+            *(goal for robot in robots for goal in _dls_goals(robot)))
 
 
 def run_ik_benchmark(robots=ROBOTS, targets: int = 1000, seed: int = 0, methods=METHODS) -> IkBenchReport:

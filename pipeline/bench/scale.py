@@ -31,7 +31,12 @@ workers' start-up; with chunks of CHUNK_POSES a 1,000,000-pose map has about 50 
 (``chunk_poses`` smaller would spread it over all 64). The same estimate is given for the default map
 (25 mm voxels over the whole reach bound), beside its time here at the 2-worker rate.
 
-Goals: speed-up with 2 workers >= ``SPEEDUP_GOAL`` = 1.7; the maps identical whatever ran them.
+The UR family beside it (issue 25): the in-process map of about ``measure_poses`` poses of a UR arm
+(``ur_robot``, default the UR5 of tests/data where the checkout has it: the compiled closed form of
+``pipeline.ik.three_parallel``), timed right after the robot's own, its rate against the robot's.
+
+Goals: speed-up with 2 workers >= ``SPEEDUP_GOAL`` = 1.7; the maps identical whatever ran them; the UR
+arm's in-process rate >= ``UR_RATE_GOAL`` = 0.25x the robot's (the IRB 1600's by default).
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..robot import load_robot
+from .ik import UR5_FILE
 from ..scale.cluster import local_client, map_chunks
 from ..scale.reach import CHUNK_POSES, map_problem, plan_map, reachability_map
 from ..versions import version_table
@@ -56,6 +62,10 @@ MEASURE_POSES = 400_000
 OVERHEAD_TASKS = 200
 CLUSTER_WORKERS = 64
 SPEEDUP_GOAL = 1.7
+#: The UR arm's in-process map rate over the robot's, at least.
+UR_RATE_GOAL = 0.25
+#: The UR arm of the run, where the checkout has it.
+UR_ROBOT = str(UR5_FILE) if UR5_FILE.is_file() else None
 
 
 def step_for(robot, poses: int, orientations: int) -> float:
@@ -119,6 +129,8 @@ class ScaleBenchReport(GoalReport):
     full_step_m: float
     full_here_s: float
     full_64_s: float
+    ur_robot: str
+    ur_rate_in_process: float | None
     goals: list[Goal]
     versions: dict
 
@@ -148,20 +160,35 @@ class ScaleBenchReport(GoalReport):
             f"{self.full_poses:,} poses, {self.full_here_s:.0f} s here at the 2-worker rate, about "
             f"{self.full_64_s:.0f} s on {CLUSTER_WORKERS} workers (the same estimate)",
         ]
+        if self.ur_rate_in_process is not None:
+            lines.append(f"the UR family: {self.ur_robot}'s map of about {self.measure_poses:,} poses in this process "
+                         f"{self.ur_rate_in_process:12,.0f} poses/s, "
+                         f"{self.ur_rate_in_process / self.rate_in_process:.2f}x {self.robot}'s")
         lines += goal_lines("Goals:", self.goals, self.versions)
         return "\n".join(lines)
 
 
+def _in_process_rate(robot, poses: int, orientations: int, seed: int) -> tuple[float, float, object]:
+    """(the voxel step [m] of a map of about ``poses`` poses, its rate in this process [poses/s], the map),
+    after a warm-up map."""
+    step = step_for(robot, poses, orientations)
+    _warm(robot, step_for(robot, min(2 * CHUNK_POSES, poses), orientations), orientations, seed)
+    reach_map, seconds = _timed_map(robot, step, orientations, seed, None)
+    return step, reach_map.poses / seconds, reach_map
+
+
 def run_scale_benchmark(robot: str | None = None, poses: int = 1_000_000, measure_poses: int | None = None,
-                        orientations: int = ORIENTATIONS, seed: int = 0,
-                        overhead_tasks: int = OVERHEAD_TASKS) -> ScaleBenchReport:
-    """The benchmark (see the module docstring); ``measure_poses`` defaults to min(poses, MEASURE_POSES)."""
+                        orientations: int = ORIENTATIONS, seed: int = 0, overhead_tasks: int = OVERHEAD_TASKS,
+                        ur_robot: str | None = UR_ROBOT) -> ScaleBenchReport:
+    """The benchmark (see the module docstring); ``measure_poses`` defaults to min(poses, MEASURE_POSES);
+    ``ur_robot``: the UR arm whose rate is compared (None: none)."""
     arm = load_robot(robot or ROBOT)
     measure_poses = min(poses, MEASURE_POSES) if measure_poses is None else measure_poses
-    measure_step, map_step = step_for(arm, measure_poses, orientations), step_for(arm, poses, orientations)
+    map_step = step_for(arm, poses, orientations)
     warm_step = step_for(arm, min(2 * CHUNK_POSES, measure_poses), orientations)
-    _warm(arm, warm_step, orientations, seed)
-    serial, serial_s = _timed_map(arm, measure_step, orientations, seed, None)
+    measure_step, serial_rate, serial = _in_process_rate(arm, measure_poses, orientations, seed)
+    ur = None if ur_robot is None else load_robot(ur_robot)
+    ur_rate = None if ur is None else _in_process_rate(ur, measure_poses, orientations, seed)[1]
     with local_client(1) as client:
         client.run(_warm, arm, warm_step, orientations, seed)
         alone = max(client.run(_timed_work, arm, warm_step, orientations, seed).values())
@@ -177,7 +204,7 @@ def run_scale_benchmark(robot: str | None = None, poses: int = 1_000_000, measur
         began = time.perf_counter()
         map_chunks(chunk_arguments, [(problem, voxels, centres)] * overhead_tasks, client, "bench scale overhead")
         overhead_s = (time.perf_counter() - began) / overhead_tasks
-    rate = {n: serial.poses / s for n, s in ((0, serial_s), (1, one_s), (2, two_s))}
+    rate = {0: serial_rate, 1: serial.poses / one_s, 2: serial.poses / two_s}
     speedup = rate[2] / rate[1]
     identical = _same(serial, one) and _same(one, two)
     efficiency = min(speedup / 2.0, 1.0)        # no better than perfect, whatever the noise
@@ -186,8 +213,13 @@ def run_scale_benchmark(robot: str | None = None, poses: int = 1_000_000, measur
     def on_64(map_poses: int, chunks: int) -> float:
         return math.ceil(chunks / CLUSTER_WORKERS) * (map_poses / chunks / (rate[1] * efficiency) + overhead_s)
 
+    ur_ratio = None if ur_rate is None else ur_rate / rate[0]
     goals = [Goal("speed-up with 2 workers over 1 [x]", speedup, f">= {SPEEDUP_GOAL:g}", speedup >= SPEEDUP_GOAL),
-             Goal("maps identical in this process, on 1 and on 2 workers", float(identical), "= 1", identical)]
+             Goal("maps identical in this process, on 1 and on 2 workers", float(identical), "= 1", identical),
+             Goal(f"the UR family's map rate / {arm.name}'s, in this process [x]", ur_ratio,
+                  f">= {UR_RATE_GOAL:g}" + ("; not measured: no UR arm in this run" if ur is None else
+                                            f" ({ur.name}: {ur_rate:,.0f} poses/s)"),
+                  ur_ratio is not None and ur_ratio >= UR_RATE_GOAL)]
     return ScaleBenchReport(
         robot=arm.name, orientations=orientations, seed=seed, chunk_poses=CHUNK_POSES, measure_poses=serial.poses,
         measure_step_m=measure_step, rate_in_process=rate[0], rate_1_worker=rate[1], rate_2_workers=rate[2],
@@ -195,6 +227,7 @@ def run_scale_benchmark(robot: str | None = None, poses: int = 1_000_000, measur
         map_step_m=map_step, map_chunks=big.chunks, map_s=big_s, overhead_ms=1e3 * overhead_s,
         overhead_fraction=overhead_s / (CHUNK_POSES / rate[1]), overhead_tasks=overhead_tasks,
         estimate_64_s=on_64(big.poses, big.chunks), full_poses=full.poses, full_step_m=full.grid.step,
-        full_here_s=full.poses / rate[2], full_64_s=on_64(full.poses, full.chunk_count), goals=goals,
+        full_here_s=full.poses / rate[2], full_64_s=on_64(full.poses, full.chunk_count),
+        ur_robot="" if ur is None else ur.name, ur_rate_in_process=ur_rate, goals=goals,
         versions=version_table("dask", "distributed", "numba", "numpy"))
 
