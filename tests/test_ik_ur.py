@@ -16,7 +16,7 @@ from pipeline.configurations import parse_configuration
 from pipeline.errors import ConfigurationError, JobFileError
 from pipeline.ik.analytic import THREE_PARALLEL_LABELS, analytic_solver_for, solve_analytic_batch
 from pipeline.ik.branches import configuration_labels
-from pipeline.ik.result import POSITION_TOLERANCE, ROTATION_TOLERANCE, limit_variants, rotation_angle
+from pipeline.ik.result import limit_variants
 from pipeline.ik.subproblem import solve_subproblem_batch, wrap
 from pipeline.jobs import load_job
 from pipeline.poses import rotation_to_rpy
@@ -26,6 +26,7 @@ from pipeline.robot_spec import parse_robot_spec
 from pipeline.urdf import import_urdf
 
 from .conftest import DATA_DIR
+from .test_ik_subproblem import verified
 
 UR5 = DATA_DIR / "ur5.yaml"
 #: Two joint vectors within this (largest difference modulo 2 pi) [rad] are one solution.
@@ -44,15 +45,6 @@ def ur5_copy(limit_deg: float | None = None, rows: dict[int, dict] | None = None
 
 def solution_array(result) -> np.ndarray:
     return np.array([s.q for s in result.solutions]).reshape(-1, 6)
-
-
-def verified(robot: Robot, Q: np.ndarray, X: np.ndarray) -> bool:
-    """Every row of Q reaches X (4, 4) within the strict tolerances and lies inside the limits."""
-    F = robot.fk_batch(Q)
-    position = np.linalg.norm(F[:, :3, 3] - X[:3, 3], axis=1)
-    rotation = rotation_angle(np.swapaxes(F[:, :3, :3], 1, 2) @ X[:3, :3])
-    inside = (Q >= robot.limits.q_min) & (Q <= robot.limits.q_max)
-    return bool((position <= POSITION_TOLERANCE).all() and (rotation <= ROTATION_TOLERANCE).all() and inside.all())
 
 
 def index_of(Q: np.ndarray, q: np.ndarray) -> int:

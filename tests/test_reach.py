@@ -22,6 +22,7 @@ from pipeline.scale.grid import CONE_AXIS, reach_grid, tool_orientations, wrist_
 from pipeline.scale.reach import branch_count, manipulability_batch, penetrates
 from pipeline.scale.result import FILES
 from pipeline.singularity import compute_singularity
+from tests.conftest import DATA_DIR
 from tests.test_scale import CELL
 
 #: The IRB 1600-6/1.2 datasheet's reach, and its wrist centre stretched out from axis 1: a1 + a2 + d4
@@ -220,6 +221,25 @@ def test_an_unknown_robot_is_a_typed_error_naming_it():
 def test_the_wrist_of_an_arm_without_one_is_a_typed_error():
     with pytest.raises(ConfigurationError, match="arm5.*no wrist centre"):
         reachability_map("arm5", point="wrist")
+
+
+def test_a_ur_arm_is_mapped_by_its_compiled_closed_form():
+    """The UR5 of tests/data (the UR family's closed form, one solution per branch): every branch somewhere,
+    voxels recomputed one target at a time agree, and nothing beyond the stretched arm (|a2| + |a3| + d5
+    from axis 1 in its plane, with d4 + d6 across it)."""
+    ur_map = reachability_map(DATA_DIR / "ur5.yaml", step=0.15, orientations=6, seed=3)
+    summary = ur_map.summary()
+    assert summary["ik_method"] == "analytic" and ur_map.branches.max() == 8
+    robot = ur_map.robot
+    for flat in np.random.default_rng(6).choice(np.flatnonzero(ur_map.fraction > 0), 6, replace=False):
+        results = []
+        for R in ur_map.rotations:
+            X = np.eye(4)
+            X[:3, :3], X[:3, 3] = R, ur_map.grid.centres(np.array([flat]))[0]
+            results.append(robot.ik(X, method="analytic"))
+        assert ur_map.fraction.flat[flat] == np.mean([r.success for r in results])
+        assert ur_map.branches.flat[flat] == max(len({s.branch for s in r.solutions}) for r in results)
+    assert ur_map.reach_m <= math.hypot(0.425 + 0.39225 + 0.09465, 0.10915 + 0.0823)
 
 
 # -- the IRB 1600's datasheet reach ---------------------------------------------------------------------

@@ -1,8 +1,9 @@
 """Inverse kinematics three ways, every answer verified by our own FK.
 
 ``solve_ik(robot, X_target, q_seed=None, method="auto", target_kind="pose", **options)``:
-``analytic`` (closed form, every branch, for arms whose last three axes meet), ``jacobian`` (damped
-least squares with restarts), ``drake`` (pydrake InverseKinematics), ``auto`` (analytic where it
+``analytic`` (closed form, every branch, for arms whose last three axes meet or whose axes 2, 3, 4 are
+parallel: the UR family; EAIK's for other arms it decomposes), ``jacobian`` (damped least squares with
+restarts), ``drake`` (pydrake InverseKinematics), ``auto`` (analytic where it
 applies, else jacobian).
 """
 
@@ -116,7 +117,8 @@ def _resolve_method(robot, method: str, kind: str) -> str:
 
 
 def has_closed_form(robot) -> bool:
-    """Whether the closed form (``analytic``: our spherical-wrist solver, else EAIK's) solves this arm."""
+    """Whether the closed form (``analytic``: our compiled solvers of spherical wrists and of the UR family,
+    else EAIK's) solves this arm."""
     if analytic_solver_for(robot).applicable:
         return True
     from .subproblem import subproblem_solver_for

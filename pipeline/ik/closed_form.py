@@ -77,9 +77,9 @@ FIRST_POSITION_ERROR, FIRST_ROTATION_ERROR, FIRST_CODE = range(5, 8)
 INFO = 8
 TWO_PI = 2.0 * math.pi
 
-_SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})(float64[:, ::1], float64[:, ::1], float64[:, ::1], " \
+SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})(float64[:, ::1], float64[:, ::1], float64[:, ::1], " \
                    "float64[:, ::1], float64[::1], float64[:, ::1])"
-_BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
+BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
                    "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
 
 
@@ -228,12 +228,14 @@ def _q1_value(i, phi, spread, seed1, q1_min, q1_max):
     return low + (high - low) * (i - 1) / (SHOULDER_SAMPLES - 1)
 
 
-def pack_geometry(axes: np.ndarray, points: np.ndarray, centre: np.ndarray, X_BE0: np.ndarray) -> np.ndarray:
-    """The ``geometry`` array of an arm: unit joint axes (6, 3) and points on them (6, 3) at q = 0
-    [m], the wrist centre (3,) and the end pose X_BE0 (4, 4) at q = 0, then the derived rows."""
-    geometry = np.zeros((GEOMETRY_ROWS, 3))
+def pack_geometry(axes: np.ndarray, points: np.ndarray, centre: np.ndarray, X_BE0: np.ndarray,
+                  rows: int = GEOMETRY_ROWS, derive=None) -> np.ndarray:
+    """The ``geometry`` array (rows, 3) of an arm: unit joint axes (6, 3) and points on them (6, 3) at
+    q = 0 [m], the wrist centre (3,) and the end pose X_BE0 (4, 4) at q = 0, then the rows ``derive``
+    (default ``_derived_rows``: another family's layout passes its own) computes from them."""
+    geometry = np.zeros((rows, 3))
     geometry[:P0 + 1] = np.vstack([axes, points, centre, X_BE0[:3, :3], X_BE0[:3, 3]])
-    _derived_rows(geometry)
+    (derive or _derived_rows)(geometry)
     return geometry
 
 
@@ -552,22 +554,34 @@ def _sort_distinct(out, m, seed):
     return n
 
 
-@njit(_SOLVE_SIGNATURE, cache=True)
+@njit(cache=True)
+def check_target(X, seed):
+    """ValueError unless X is a pose (``pipeline.poses.check_pose``, within MAX_TARGET_COORDINATE_M) and
+    the seed 6 finite joint values (the caller then words the error)."""
+    if X.shape[0] != 4 or X.shape[1] != 4 or not is_pose(X, POSE_TOLERANCE, MAX_TARGET_COORDINATE_M):
+        raise ValueError("not a pose")
+    check_configuration(seed, 6)
+
+
+@njit(cache=True)
+def info_entries(info):
+    """The INFO entries of ``info`` as a tuple (no array for Python to unpack)."""
+    return (info[0], info[1], info[2], info[3], info[4], info[5], info[6], info[7])
+
+
+@njit(SOLVE_SIGNATURE, cache=True)
 def solve_one(geometry, chain, limits, X, seed, out):
     """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
     returns the target's ``info`` entries (a tuple: no array to unpack).
 
-    X and the seed come unchecked: ValueError unless X is a pose (``pipeline.poses.check_pose``, within
-    MAX_TARGET_COORDINATE_M) and the seed 6 finite joint values (the caller then words the error)."""
-    if X.shape[0] != 4 or X.shape[1] != 4 or not is_pose(X, POSE_TOLERANCE, MAX_TARGET_COORDINATE_M):
-        raise ValueError("not a pose")
-    check_configuration(seed, 6)
+    X and the seed come unchecked: ``check_target``."""
+    check_target(X, seed)
     info = np.zeros(INFO)
     _solve(geometry, chain, limits, X, seed, out, info)
-    return (info[0], info[1], info[2], info[3], info[4], info[5], info[6], info[7])
+    return info_entries(info)
 
 
-@njit(_BATCH_SIGNATURE, cache=True)
+@njit(BATCH_SIGNATURE, cache=True)
 def solve_batch(geometry, chain, limits, X, seeds, out, info):
     """``solve_one`` for targets X (N, 4, 4) and seeds (N, 6), into out (N, capacity, SOLUTION_COLUMNS)
     and info (N, INFO)."""

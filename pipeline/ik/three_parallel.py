@@ -56,13 +56,14 @@ import math
 import numpy as np
 from numba import njit
 
-from ..compiled import FUSED, POSE, check_configuration, cross, end_pose, is_pose, pose_errors, sincos
-from ..poses import ROTATION_TOLERANCE as POSE_TOLERANCE
-from .closed_form import (AXES, CENTRE, INFO, N6, P0, POINTS, REACH_SLACK, REACHABLE, SHOULDER_SAMPLES,
-                          SINGULAR_TOLERANCE, VERIFIED, _add, _angle, _dot, _home_rotation, _keep_nearest,
-                          _limit_values, _mm, _mv, _q1_count, _q1_value, _rotate, _rotation_of, _row, _scale, _shoulder,
-                          _start, _sub, _t, _variant_count, _wrap, _write_variants, finish, wrist_centre)
-from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERANCE
+from ..compiled import FUSED, POSE, cross, end_pose, pose_errors, sincos
+from . import closed_form
+from .closed_form import (AXES, BATCH_SIGNATURE, CENTRE, INFO, N6, POINTS, REACH_SLACK, REACHABLE, SHOULDER_SAMPLES,
+                          SINGULAR_TOLERANCE, SOLVE_SIGNATURE, VERIFIED, _add, _angle, _dot, _home_rotation,
+                          _keep_nearest, _limit_values, _mm, _mv, _q1_count, _q1_value, _rotate, _rotation_of, _row,
+                          _scale, _shoulder, _start, _sub, _t, _variant_count, _wrap, _write_variants, check_target,
+                          finish, info_entries, wrist_centre)
+from .result import POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Label bits of a branch: shoulder right, elbow up, wrist up.
 RIGHT, UP, WRIST_UP = 1, 2, 4
@@ -73,19 +74,11 @@ RIGHT, UP, WRIST_UP = 1, 2, 4
 NX, ELBOW, WRIST, SIGNS, K = 18, 19, 20, 21, 22
 GEOMETRY_ROWS = 23
 
-_SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})(float64[:, ::1], float64[:, ::1], float64[:, ::1], " \
-                   "float64[:, ::1], float64[::1], float64[:, ::1])"
-_BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
-                   "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
-
 
 def pack_geometry(axes: np.ndarray, points: np.ndarray, centre: np.ndarray, X_BE0: np.ndarray) -> np.ndarray:
     """The ``geometry`` array of an arm: unit joint axes (6, 3) and points on them (6, 3) at q = 0
     [m], the wrist point (3,) and the end pose X_BE0 (4, 4) at q = 0, then the derived rows."""
-    geometry = np.zeros((GEOMETRY_ROWS, 3))
-    geometry[:P0 + 1] = np.vstack([axes, points, centre, X_BE0[:3, :3], X_BE0[:3, 3]])
-    _derived_rows(geometry)
-    return geometry
+    return closed_form.pack_geometry(axes, points, centre, X_BE0, GEOMETRY_ROWS, _derived_rows)
 
 
 @njit(cache=True, fastmath=FUSED)
@@ -258,19 +251,17 @@ def _solve(geometry, chain, limits, X, seed, out, info):
     finish(out, info, m, seed, best)
 
 
-@njit(_SOLVE_SIGNATURE, cache=True)
+@njit(SOLVE_SIGNATURE, cache=True)
 def solve_one(geometry, chain, limits, X, seed, out):
     """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
     returns the target's ``info`` entries (``closed_form.solve_one``'s contract)."""
-    if X.shape[0] != 4 or X.shape[1] != 4 or not is_pose(X, POSE_TOLERANCE, MAX_TARGET_COORDINATE_M):
-        raise ValueError("not a pose")
-    check_configuration(seed, 6)
+    check_target(X, seed)
     info = np.zeros(INFO)
     _solve(geometry, chain, limits, X, seed, out, info)
-    return (info[0], info[1], info[2], info[3], info[4], info[5], info[6], info[7])
+    return info_entries(info)
 
 
-@njit(_BATCH_SIGNATURE, cache=True)
+@njit(BATCH_SIGNATURE, cache=True)
 def solve_batch(geometry, chain, limits, X, seeds, out, info):
     """``solve_one`` for targets X (N, 4, 4) and seeds (N, 6), into out (N, capacity, SOLUTION_COLUMNS)
     and info (N, INFO)."""

@@ -11,7 +11,7 @@ and the most IK branches (distinct branch labels, or distinct solutions for arms
 branches) any one orientation has.
 
 IK: the compiled closed form (every branch, ``robot.ik_batch(..., method="analytic")``) where the arm
-has one and the target is a full pose; else damped least squares (``jacobian``) with NUMERIC_RESTARTS
+has one (a spherical wrist, or the UR family's three parallel axes) and the target is a full pose; else damped least squares (``jacobian``) with NUMERIC_RESTARTS
 seeded restarts (a generator per voxel and orientation, seeded with ``(seed, voxel, orientation)``),
 for a pose or, for arms of fewer than 6 joints and for cones, the tool axis alone
 (``position+axis``); a numeric answer is one branch of what may be several. Its time budget is set so
