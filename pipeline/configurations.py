@@ -76,7 +76,7 @@ def parse_configuration(value, family: str = SPHERICAL_WRIST, robot: str = "") -
 
 
 def _other_family(key: str, name: str, family: str) -> str:
-    """"; NAME is a KEY of FAMILY's" when another family uses the name ("" otherwise)."""
+    """" ('KEY NAME' names a branch of FAMILY)" when another family uses the name ("" otherwise)."""
     for other, keys in CONFIGURATIONS.items():
         if other != family and name in keys.get(key, ()):
             return f" ('{key} {name}' names a branch of {FAMILY_TITLES[other]})"

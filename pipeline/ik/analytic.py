@@ -87,16 +87,14 @@ def derive_solver(robot) -> AnalyticSolver:
     points = frames[:, :3, 3].copy()
     reason = _not_spherical(spec.name, axes, points)
     if not reason:
-        centre, _ = _closest_points(points[3], axes[3], points[4], axes[4])
-        return AnalyticSolver(True, "", axes, points, centre, X_BE0, closed_form.pack_geometry(axes, points, centre,
-                                                                                               X_BE0),
-                              SPHERICAL_WRIST, closed_form, LABELS)
-    if _not_three_parallel(axes, points):
+        family, kernels, labels, meeting = SPHERICAL_WRIST, closed_form, LABELS, 3      # axes 4 and 5 meet at c
+    elif _not_three_parallel(axes, points):
         return AnalyticSolver(False, reason)
-    centre, _ = _closest_points(points[4], axes[4], points[5], axes[5])
-    return AnalyticSolver(True, "", axes, points, centre, X_BE0, three_parallel.pack_geometry(axes, points, centre,
-                                                                                              X_BE0),
-                          THREE_PARALLEL, three_parallel, THREE_PARALLEL_LABELS)
+    else:
+        family, kernels, labels, meeting = THREE_PARALLEL, three_parallel, THREE_PARALLEL_LABELS, 4   # axes 5 and 6
+    centre, _ = _closest_points(points[meeting], axes[meeting], points[meeting + 1], axes[meeting + 1])
+    return AnalyticSolver(True, "", axes, points, centre, X_BE0, kernels.pack_geometry(axes, points, centre, X_BE0),
+                          family, kernels, labels)
 
 
 def _not_spherical(name: str, axes: np.ndarray, points: np.ndarray) -> str:

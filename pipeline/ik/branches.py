@@ -26,6 +26,7 @@ from ..configurations import FAMILY_TITLES, SPHERICAL_WRIST, matches
 from .analytic import analytic_solver_for, closest_limit_violation, configuration_labels_of, solve_branches
 from .result import IkResult, wrap_into_limits
 
+
 def configuration_family(robot) -> tuple[str, str]:
     """(the family whose configuration names a robot takes, its name) for ``parse_configuration``:
     the closed form's family, a spherical wrist's names for arms of neither (they have none, and

@@ -28,7 +28,8 @@ alone (rows N6 to WRIST: computed once per robot, not per target); ``limits`` (2
 q_max [rad]. The solvers write each target's solutions into ``out`` (capacity, SOLUTION_COLUMNS): q (6),
 position and rotation errors [m, rad], label code, number of 2 pi variants (inf: continuous joint);
 and its numbers into ``info`` (INFO,). Vectors and rotations are tuples inside the kernels: nothing is
-allocated per branch.
+allocated per branch. The UR family's solver (``three_parallel``) writes the same layouts through the
+per-branch helpers here (``_start``, ``_limit_values``, ``_write_variants``, ``finish``).
 """
 
 from __future__ import annotations
@@ -78,9 +79,9 @@ INFO = 8
 TWO_PI = 2.0 * math.pi
 
 SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})(float64[:, ::1], float64[:, ::1], float64[:, ::1], " \
-                   "float64[:, ::1], float64[::1], float64[:, ::1])"
+                  "float64[:, ::1], float64[::1], float64[:, ::1])"
 BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
-                   "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
+                  "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
 
 
 # -- 3-vectors and rotations (row-major 9-tuples) --------------------------------------------------------

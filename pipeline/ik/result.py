@@ -110,8 +110,10 @@ class Solutions(Sequence):
     @property
     def variants(self) -> list[float]:
         """How many in-limit 2 pi variants each solution stands for (the product over its joints; inf
-        with a continuous joint): a joint with a range over four turns gets only the variant nearest
-        the seed, and the others are counted here rather than listed. Empty when not counted."""
+        with a continuous joint): a joint with a range over four turns, or a branch with more than
+        ``closed_form.MAX_LISTED_VARIANTS`` variants (a UR arm's +-360 deg: 64), gets only the variant
+        nearest the seed, and the others are counted here rather than listed (``limit_variants``
+        enumerates them on demand). Empty when not counted."""
         return self._rows[:, self._dof + 3].tolist() if self._rows.shape[1] > self._dof + 3 else []
 
     def __len__(self) -> int:
