@@ -15,7 +15,8 @@ from pipeline.path import make_path
 from pipeline.profile import certify, jerk_reversal_rate
 from pipeline.robot import load_robot
 from pipeline.timing import retime
-from pipeline.timing.topp3_backend import A_ROUNDOFF, without_roundoff
+from pipeline.timing.topp3_backend import (A_ROUNDOFF, BREAKPOINT_GAP, MIN_STATIONS, MIN_STATIONS_PER_SEGMENT,
+                                           STATION_CLEARANCE, refined_stations, stations_for, without_roundoff)
 
 from .conftest import DATA_DIR
 
@@ -117,7 +118,6 @@ def a_long_move_then_waypoints_a_hair_apart(count: int) -> tuple:
     return robot, np.vstack([start, start + steps])
 
 
-@pytest.mark.slow
 def test_waypoints_a_hair_apart_after_a_long_move_are_refused_with_what_to_change():
     """Found by fuzzing: topp3 certified a profile whose qdd jumped 1.97x (and up to 14.3x) what
     qddd_max x dt allows between two samples while its qddd column stayed within the limit. Its columns
@@ -158,3 +158,66 @@ def test_the_solve_time_is_bounded_and_running_out_says_what_to_change(monkeypat
     with pytest.raises(TimingError, match=r"ran out of its 0\.001 s budget\. Its closest waypoints .* use fewer "
                                           r"waypoints"):
         retime(robot, random_waypoints(robot, 11), method="topp3")
+
+
+def test_one_solve_on_stations_where_the_motion_needs_them(monkeypatch):
+    """An ordinary 10-waypoint path takes one COPP3 solve on a few hundred stations (it took three on 541),
+    every breakpoint and schedule bound among them, at least MIN_STATIONS_PER_SEGMENT in every segment."""
+    import copp_py
+
+    solve, solves = copp_py.solver.copp3_socp.solve, []
+    monkeypatch.setattr(copp_py.solver.copp3_socp, "solve", lambda *args: solves.append(1) or solve(*args))
+    robot = load_robot("gp7")
+    path = make_path(random_waypoints(robot, 5, 10), robot.limits.q_min, robot.limits.q_max)
+    profile = retime(robot, path, method="topp3")
+    assert solves == [1] and MIN_STATIONS <= profile.details.stations <= 1.3 * MIN_STATIONS
+    fine = np.linspace(0.0, 1.0, 1001)
+    bound = 0.5 * (path.breakpoints[3] + path.breakpoints[4])
+    stations = stations_for(path, fine, fine**2, include=[bound])        # slow at the start: t ~ s^2 there
+    assert set(path.breakpoints) | {bound} <= set(stations)
+    per_segment = np.histogram(stations, bins=path.s_waypoints)[0]
+    assert per_segment.min() >= MIN_STATIONS_PER_SEGMENT
+    early, late = (np.count_nonzero((stations > lo) & (stations < lo + 0.1)) for lo in (0.0, 0.9))
+    assert late > early                                   # t ~ s^2: the time goes by late on the path
+
+
+def test_stations_of_a_c2_path_limit_both_sides_of_its_breakpoints():
+    """On a C2 spline d3q/ds3 jumps at the breakpoints: a station just before each, BREAKPOINT_GAP of the
+    interval that ends there, and no station of the spread much closer to a breakpoint than its spacing."""
+    robot = load_robot("gp7")
+    path = make_path(random_waypoints(robot, 6, 5), robot.limits.q_min, robot.limits.q_max, shape="spline")
+    fine = np.linspace(0.0, 1.0, 1001)
+    stations = stations_for(path, fine, fine)
+    for breakpoint in path.breakpoints[1:-1]:
+        k = int(np.searchsorted(stations, breakpoint))
+        assert stations[k] == breakpoint
+        before, interval = breakpoint - stations[k - 1], breakpoint - stations[k - 2]
+        assert before == pytest.approx(BREAKPOINT_GAP * interval)
+        assert stations[k + 1] - breakpoint >= STATION_CLEARANCE * (stations[k + 2] - stations[k + 1]) / 2
+
+
+def test_intervals_are_split_where_the_jerk_of_the_bends_leaves_a_straight_line(monkeypatch):
+    """``refined_stations``: on the fine points of every interval wider than two fine spacings the jerk the
+    path's bends make at the TOPP2 speed is within GEOMETRY_ERROR of a straight line between its ends."""
+    from pipeline.timing import topp3_backend as backend
+    from pipeline.timing.toppra_backend import ScaledPath, time_unit
+
+    monkeypatch.setattr(backend, "GEOMETRY_ROUNDS", 30)
+    robot = load_robot("lrmate200id")
+    path = make_path(random_waypoints(robot, 7, 6), robot.limits.q_min, robot.limits.q_max)
+    view = ScaledPath(path, path.length)
+    scaled = view.limits(robot.limits, time_unit(robot.limits, path.length))
+    fine = np.linspace(0.0, 1.0, backend.FINE_STATIONS)
+    fine_a = np.sin(np.pi * fine) ** 2                           # a speed that stops at both ends
+    coarse = np.linspace(0.0, 1.0, 41)
+    stations = refined_stations(view, scaled, coarse, fine, fine_a)
+    assert len(stations) > len(coarse) and set(coarse) <= set(stations)
+
+    def jerk(s):
+        return np.abs(view(s, 3)[:, :robot.dof]) * np.sin(np.pi * s)[:, None] ** 3 / scaled.qddd_max[:robot.dof]
+
+    k = np.clip(np.searchsorted(stations, fine, side="right") - 1, 0, len(stations) - 2)
+    u = ((fine - stations[k]) / np.diff(stations)[k])[:, None]
+    error = np.abs(jerk(fine) - (1 - u) * jerk(stations)[k] - u * jerk(stations)[k + 1]).max(axis=1)
+    wide = np.diff(stations)[k] > 2.0 / backend.FINE_STATIONS
+    assert error[wide].max() <= backend.GEOMETRY_ERROR

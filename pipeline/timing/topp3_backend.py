@@ -7,16 +7,22 @@ linearised into a second-order cone programme solved by Clarabel) finds the fast
 velocity, acceleration and jerk limits on a grid of stations: a TOPP2 (reachability analysis)
 profile first, then TOPP3 linearised around it, with a small penalty on the total variation of the
 joint accelerations (COPP3: without it the time-optimal jerk chatters between its limits at the
-station rate), then again around its own answer. The profile follows the geometric path exactly:
-every sample is q(s(t)) on the path.
+station rate). The profile follows the geometric path exactly: every sample is q(s(t)) on the path.
+
+The SOCP's cost grows with its stations, so they go where they matter (``stations_for``,
+``refined_stations``): a TOPP2 on FINE_STATIONS (copp's reachability analysis, about 1 ms) says where
+the motion spends its time; half the stations are spread evenly over that time, half evenly over the
+waypoint segments, and an interval is split where the jerk the path's bends make at that TOPP2 speed
+leaves a straight line between its ends. One COPP3 solve then does, on about a third of the stations (it
+was three, on 401-4001 even stations: 1.1-3.2 s for 10 waypoints, now 0.1-0.2 s).
 
 Between stations copp's profile has ``b = sdd`` linear in s and ``a = sd^2`` quadratic (``a' = 2 b``);
 near a stop ``s - s0`` grows like ``c t^3``. We evaluate exactly that parameterisation ourselves
-(so q, qd, qdd and qddd are consistent) and check it densely between stations; stations next to an
-interval whose jerk exceeds the limit get that much tighter a limit and the problem is solved again
-(TIGHTEN_ROUNDS); what is left is removed by slowing the whole trajectory uniformly by the smallest
-factor k that brings every sample within the limits (velocity / k, acceleration / k^2, jerk / k^3),
-and k is reported.
+(so q, qd, qdd and qddd are consistent) and check it densely between stations; where the jerk between
+stations exceeds the limit by more than TIGHTEN_EXCESS, the stations next to it get that much tighter a
+limit and the problem is solved again (TIGHTEN_ROUNDS); what is left is removed by slowing the whole
+trajectory uniformly by the smallest factor k that brings every sample within the limits (velocity / k,
+acceleration / k^2, jerk / k^3), and k is reported.
 """
 
 from __future__ import annotations
@@ -38,22 +44,43 @@ from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, 
                              torque_stretch, with_points)
 
 #: Stations per waypoint segment on average and at least, and the fewest and most stations of a path
-#: (the solve time grows about linearly with them: 0.3-2 s for a 10-waypoint path, ~15 s for 60
-#: waypoints, 2 cores). Paths of few segments get at least MIN_STATIONS: at 201 the 4-segment LR Mate
-#: demo needed three rounds of jerk tightening and its jerk reversed 7.2 times a second; at 401 none
-#: and 6.1, in a third of the time.
-STATIONS_PER_SEGMENT = 60
-MIN_STATIONS_PER_SEGMENT = 16
-MIN_STATIONS = 401
-MAX_STATIONS = 4001
+#: before ``refined_stations`` splits intervals (the solve time grows about linearly with them). On the
+#: benchmark's 10-waypoint paths MIN_STATIONS binds: 217-249 stations after splitting, durations 1.09-1.22x
+#: toppra's; 24 a segment gave the same durations in 1.1x the time.
+STATIONS_PER_SEGMENT = 20
+MIN_STATIONS_PER_SEGMENT = 8
+MIN_STATIONS = 201
+MAX_STATIONS = 1001
+#: Stations of the TOPP2 that places them, and the share of them spread evenly over its time (the rest
+#: evenly over the waypoint segments; 0.3 and 0.7: durations up to 1 % longer) [1].
+FINE_STATIONS = 1000
+TIME_SHARE = 0.5
+#: The share over time puts at most this many times its mean density of stations anywhere (near a stop,
+#: where the motion is slowest, it would put them ever closer together: the irb1600's tool path of 36
+#: IK samples failed numerically) [1].
+MAX_TIME_DENSITY = 8.0
+#: How far the jerk of the path's bends at the TOPP2 speed (over the jerk limit) may leave a straight line
+#: over a station interval before ``refined_stations`` splits it (without it the dense check found jerks
+#: 1.2-3x the limit between stations, near waypoints where a joint turns), and its rounds of splitting [1].
+GEOMETRY_ERROR = 0.1
+GEOMETRY_ROUNDS = 4
 #: Weight of the total variation of the joint accelerations (each over its limit, summed over the
 #: stations) against the duration, in units of the mean duration of a waypoint segment without a jerk
-#: limit: without it the time-optimal jerk flips between its limits at the station rate.
+#: limit: without it the time-optimal jerk flips between its limits at the station rate (on the benchmark
+#: paths: 0.05 let the jerk reverse up to 4.9 times a joint-second, 0.055 4.6, 0.06 4.2 at 2 % more time).
 SMOOTHING_SHARE = 0.05
+#: Clarabel's relative and absolute duality gap and its feasibility tolerance in copp's scaled units (its
+#: defaults 1e-8 took 10-60 % more iterations for durations within 5e-4) [1]; a = sd^2 is of order
+#: 1 there, so an a down to -SOLVER_FEASIBILITY is the round-off of a stop (0), and is set to 0; below it
+#: the solution is refused.
+SOLVER_GAP = 1e-6
+SOLVER_FEASIBILITY = 1e-6
+A_ROUNDOFF = SOLVER_FEASIBILITY
 #: Rounds of tightening the jerk limit at stations next to intervals whose jerk exceeds it by more
-#: than TIGHTEN_EXCESS between stations (each round one more solve) [1].
-TIGHTEN_ROUNDS = 3
-TIGHTEN_EXCESS = 2e-3
+#: than TIGHTEN_EXCESS between stations (each round one more solve; smaller excesses are left to the
+#: uniform slow-down) [1].
+TIGHTEN_ROUNDS = 1
+TIGHTEN_EXCESS = 0.1
 #: The wall-clock budget of copp's solves for one path [s]: a tightening round that would start after it is
 #: skipped (the uniform slow-down then meets the jerk limit), and a first solve that runs out of it is a
 #: TimingError that says what to change (a 30-waypoint path took 43-50 s before this bound).
@@ -61,12 +88,11 @@ SOLVE_BUDGET_S = 20.0
 #: The largest uniform slow-down of copp's solution the back end accepts [1]: beyond it the solution is
 #: not accurate enough between its stations (waypoints very close together), and the path is refused.
 MAX_STRETCH = 4.0
-#: copp's solutions meet their constraints to Clarabel's feasibility tolerance (1e-8) in copp's scaled
-#: units, where a = sd^2 is of order 1: an a down to -this is the round-off of a stop (0), and is set to 0;
-#: below it the solution is refused [1].
-A_ROUNDOFF = 1e-8
-#: The station just before a breakpoint, in units of the smallest station spacing [1].
-BREAKPOINT_GAP = 1e-3
+#: The station just before a breakpoint, in units of the station interval that ends there (1e-3 of the
+#: smallest interval of all left a tool move's jerk 5-35x its limit just before some breakpoints) [1].
+BREAKPOINT_GAP = 0.05
+#: A station of the spread gives way to a breakpoint or a schedule's bound closer than this share of its spacing [1].
+STATION_CLEARANCE = 0.5
 #: A station closer than this in s to a schedule's bound gives way to it (a bound 1e-17 from a breakpoint
 #: would make an interval of nothing) [1].
 MIN_STATION_GAP = 1e-10
@@ -100,22 +126,70 @@ class Topp3Details(TimingDetails):
     jerk_exact: bool = True
 
 
-def stations_for(path: JointPath, include=()) -> np.ndarray:
-    """The station grid in s: STATIONS_PER_SEGMENT per waypoint segment on average (within
-    [MIN_STATIONS, MAX_STATIONS] in all), spread over the segments by their length but at least
-    MIN_STATIONS_PER_SEGMENT in each (a short segment between two stops needs room to speed up and
-    slow down), evenly within each; every breakpoint of the path is a station and, where d3q/ds3 jumps
-    there (a C2 path), so is a point just before it: each side's value must be limited at a station; and
-    the points ``include`` (a schedule's bounds, where the limits change)."""
+def stations_for(path: JointPath, fine_s: np.ndarray, fine_t: np.ndarray, include=()) -> np.ndarray:
+    """The station grid in s: STATIONS_PER_SEGMENT per waypoint segment (within [MIN_STATIONS, MAX_STATIONS]
+    in all; a tool move's joint path through dense IK samples counts as one segment), spread TIME_SHARE evenly
+    over the time of a TOPP2 timing (``fine_t`` [s] at ``fine_s``: more stations where the motion is slow, near
+    a stop or a sharp bend, at most MAX_TIME_DENSITY times their mean density) and the rest evenly over the
+    waypoint segments (the path's pieces change over each segment's own length), with at least
+    MIN_STATIONS_PER_SEGMENT in each (a short segment between two stops needs room to speed up and slow down);
+    every breakpoint of the path is a station (``_clear_of``) and, where d3q/ds3 jumps there (a C2 path), so
+    is a point just before it: each side's value must be limited at a station; and the points ``include`` (a
+    schedule's bounds, where the limits change)."""
     knots = path.s_waypoints
     segments = len(knots) - 1
-    total = int(np.clip(STATIONS_PER_SEGMENT * segments, MIN_STATIONS, MAX_STATIONS))
-    counts = np.maximum(np.round(total * np.diff(knots)).astype(int), MIN_STATIONS_PER_SEGMENT)
-    stations = [np.linspace(start, end, count + 1)[:-1] for start, end, count in zip(knots[:-1], knots[1:], counts)]
-    spacing = float(np.min(np.diff(knots) / counts))
-    inner = path.breakpoints[1:-1]
-    before = inner - BREAKPOINT_GAP * spacing if path.continuity < 3 else inner[:0]
-    return with_points(np.concatenate([*stations, path.breakpoints, before, [1.0]]), include, MIN_STATION_GAP)
+    total = int(np.clip(STATIONS_PER_SEGMENT * (1 if path.shape == "samples" else segments), MIN_STATIONS,
+                        MAX_STATIONS))
+    by_segment = np.interp(fine_s, knots, np.linspace(0.0, 1.0, segments + 1))
+    rate = np.minimum(np.diff(fine_t) / np.diff(fine_s) / fine_t[-1], MAX_TIME_DENSITY) * np.diff(fine_s)
+    share = TIME_SHARE * np.concatenate([[0.0], np.cumsum(rate)]) / np.sum(rate) + (1.0 - TIME_SHARE) * by_segment
+    spread = np.interp(np.linspace(0.0, 1.0, total + 1), share, fine_s)
+    floor = [np.linspace(start, end, MIN_STATIONS_PER_SEGMENT + 1)[:-1] for start, end in zip(knots[:-1], knots[1:])
+             if np.count_nonzero((spread >= start) & (spread < end)) < MIN_STATIONS_PER_SEGMENT]
+    fixed = np.unique(np.concatenate([path.breakpoints, np.clip(include, 0.0, 1.0)]))
+    stations = np.union1d(_clear_of(np.unique(np.concatenate([spread, *floor])), fixed), fixed)
+    inner = path.breakpoints[1:-1] if path.continuity < 3 else path.breakpoints[:0]
+    before = inner - BREAKPOINT_GAP * (inner - stations[np.searchsorted(stations, inner) - 1])
+    return with_points(np.concatenate([stations, before]), include, MIN_STATION_GAP)
+
+
+def _clear_of(points: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """The sorted ``points`` (in s) without those closer to one of the sorted ``fixed`` points than
+    STATION_CLEARANCE x their own spacing (the smaller of the gaps to their neighbours): an interval much
+    shorter than its neighbours makes copp's jerk rows, a difference of sdd over the interval, ill-conditioned."""
+    gaps = np.diff(points)
+    spacing = np.minimum(np.append(gaps, np.inf), np.insert(gaps, 0, np.inf))
+    index = np.clip(np.searchsorted(fixed, points), 1, len(fixed) - 1)
+    nearest = np.minimum(np.abs(points - fixed[index - 1]), np.abs(points - fixed[index]))
+    return points[nearest >= STATION_CLEARANCE * spacing]
+
+
+def refined_stations(view: ScaledPath, scaled: Limits, s: np.ndarray, fine_s: np.ndarray,
+                     fine_a: np.ndarray) -> np.ndarray:
+    """The stations s with every interval split in two where the joint jerk that the path's bends alone make at
+    the TOPP2 speed (|d3q/ds3| sd^3 / qddd_max, sd^2 = ``fine_a`` (n,) at ``fine_s`` (n,), in ``view``'s and
+    ``scaled``'s units) is more than GEOMETRY_ERROR off a straight line between its ends on the fine points
+    inside, up to GEOMETRY_ROUNDS times: copp limits the jerk at its stations only, and in between it follows
+    the path's shape. Intervals of at most two fine spacings are left alone (the one just before a breakpoint
+    of a C2 path would see the jump of d3q/ds3 there as an error)."""
+    joints = slice(0, view.path.dof)
+
+    def jerk_of_bends(points: np.ndarray) -> np.ndarray:
+        speed = np.sqrt(np.maximum(np.interp(points, fine_s, fine_a), 0.0))
+        return np.abs(view(points, 3)[:, joints]) * speed[:, None] ** 3 / scaled.qddd_max[joints]
+
+    fine_jerk = jerk_of_bends(fine_s)
+    for _ in range(GEOMETRY_ROUNDS):
+        station_jerk = jerk_of_bends(s)
+        k = np.clip(np.searchsorted(s, fine_s, side="right") - 1, 0, len(s) - 2)
+        u = ((fine_s - s[k]) / (s[k + 1] - s[k]))[:, None]
+        error = np.abs(fine_jerk - (1.0 - u) * station_jerk[k] - u * station_jerk[k + 1]).max(axis=1)
+        wide = np.diff(s)[k] > 2.0 / FINE_STATIONS
+        over = np.unique(k[(fine_s > s[k]) & (fine_s < s[k + 1]) & wide & (error > GEOMETRY_ERROR)])
+        if over.size == 0:
+            break
+        s = np.union1d(s, (s[over] + s[over + 1]) / 2.0)
+    return s
 
 
 @dataclass(frozen=True, eq=False)
@@ -259,16 +333,51 @@ def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: PathLimi
     return slowed
 
 
+def _copp_robot(copp, view: ScaledPath, scaled: Limits, s: np.ndarray, limits: PathLimits, unit: float,
+                torques=None, full: bool = True):
+    """A copp Robot of ``view`` on stations s with the joint speed limits x the schedule's factor at each and
+    the acceleration limits (``scaled``: in the solver's units); with ``full`` also the jerk limits, the torque
+    limits when ``torques`` (``scaled_inverse_dynamics``) is given, and the TCP's rows where limited."""
+    n = len(s)
+    robot = copp.Robot(view.dof, capacity=n, inverse_dynamics=torques if full else None)
+    robot.append_s(s)
+    robot.set_q(view(s), view(s, 1), view(s, 2), 0, dddq=view(s, 3))
+    qd_max = scaled.qd_max * np.append(limits.at(s)[0][:, None] * np.ones(view.path.dof), np.ones((n, 1)), axis=1)
+    robot.add_velocity_limits(qd_max, -qd_max, start_idx_s=0, length=n)
+    robot.add_acceleration_limits(scaled.qdd_max, -scaled.qdd_max, start_idx_s=0, length=n)
+    if not full:
+        return robot
+    robot.add_jerk_limits(scaled.qddd_max, -scaled.qddd_max, start_idx_s=0, length=n)
+    if torques is not None:
+        tau_max = np.append(limits.limits.tau_max, 1.0)
+        robot.add_torque_limits(tau_max, -tau_max, start_idx_s=0, length=n)
+    if limits.limits_tcp:
+        from .tcp_constraint import add_copp_rows
+
+        add_copp_rows(robot.constraints, limits.tcp, view.path, limits, unit, s)
+    return robot
+
+
+def _topp2(copp, robot, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """copp's TOPP2 (reachability analysis) on ``robot``'s stations s: (a = sd^2, station times) in its units."""
+    a = copp.solver.topp2_ra.solve(copp.solver.topp2_ra.Problem(robot.constraints, idx_s_interval=(0, len(s) - 1),
+                                                                a_boundary=(0.0, 0.0)), copp.solver.topp2_ra.Options())
+    _, t = copp.interpolation.s_to_t_topp2(s, a, 0.0)
+    return a, np.asarray(t)
+
+
 def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> tuple[PathTiming, float]:
-    """copp's TOPP2, then TOPP3 with a small total-variation penalty on the joint accelerations (COPP3,
-    an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times) around its own answer with the
-    jerk limit of every station next to an interval whose jerk exceeds it between stations tightened
-    by that excess, on ``stations_for(path)`` with the schedule's bounds. ``limits`` (a PathLimits): the joint
-    speed limits x the schedule's factor at each station; torques are limited too when ``tau_max`` and
-    ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's speed and acceleration
-    where they are limited (``tcp_constraint.add_copp_rows``). copp sees the path in units of its
+    """copp's TOPP2 on FINE_STATIONS (where the motion spends its time: ``stations_for``, ``refined_stations``),
+    then on the stations, then TOPP3 with a small total-variation penalty on the joint accelerations (COPP3,
+    an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times, when the jerk between stations exceeds its
+    limit by more than TIGHTEN_EXCESS) around its own answer with the jerk limit of every station next to such
+    an interval tightened by that excess, with the schedule's bounds among the stations. ``limits`` (a
+    PathLimits): the joint speed limits x the schedule's factor at each station; torques are limited too when
+    ``tau_max`` and ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's speed and
+    acceleration where they are limited (``tcp_constraint.add_copp_rows``). copp sees the path in units of its
     length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
-    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The solves share SOLVE_BUDGET_S.
+    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The TOPP2 on FINE_STATIONS has the
+    joint speed and acceleration limits only (it places the stations). The solves share SOLVE_BUDGET_S.
     Returns (timing, TOPP2 duration [s]); TimingError saying what to change when copp fails."""
     import copp_py as copp
 
@@ -276,47 +385,36 @@ def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> t
     unit = time_unit(limits.limits, distance)
     view = ScaledPath(path, distance)
     scaled = view.limits(limits.limits, unit)
-    s = stations_for(path, () if limits.schedule is None else limits.schedule.bounds)
-    n = len(s)
-    robot = copp.Robot(view.dof, capacity=n, inverse_dynamics=None if inverse_dynamics is None else
-                       scaled_inverse_dynamics(inverse_dynamics, view, unit))
-    robot.append_s(s)
-    robot.set_q(view(s), view(s, 1), view(s, 2), 0, dddq=view(s, 3))
-    qd_max = scaled.qd_max * np.append(limits.at(s)[0][:, None] * np.ones(path.dof), np.ones((n, 1)), axis=1)
-    robot.add_velocity_limits(qd_max, -qd_max, start_idx_s=0, length=n)
-    robot.add_acceleration_limits(scaled.qdd_max, -scaled.qdd_max, start_idx_s=0, length=n)
-    robot.add_jerk_limits(scaled.qddd_max, -scaled.qddd_max, start_idx_s=0, length=n)
-    if inverse_dynamics is not None:
-        tau_max = np.append(limits.limits.tau_max, 1.0)
-        robot.add_torque_limits(tau_max, -tau_max, start_idx_s=0, length=n)
-    if limits.limits_tcp:
-        from .tcp_constraint import add_copp_rows
-
-        add_copp_rows(robot.constraints, limits.tcp, path, limits, unit, s)
-
-    def real(profile) -> PathTiming:
-        timing = _profile_timing(copp, s, profile)
-        return PathTiming(s, timing.a * unit**2, timing.b * unit**2, timing.t / unit, timing.stationary)
-
-    constraints = robot.constraints
+    bounds = () if limits.schedule is None else limits.schedule.bounds
+    torques = None if inverse_dynamics is None else scaled_inverse_dynamics(inverse_dynamics, view, unit)
+    fine = with_points(np.concatenate([np.linspace(0.0, 1.0, FINE_STATIONS), path.breakpoints]), bounds,
+                       MIN_STATION_GAP)
+    s = fine
     started = time.perf_counter()
-
-    def solved(a_linearization, b_linearization=None):
-        """One COPP3 solve within what is left of SOLVE_BUDGET_S (a_linearization without round-off)."""
-        left = SOLVE_BUDGET_S - (time.perf_counter() - started)
-        options = copp.solver.copp3_socp.Options(
-            allow_almost_solved=True, allow_insufficient_progress=True,
-            clarabel_settings=copp.clarabel.ClarabelSettings(time_limit=max(left, 1e-3)))
-        return copp.solver.copp3_socp.solve(copp.solver.copp3_socp.Problem(
-            robot, objectives, without_roundoff(a_linearization), b_linearization=b_linearization), options)
-
     try:
-        a2 = copp.solver.topp2_ra.solve(copp.solver.topp2_ra.Problem(constraints, idx_s_interval=(0, n - 1),
-                                                                     a_boundary=(0.0, 0.0)),
-                                        copp.solver.topp2_ra.Options())
-        topp2_s, _ = copp.interpolation.s_to_t_topp2(s, a2, 0.0)
+        fine_a, fine_t = _topp2(copp, _copp_robot(copp, view, scaled, fine, limits, unit, full=False), fine)
+        s = refined_stations(view, scaled, stations_for(path, fine, fine_t, bounds), fine, fine_a)
+        n = len(s)
+        robot = _copp_robot(copp, view, scaled, s, limits, unit, torques)
+        constraints = robot.constraints
+
+        def real(profile) -> PathTiming:
+            timing = _profile_timing(copp, s, profile)
+            return PathTiming(s, timing.a * unit**2, timing.b * unit**2, timing.t / unit, timing.stationary)
+
+        def solved(a_linearization, b_linearization=None):
+            """One COPP3 solve within what is left of SOLVE_BUDGET_S (a_linearization without round-off)."""
+            left = SOLVE_BUDGET_S - (time.perf_counter() - started)
+            settings = copp.clarabel.ClarabelSettings(time_limit=max(left, 1e-3), tol_gap_rel=SOLVER_GAP,
+                                                      tol_gap_abs=SOLVER_GAP, tol_feas=SOLVER_FEASIBILITY)
+            options = copp.solver.copp3_socp.Options(allow_almost_solved=True, allow_insufficient_progress=True,
+                                                     clarabel_settings=settings)
+            return copp.solver.copp3_socp.solve(copp.solver.copp3_socp.Problem(
+                robot, objectives, without_roundoff(a_linearization), b_linearization=b_linearization), options)
+
+        a2, t2 = _topp2(copp, robot, s)
         constraints.amax_substitute(a2, 0)
-        weight = SMOOTHING_SHARE * topp2_s / (len(path.waypoints) - 1)
+        weight = SMOOTHING_SHARE * t2[-1] / (len(path.waypoints) - 1)
         objectives = [copp.objective.Time(1.0),
                       copp.objective.TotalVariationTorque(weight, np.append(1.0 / scaled.qdd_max[:-1], 0.0))]
         profile = solved(a2)
@@ -332,12 +430,12 @@ def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> t
                 profile = solved(profile.a, profile.b)
             except copp.CoppError:
                 break                                # keep the last solution: the slow-down meets the jerk limit
-        return real(profile), float(topp2_s) / unit
+        return real(profile), float(t2[-1]) / unit
     except copp.CoppError as exc:
         spent = time.perf_counter() - started
         why = (f"its solver ran out of its {SOLVE_BUDGET_S:g} s budget" if spent >= SOLVE_BUDGET_S
                else "its solver failed numerically")
-        raise TimingError(refusal(path, n, why, str(exc))) from exc
+        raise TimingError(refusal(path, len(s), why, str(exc))) from exc
 
 
 def refusal(path: JointPath, stations: int, why: str, solver_message: str = "") -> str:
