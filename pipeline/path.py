@@ -68,7 +68,7 @@ class JointPath:
     ``waypoints`` (K, dof) after merging duplicates, ``s_waypoints`` (K,) their path parameters,
     ``breakpoints``: every s where a derivative of the path may jump (knots, blend ends), ``shape``,
     ``length`` the joint-space chord length [rad or m], ``continuity``: the highest continuous
-    derivative (3: monotone, 2: spline, 1: linear); d3q/ds3 exists from C2 on (between breakpoints).
+    derivative across breakpoints (3: monotone, 2: spline, 1: linear); between them every path is a polynomial.
     """
 
     waypoints: np.ndarray
@@ -84,9 +84,9 @@ class JointPath:
         return self.waypoints.shape[1]
 
     def __call__(self, s, order: int = 0) -> np.ndarray:
-        """q (order 0), dq/ds (1), d2q/ds2 (2) or, on a C2 path, d3q/ds3 (3) at s (scalar or (n,))
-        -> (dof,) or (n, dof)."""
-        if order not in ((0, 1, 2, 3) if self.continuity >= 2 else (0, 1, 2)):
+        """q (order 0), dq/ds (1), d2q/ds2 (2) or d3q/ds3 (3: between breakpoints, where every path is a
+        polynomial; continuous across them from C3 on) at s (scalar or (n,)) -> (dof,) or (n, dof)."""
+        if order not in (0, 1, 2, 3):
             raise PathError(f"the {self.shape} path has no derivative of order {order}")
         return self._pieces(np.clip(s, 0.0, 1.0), order)
 
@@ -260,7 +260,7 @@ def _blend_pieces(s_knots: np.ndarray, waypoints: np.ndarray, blend: float):
                 out[inside] = waypoints[i] - m_in * b + m_in * uu + turn * uu**2 / 2.0
             elif order == 1:
                 out[inside] = m_in + turn * uu
-            else:
+            elif order == 2:
                 out[inside] = turn
         return out[0] if s.ndim == 0 else out
 

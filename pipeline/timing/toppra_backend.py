@@ -1,25 +1,28 @@
-"""Time-optimal path timing with toppra, certified on dense samples.
+"""Time-optimal path timing (TOPP-RA, the algorithm of toppra), certified between its grid points.
 
-toppra (TOPP-RA) returns path velocities ``sd_i`` at grid points ``s_i`` with a constant path
-acceleration ``u_i`` on each interval, and checks the limits only at the grid points: between them
-the joint acceleration ``q'(s) u + q''(s) sd^2`` drifts past the limit (measured: up to 1.7 % at 100
-grid points). We take its grid solution and evaluate that constant-acceleration parameterisation
-ourselves, exactly and vectorised (``s = s_i + sd_i tau + u_i tau^2 / 2``), sample every interval
-densely, and where a grid interval exceeds a limit we split it and solve again (toppra then
-constrains the new grid points), up to REFINE_ROUNDS times; whatever excess is left is removed by
-slowing the whole trajectory uniformly by the smallest factor k that brings every sample back
-(velocity / k, acceleration / k^2), and k is reported. If toppra fails, the grid is refined and the
-solve retried, and that is reported too. The path and the limits are normalised
-before toppra sees them in units of the path's length and the move's natural time (``ScaledPath``,
-``time_unit``: a speed scale of 0.001 or a 1e-8 rad move would otherwise leave it with vanishing
-limits), and the result is scaled back exactly.
+On a grid s_0 < ... < s_N the path velocity sd_i at each grid point and a constant path acceleration
+u_i on each interval are found by TOPP-RA's two passes (``reachability``: compiled, about 40x faster
+than toppra's own stepping in Python on the same grid and constraints, and the same answer). The joint
+speeds bound sd^2 at every grid point; the joint accelerations ``q'(s) u + q''(s) sd^2`` (and the torques,
+the TCP's acceleration) are limited at both ends of every interval, with the interval's own u, so between
+grid points they stray only by the path's curvature within the interval. The grid is denser where the
+path bends (``bending_points``), where that curvature is large and where, on a uniform grid, toppra's
+solution strays most and is slowest. We evaluate the constant-acceleration parameterisation exactly
+(``s = s_i + sd_i tau + u_i tau^2 / 2``) and check it between grid points (``DenseCheck``: values and
+time derivatives at three samples per interval and the cubic through them, which finds a smooth bulge
+rather than sampling it); an interval that exceeds a limit by more than REFINE_EXCESS is split and the
+grid solved again (up to REFINE_ROUNDS times); whatever excess is left is removed by slowing the whole
+trajectory uniformly by the smallest factor k that brings every sample back (velocity / k,
+acceleration / k^2), and k is reported. If no grid timing exists, the grid is refined and the solve
+retried, and that is reported too. The path and the limits are normalised before the solver sees them
+in units of the path's length and the move's natural time (``ScaledPath``, ``time_unit``: a speed scale
+of 0.001 or a 1e-8 rad move would otherwise leave it with vanishing limits), and the result is scaled
+back exactly.
 
 Limits that change along the path (a ``LimitSchedule`` over s: joint speed factors, TCP speed and
 acceleration per interval) constrain each grid point with that point's limits, the schedule's bounds are
 grid points (so the time at each is exact), and the dense and output checks judge each sample by the
-limits at its s (``tcp.PathLimits``). The TCP's acceleration is limited at both ends of every grid
-interval (``tcp_constraint.TcpConstraint``), so that local refinement, not the uniform slow-down, removes
-what the dense check finds.
+limits at its s (``tcp.PathLimits``; ``tcp_constraint``).
 """
 
 from __future__ import annotations
@@ -37,11 +40,13 @@ from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 from ..schedule import LimitSchedule
 from ..tcp import PathLimits
+from .hermite import hermite_peaks
 from .reachability import canonical_rows, solve_rows
 
-#: Grid points of the first solve (duration within 0.5 % of the 10,000-point optimum on the
-#: benchmark paths, see ``python -m pipeline bench timing``), and of the retries.
-GRIDPOINTS = 1000
+#: Grid points of the first solve where the path is straight (more where it bends: on the benchmark paths
+#: 2,100-3,300 in all, the duration within 0.15 % of toppra's 10,000-point optimum; see
+#: ``python -m pipeline bench timing``), and of the retries.
+GRIDPOINTS = 600
 RETRY_GRIDPOINTS = (3000, 6000)
 #: Grid points for the joint path of a tool move (through dense IK samples, shape ``samples``): on
 #: 0.5 m lines of the GP7 the duration is within 1e-6 of the 2000-point solve's, at a quarter of the time.
@@ -49,28 +54,25 @@ SAMPLE_PATH_GRIDPOINTS = 500
 #: Grid density floors: uniform points per waypoint segment, and points per smooth piece of the path.
 POINTS_PER_SEGMENT = 60
 POINTS_PER_PIECE = 8
-#: Grid points per bending length of the path, and the most points per unit of s, in multiples of the grid's
-#: count (at a stop, where dq/ds vanishes, the bending length does too).
-BEND_DENSITY = 80.0
-MAX_DENSITY = 16.0
-#: Grid points closer than this in s are one point [1]: toppra meets its constraints to its solver's
-#: tolerance, and on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is
+#: Grid points per bending length of the path (``bending_points``), and the most points per unit of s, in
+#: multiples of the grid's count (at a stop, where dq/ds vanishes, the bending length does too).
+BEND_DENSITY = 60.0
+MAX_DENSITY = 8.0
+#: Grid points closer than this in s are one point [1]: the solver meets its constraints to round-off, and on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is
 #: noise (a schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its
 #: limit there, and the piece was slowed 40,000 times).
 MIN_GRID_GAP = 1e-7
 #: Caps of the path speed ds/dt, acceleration and jerk in the solvers' units (``ScaledPath``,
 #: ``time_unit``: there they are about 1 on ordinary paths): they bind only where every joint nearly
-#: stands still, and cost no measurable time there (larger caps leave toppra's LP ill-conditioned).
+#: stands still, and cost no measurable time there (larger caps leave the solvers ill-conditioned).
 PATH_SPEED_CAP = 1e2
 PATH_ACCELERATION_CAP = 1e4
 PATH_JERK_CAP = 1e6
-#: Where the dense check samples each grid interval, in fractions of its duration: the solver meets the
-#: limits at both ends of every interval (``solve_grid_timing``; the output samples are judged again), and
-#: between them what strays is a smooth bulge of the path's curvature (on the benchmark paths the largest
-#: missed by these three samples, against 64 per interval, is below 1e-9 of a limit). The TCP's limits (a
-#: Jacobian per sample) are checked on the middle sample (its speed and acceleration vary slowly along an
+#: Where the dense check samples each grid interval, in fractions of its duration (the end a hair inside, so
+#: that a jump of d2q/ds2 at a breakpoint is seen from both sides; ``DenseCheck``); the TCP's limits (a
+#: Jacobian per sample) are checked on the middle samples (its speed and acceleration vary slowly along an
 #: interval; the output samples are all checked).
-CHECK_FRACTIONS = np.array([0.25, 0.5, 0.75])
+CHECK_FRACTIONS = np.array([0.0, 0.5, 1.0 - 1e-9])
 TCP_ROWS = slice(1, None, len(CHECK_FRACTIONS))
 #: Slow down by this much more than the measured excess, so the check passes with room [1]; for the
 #: output samples, rounds of checking them (a slow-down moves them) and their margin (certify allows 1e-6).
@@ -81,7 +83,7 @@ OUTPUT_MARGIN = 1e-7
 #: REFINE_EXCESS (smaller excesses are left to the uniform slow-down), the pieces each is split into,
 #: and the largest grid refining may make, in multiples of the first grid.
 REFINE_ROUNDS = 3
-REFINE_EXCESS = 1e-4
+REFINE_EXCESS = 3e-4
 REFINE_SPLIT = 4
 REFINE_GROWTH = 4
 
@@ -142,12 +144,15 @@ def grid_for(path: JointPath, count: int, include=()) -> np.ndarray:
 
 def bending_points(path: JointPath, count: int) -> np.ndarray:
     """Points in s from 0 to 1, ``count`` per unit of s where the path is straight and BEND_DENSITY per
-    unit of its bending length max|dq/ds| / max|d2q/ds2| where that is closer (up to MAX_DENSITY x
-    ``count``): the limits are met at the grid points, and between them the joint velocities and
-    accelerations stray by about (ds / bending length)^2 / 8 (see ``solve_grid_timing``)."""
+    bending length where that is closer (up to MAX_DENSITY x ``count``): the length over which the path's
+    direction or its curvature changes, the shorter of max|dq/ds| / max|d2q/ds2| and
+    sqrt(max|dq/ds| / max|d3q/ds3|). The limits are met at both ends of every interval; between them the
+    joint accelerations stray by about (ds / bending length)^2 / 8, and the discretised timing is slower
+    than the optimum by about ds times the change of the path acceleration."""
     s = np.linspace(0.0, 1.0, count + 1)
-    d1, d2 = np.abs(path(s, 1)).max(axis=1), np.abs(path(s, 2)).max(axis=1)
-    density = np.clip(BEND_DENSITY * d2 / np.maximum(d1, 1e-300), count, MAX_DENSITY * count)
+    d1 = np.maximum(np.abs(path(s, 1)).max(axis=1), 1e-300)
+    bending = np.maximum(np.abs(path(s, 2)).max(axis=1) / d1, np.sqrt(np.abs(path(s, 3)).max(axis=1) / d1))
+    density = np.clip(BEND_DENSITY * bending, count, MAX_DENSITY * count)
     cumulative = np.concatenate([[0.0], np.cumsum((density[:-1] + density[1:]) / 2.0 * np.diff(s))])
     return np.interp(np.linspace(0.0, cumulative[-1], int(np.ceil(cumulative[-1])) + 1), cumulative, s)
 
@@ -246,8 +251,9 @@ class GridTiming:
     def duration(self) -> float:
         return float(self.t[-1])
 
-    def at(self, path: JointPath, t: np.ndarray, stretch: float = 1.0):
-        """s, q, qd, qdd at times t [s] of the trajectory slowed by ``stretch`` (time x stretch)."""
+    def at(self, path: JointPath, t: np.ndarray, stretch: float = 1.0, jerk: bool = False, position: bool = True):
+        """s, q (None without ``position``), qd, qdd (and with ``jerk`` qddd, inside each interval
+        d3q/ds3 sd^3 + 3 d2q/ds2 sd u) at times t [s] of the trajectory slowed by ``stretch`` (time x stretch)."""
         tau_total = np.clip(t / stretch, 0.0, self.duration)
         i = np.clip(np.searchsorted(self.t, tau_total, side="right") - 1, 0, len(self.u) - 1)
         tau = tau_total - self.t[i]
@@ -258,7 +264,10 @@ class GridTiming:
         d1, d2 = path(s, 1), path(s, 2)
         qd = d1 * sd[:, None] / stretch
         qdd = (d1 * u[:, None] + d2 * (sd**2)[:, None]) / stretch**2
-        return s, path(s), qd, qdd
+        q = path(s) if position else None
+        if not jerk:
+            return s, q, qd, qdd
+        return s, q, qd, qdd, (path(s, 3) * (sd**3)[:, None] + 3.0 * d2 * (sd * u)[:, None]) / stretch**3
 
     def times_of(self, points: np.ndarray) -> np.ndarray:
         """The times [s] at which the timing passes ``points`` (m,), grid points of its s (a schedule's
@@ -328,20 +337,36 @@ def time_unit(limits: Limits, distance: float) -> float:
 
 @dataclass(frozen=True, eq=False)
 class DenseCheck:
-    """A timing's samples at CHECK_FRACTIONS of every grid interval (``samples``: s, q,
-    qd, qdd at them) and each interval's largest speed and acceleration ratios (``interval_ratios`` (N,)
-    [1], the larger of the two) and their peaks (``peaks``: speed, acceleration [1])."""
+    """How far a timing strays from the limits inside its grid intervals: samples at the start, middle and
+    end of every interval (``samples``: s, q or None, qd, qdd at them), and between them, for each joint, the
+    largest |speed| and |acceleration| ratio of the cubic in time through the ratios and their time
+    derivatives (acceleration and jerk) at the samples (``hermite.hermite_peaks``: exact for a cubic, so a
+    smooth bulge between samples is found, not sampled); the TCP's ratios at the middle samples. Per interval the
+    largest ratio (``interval_ratios`` (N,) [1]) and over all the peaks (``peaks``: speed, acceleration [1])."""
 
     samples: tuple
     interval_ratios: np.ndarray
     peaks: tuple[float, float]
 
     @classmethod
-    def of(cls, timing: GridTiming, path: JointPath, limits: PathLimits) -> "DenseCheck":
-        samples = timing.at(path, timing.times_inside(CHECK_FRACTIONS))
-        speed, accel = limits.sample_ratios(*samples, tcp_rows=TCP_ROWS)
-        per_interval = np.maximum(speed, accel).reshape(len(timing.u), len(CHECK_FRACTIONS))
-        return cls(samples, per_interval.max(axis=1), (float(speed.max()), float(accel.max())))
+    def of(cls, timing: GridTiming, path: JointPath, limits: PathLimits, positions: bool) -> "DenseCheck":
+        """The check of ``timing``; the samples' q only with ``positions`` (the TCP's limits need them)."""
+        n, k = len(timing.u), len(CHECK_FRACTIONS)
+        *samples, qddd = timing.at(path, timing.times_inside(CHECK_FRACTIONS), jerk=True,
+                                   position=positions or limits.limits_tcp)
+        s, q, qd, qdd = samples
+        speed_limit = limits.limits.qd_max * limits.at(s)[0][:, None]
+        step = np.diff(timing.t)[:, None] * np.diff(CHECK_FRACTIONS)                      # (N, k - 1) [s]
+
+        def peaks(values, slopes):
+            return hermite_peaks(values.reshape(n, k, -1), slopes.reshape(n, k, -1), step, np.empty(n))
+
+        speed = peaks(qd / speed_limit, qdd / speed_limit)
+        accel = peaks(qdd / limits.limits.qdd_max, qddd / limits.limits.qdd_max)
+        if limits.limits_tcp:
+            tcp_speed, tcp_accel = limits.sample_ratios(*samples, tcp_rows=TCP_ROWS)
+            speed, accel = np.maximum(speed, tcp_speed[TCP_ROWS]), np.maximum(accel, tcp_accel[TCP_ROWS])
+        return cls(tuple(samples), np.maximum(speed, accel), (float(speed.max()), float(accel.max())))
 
     def refined(self, timing: GridTiming) -> np.ndarray | None:
         """``timing``'s grid with every interval that exceeds a limit by more than REFINE_EXCESS split in
@@ -381,14 +406,14 @@ def _solve_refined(path: JointPath, limits: PathLimits, gridpoints: int, inverse
                           f"(path through {len(path.waypoints)} waypoints)")
     timing = real(timing)
     largest = REFINE_GROWTH * len(timing.s)
-    check = DenseCheck.of(timing, path, limits)
+    check = DenseCheck.of(timing, path, limits, positions=inverse_dynamics is not None)
     for _ in range(REFINE_ROUNDS if inverse_dynamics is None else 0):
         grid = check.refined(timing)
         refined = None if grid is None or len(grid) > largest else solve_grid_timing(view, scaled, grid, extra=extra)
         if refined is None:
             break
         timing = real(refined)
-        check = DenseCheck.of(timing, path, limits)
+        check = DenseCheck.of(timing, path, limits, positions=inverse_dynamics is not None)
     return timing, tuple(attempts[: attempts.index(used)]), check
 
 
