@@ -141,7 +141,7 @@ def test_the_golden_comparison_reports_a_joint_speed_limit_one_percent_lower(tmp
 def test_the_golden_comparison_reports_a_coarser_toppra_grid(tmp_path, monkeypatch):
     import pipeline.timing.toppra_backend
 
-    monkeypatch.setattr(pipeline.timing.toppra_backend, "GRIDPOINTS", 1000)
+    monkeypatch.setattr(pipeline.timing.toppra_backend, "GRIDPOINTS", 500)
     assert any(m.startswith("qd ") for m in _arm5_spline_mismatches(tmp_path))
 
 

@@ -44,9 +44,9 @@ from .hermite import hermite_peaks
 from .reachability import canonical_rows, solve_rows
 
 #: Grid points of the first solve where the path is straight (more where it bends: on the benchmark paths
-#: 2,100-3,300 in all, the duration within 0.15 % of toppra's 10,000-point optimum; see
+#: 2,300-3,600 in all, the duration within 0.14 % of toppra's 10,000-point optimum; see
 #: ``python -m pipeline bench timing``), and of the retries.
-GRIDPOINTS = 600
+GRIDPOINTS = 1000
 RETRY_GRIDPOINTS = (3000, 6000)
 #: Grid points for the joint path of a tool move (through dense IK samples, shape ``samples``): on
 #: 0.5 m lines of the GP7 the duration is within 1e-6 of the 2000-point solve's, at a quarter of the time.
@@ -57,7 +57,7 @@ POINTS_PER_PIECE = 8
 #: Grid points per bending length of the path (``bending_points``), and the most points per unit of s, in
 #: multiples of the grid's count (at a stop, where dq/ds vanishes, the bending length does too).
 BEND_DENSITY = 60.0
-MAX_DENSITY = 8.0
+MAX_DENSITY = 5.0
 #: Grid points closer than this in s are one point [1]: the solver meets its constraints to round-off, and on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is
 #: noise (a schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its
 #: limit there, and the piece was slowed 40,000 times).
