@@ -53,6 +53,7 @@ bench: $(STAMP)
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench plan
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cycle
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench scale
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench job
 
 clean:
 	rm -rf $(VENV) $(OUT)

@@ -58,9 +58,10 @@ POINTS_PER_PIECE = 8
 #: multiples of the grid's count (at a stop, where dq/ds vanishes, the bending length does too).
 BEND_DENSITY = 60.0
 MAX_DENSITY = 5.0
-#: Grid points closer than this in s are one point [1]: the solver meets its constraints to round-off, and on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is
-#: noise (a schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its
-#: limit there, and the piece was slowed 40,000 times).
+#: Grid points closer than this in s are one point [1]: the solver meets its constraints to round-off, and
+#: on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is noise (a
+#: schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its limit
+#: there, and the piece was slowed 40,000 times).
 MIN_GRID_GAP = 1e-7
 #: Caps of the path speed ds/dt, acceleration and jerk in the solvers' units (``ScaledPath``,
 #: ``time_unit``: there they are about 1 on ordinary paths): they bind only where every joint nearly
@@ -318,7 +319,8 @@ def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None, extr
                 stacked.append(row)
         if xbound is not None:
             x_lo, x_hi = np.maximum(x_lo, xbound[:, 0]), np.minimum(x_hi, xbound[:, 1])
-    x, _ = solve_rows(s, *(rows[0] if len(rows) == 1 else np.hstack(rows) for rows in (alpha, beta, gamma)), x_lo, x_hi)
+    x, _ = solve_rows(s, *(parts[0] if len(parts) == 1 else np.hstack(parts) for parts in (alpha, beta, gamma)),
+                      x_lo, x_hi)
     if x is None:
         return None
     return GridTiming.from_grid(s, np.sqrt(np.maximum(x, 0.0)))
