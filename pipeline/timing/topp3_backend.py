@@ -318,19 +318,19 @@ def interval_jerk_ratios(timing: PathTiming, path: JointPath, limits: Limits) ->
 
 
 def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: PathLimits, torques,
-            stretch: float) -> float:
+            stretch: float) -> tuple[float, tuple]:
     """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
     slowed by ``stretch`` within ``limits`` (joint speeds x the schedule's factor, accelerations, jerks, and
     the TCP's speed and acceleration where limited: copp limits them at its stations, between them this
-    slow-down does), torques included when ``torques`` is given."""
+    slow-down does), torques included when ``torques`` is given; and that motion, (q, qd, qdd, qddd) (n, dof)."""
     state = timing.at(t, stretch)
-    q, qd, qdd, qddd = joint_motion(path, *state)
-    speed, accel = limits.peaks(state[0], q, qd, qdd)
-    slowed = stretch_for((speed, accel, float((np.abs(qddd) / limits.limits.qddd_max).max())), stretch,
+    motion = joint_motion(path, *state)
+    speed, accel = limits.peaks(state[0], *motion[:3])
+    slowed = stretch_for((speed, accel, float((np.abs(motion[3]) / limits.limits.qddd_max).max())), stretch,
                          OUTPUT_MARGIN)
     if torques is not None:
         slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits.limits, torques)
-    return slowed
+    return slowed, motion
 
 
 def _copp_robot(copp, view: ScaledPath, scaled: Limits, s: np.ndarray, limits: PathLimits, unit: float,
@@ -467,19 +467,19 @@ def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[
     judge = PathLimits(limits, tcp, schedule)
     timing, topp2_s = solve_topp3(path, judge, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    peaks = _peak_ratios(*joint_motion(path, *timing.at(check_t))[1:], limits)
-    stretch = _slowed(timing, path, check_t, judge, torques, 1.0)
+    stretch, checked = _slowed(timing, path, check_t, judge, torques, 1.0)
+    peaks = _peak_ratios(*checked[1:], limits)
     if stretch > MAX_STRETCH:
         raise TimingError(refusal(path, len(timing.s), f"its solution would need slowing down {stretch:.3g} times "
                                   f"(at most {MAX_STRETCH:g}) to meet the limits between its stations"))
     t = sample_times(timing.duration * stretch, dt, max_samples)
+    output_stretch, (q, qd, qdd, qddd) = _slowed(timing, path, t, judge, torques, stretch)
     for _ in range(OUTPUT_ROUNDS):             # the output samples are judged too: slow a little more
-        output_stretch = _slowed(timing, path, t, judge, torques, stretch)
         if output_stretch <= stretch:
             break
         stretch = output_stretch
         t = sample_times(timing.duration * stretch, dt, max_samples)
-    q, qd, qdd, qddd = joint_motion(path, *timing.at(t, stretch))
+        output_stretch, (q, qd, qdd, qddd) = _slowed(timing, path, t, judge, torques, stretch)
     details = Topp3Details(
         stations=len(timing.s), topp2_s=topp2_s, topp3_s=timing.duration, check_samples=int(check_t.size),
         station_peak_qd_ratio=peaks[0], station_peak_qdd_ratio=peaks[1], station_peak_qddd_ratio=peaks[2],
