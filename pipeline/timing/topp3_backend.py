@@ -10,11 +10,11 @@ joint accelerations (COPP3: without it the time-optimal jerk chatters between it
 station rate). The profile follows the geometric path exactly: every sample is q(s(t)) on the path.
 
 The SOCP's cost grows with its stations, so they go where they matter (``stations_for``,
-``refined_stations``): a TOPP2 on FINE_STATIONS (copp's reachability analysis, about 1 ms) says where
-the motion spends its time; half the stations are spread evenly over that time, half evenly over the
-waypoint segments, and an interval is split where the jerk the path's bends make at that TOPP2 speed
-leaves a straight line between its ends. One COPP3 solve then does, on about a third of the stations (it
-was three, on 401-4001 even stations: 1.1-3.2 s for 10 waypoints, now 0.1-0.2 s).
+``refined_stations``): a TOPP2 on FINE_PER_STATION times as many (copp's reachability analysis, about
+1 ms) says where the motion spends its time; half the stations are spread evenly over that time, half
+evenly over the waypoint segments, and an interval is split where the jerk the path's bends make at that
+TOPP2 speed leaves a straight line between its ends. One COPP3 solve then does, on about half the stations
+(it was three, on 401-4001 even stations: 1.1-3.2 s for 10 waypoints, now 0.1-0.2 s; 20 s for 30, now 1.5 s).
 
 Between stations copp's profile has ``b = sdd`` linear in s and ``a = sd^2`` quadratic (``a' = 2 b``);
 near a stop ``s - s0`` grows like ``c t^3``. We evaluate exactly that parameterisation ourselves
@@ -51,9 +51,10 @@ STATIONS_PER_SEGMENT = 20
 MIN_STATIONS_PER_SEGMENT = 8
 MIN_STATIONS = 201
 MAX_STATIONS = 1001
-#: Stations of the TOPP2 that places them, and the share of them spread evenly over its time (the rest
-#: evenly over the waypoint segments; 0.3 and 0.7: durations up to 1 % longer) [1].
-FINE_STATIONS = 1000
+#: Stations of the TOPP2 that places them, per station (at 1000 in all, a 30-waypoint path's intervals were
+#: too short to be split and its jerk reached 2.3x the limit between stations), and the share of them spread
+#: evenly over its time (the rest evenly over the waypoint segments; 0.3 and 0.7: durations up to 1 % longer) [1].
+FINE_PER_STATION = 5
 TIME_SHARE = 0.5
 #: The share over time puts at most this many times its mean density of stations anywhere (near a stop,
 #: where the motion is slowest, it would put them ever closer together: the irb1600's tool path of 36
@@ -127,19 +128,16 @@ class Topp3Details(TimingDetails):
 
 
 def stations_for(path: JointPath, fine_s: np.ndarray, fine_t: np.ndarray, include=()) -> np.ndarray:
-    """The station grid in s: STATIONS_PER_SEGMENT per waypoint segment (within [MIN_STATIONS, MAX_STATIONS]
-    in all; a tool move's joint path through dense IK samples counts as one segment), spread TIME_SHARE evenly
-    over the time of a TOPP2 timing (``fine_t`` [s] at ``fine_s``: more stations where the motion is slow, near
-    a stop or a sharp bend, at most MAX_TIME_DENSITY times their mean density) and the rest evenly over the
-    waypoint segments (the path's pieces change over each segment's own length), with at least
-    MIN_STATIONS_PER_SEGMENT in each (a short segment between two stops needs room to speed up and slow down);
-    every breakpoint of the path is a station (``_clear_of``) and, where d3q/ds3 jumps there (a C2 path), so
-    is a point just before it: each side's value must be limited at a station; and the points ``include`` (a
-    schedule's bounds, where the limits change)."""
+    """The station grid in s: ``station_count`` stations spread TIME_SHARE evenly over the time of a TOPP2 timing
+    (``fine_t`` [s] at ``fine_s``: more stations where the motion is slow, near a stop or a sharp bend, at most
+    MAX_TIME_DENSITY times their mean density) and the rest evenly over the waypoint segments (the path's pieces
+    change over each segment's own length), with at least MIN_STATIONS_PER_SEGMENT in each (a short segment between
+    two stops needs room to speed up and slow down); every breakpoint of the path is a station (``_clear_of``) and,
+    where d3q/ds3 jumps there (a C2 path), so is a point just before it: each side's value must be limited at a
+    station; and the points ``include`` (a schedule's bounds, where the limits change)."""
     knots = path.s_waypoints
     segments = len(knots) - 1
-    total = int(np.clip(STATIONS_PER_SEGMENT * (1 if path.shape == "samples" else segments), MIN_STATIONS,
-                        MAX_STATIONS))
+    total = station_count(path)
     by_segment = np.interp(fine_s, knots, np.linspace(0.0, 1.0, segments + 1))
     rate = np.minimum(np.diff(fine_t) / np.diff(fine_s) / fine_t[-1], MAX_TIME_DENSITY) * np.diff(fine_s)
     share = TIME_SHARE * np.concatenate([[0.0], np.cumsum(rate)]) / np.sum(rate) + (1.0 - TIME_SHARE) * by_segment
@@ -151,6 +149,13 @@ def stations_for(path: JointPath, fine_s: np.ndarray, fine_t: np.ndarray, includ
     inner = path.breakpoints[1:-1] if path.continuity < 3 else path.breakpoints[:0]
     before = inner - BREAKPOINT_GAP * (inner - stations[np.searchsorted(stations, inner) - 1])
     return with_points(np.concatenate([stations, before]), include, MIN_STATION_GAP)
+
+
+def station_count(path: JointPath) -> int:
+    """STATIONS_PER_SEGMENT per waypoint segment within [MIN_STATIONS, MAX_STATIONS] (a tool move's joint path
+    through dense IK samples counts as one segment)."""
+    segments = 1 if path.shape == "samples" else len(path.waypoints) - 1
+    return int(np.clip(STATIONS_PER_SEGMENT * segments, MIN_STATIONS, MAX_STATIONS))
 
 
 def _clear_of(points: np.ndarray, fixed: np.ndarray) -> np.ndarray:
@@ -172,6 +177,7 @@ def refined_stations(view: ScaledPath, scaled: Limits, s: np.ndarray, fine_s: np
     inside, up to GEOMETRY_ROUNDS times: copp limits the jerk at its stations only, and in between it follows
     the path's shape. Intervals of at most two fine spacings are left alone (the one just before a breakpoint
     of a C2 path would see the jump of d3q/ds3 there as an error)."""
+    narrow = 2.0 * float(np.max(np.diff(fine_s)))
     joints = slice(0, view.path.dof)
 
     def jerk_of_bends(points: np.ndarray) -> np.ndarray:
@@ -184,7 +190,7 @@ def refined_stations(view: ScaledPath, scaled: Limits, s: np.ndarray, fine_s: np
         k = np.clip(np.searchsorted(s, fine_s, side="right") - 1, 0, len(s) - 2)
         u = ((fine_s - s[k]) / (s[k + 1] - s[k]))[:, None]
         error = np.abs(fine_jerk - (1.0 - u) * station_jerk[k] - u * station_jerk[k + 1]).max(axis=1)
-        wide = np.diff(s)[k] > 2.0 / FINE_STATIONS
+        wide = np.diff(s)[k] > narrow
         over = np.unique(k[(fine_s > s[k]) & (fine_s < s[k + 1]) & wide & (error > GEOMETRY_ERROR)])
         if over.size == 0:
             break
@@ -367,18 +373,18 @@ def _topp2(copp, robot, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> tuple[PathTiming, float]:
-    """copp's TOPP2 on FINE_STATIONS (where the motion spends its time: ``stations_for``, ``refined_stations``),
-    then on the stations, then TOPP3 with a small total-variation penalty on the joint accelerations (COPP3,
-    an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times, when the jerk between stations exceeds its
-    limit by more than TIGHTEN_EXCESS) around its own answer with the jerk limit of every station next to such
-    an interval tightened by that excess, with the schedule's bounds among the stations. ``limits`` (a
-    PathLimits): the joint speed limits x the schedule's factor at each station; torques are limited too when
-    ``tau_max`` and ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's speed and
-    acceleration where they are limited (``tcp_constraint.add_copp_rows``). copp sees the path in units of its
-    length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
-    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The TOPP2 on FINE_STATIONS has the
-    joint speed and acceleration limits only (it places the stations). The solves share SOLVE_BUDGET_S.
-    Returns (timing, TOPP2 duration [s]); TimingError saying what to change when copp fails."""
+    """copp's TOPP2 on FINE_PER_STATION x ``station_count`` stations (where the motion spends its time:
+    ``stations_for``, ``refined_stations``), then on the stations, then TOPP3 with a small total-variation penalty
+    on the joint accelerations (COPP3, an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times, when the
+    jerk between stations exceeds its limit by more than TIGHTEN_EXCESS) around its own answer with the jerk limit
+    of every station next to such an interval tightened by that excess, with the schedule's bounds among the
+    stations. ``limits`` (a PathLimits): the joint speed limits x the schedule's factor at each station; torques are
+    limited too when ``tau_max`` and ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's
+    speed and acceleration where they are limited (``tcp_constraint.add_copp_rows``). copp sees the path in units of
+    its length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
+    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The finer TOPP2 has the joint speed and
+    acceleration limits only (it places the stations). The solves share SOLVE_BUDGET_S. Returns (timing, TOPP2
+    duration [s]); TimingError saying what to change when copp fails."""
     import copp_py as copp
 
     distance = max(path.length, 1e-300)
@@ -387,8 +393,8 @@ def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> t
     scaled = view.limits(limits.limits, unit)
     bounds = () if limits.schedule is None else limits.schedule.bounds
     torques = None if inverse_dynamics is None else scaled_inverse_dynamics(inverse_dynamics, view, unit)
-    fine = with_points(np.concatenate([np.linspace(0.0, 1.0, FINE_STATIONS), path.breakpoints]), bounds,
-                       MIN_STATION_GAP)
+    fine = with_points(np.concatenate([np.linspace(0.0, 1.0, FINE_PER_STATION * station_count(path)),
+                                       path.breakpoints]), bounds, MIN_STATION_GAP)
     s = fine
     started = time.perf_counter()
     try:
