@@ -22,8 +22,10 @@ SPHERICAL_WRIST, THREE_PARALLEL = "spherical wrist", "three parallel axes"
 #: What a family is called in messages.
 FAMILY_TITLES = {SPHERICAL_WRIST: "a spherical wrist", THREE_PARALLEL: "the UR family (axes 2, 3, 4 parallel)"}
 #: Configuration keys and their values per family, and the spherical wrist's vendor string letters.
-CONFIGURATIONS = {SPHERICAL_WRIST: {"shoulder": ("front", "back"), "elbow": ("up", "down"), "wrist": ("flip", "noflip")},
-                  THREE_PARALLEL: {"shoulder": ("left", "right"), "elbow": ("up", "down"), "wrist": ("up", "down")}}
+CONFIGURATIONS = {
+    SPHERICAL_WRIST: {"shoulder": ("front", "back"), "elbow": ("up", "down"), "wrist": ("flip", "noflip")},
+    THREE_PARALLEL: {"shoulder": ("left", "right"), "elbow": ("up", "down"), "wrist": ("up", "down")},
+}
 VENDOR_LETTERS = (("wrist", {"F": "flip", "N": "noflip"}), ("elbow", {"U": "up", "D": "down"}),
                   ("shoulder", {"T": "front", "B": "back"}))
 

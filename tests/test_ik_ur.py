@@ -209,10 +209,11 @@ def test_each_of_the_8_branches_is_requested_by_name(tmp_path):
 
 
 @pytest.mark.parametrize("config, match", [
-    ({"shoulder": "front"}, r"configuration shoulder must be left or right for ur5 \(the UR family \(axes 2, 3, 4 parallel\): "
-                            r"shoulder left\|right, elbow up\|down, wrist up\|down\), got 'front' \('shoulder "
-                            r"front' names a branch of a spherical wrist\)"),
-    ({"wrist": "flip"}, r"configuration wrist must be up or down for ur5 .*'wrist flip' names a branch of a spherical wrist"),
+    ({"shoulder": "front"}, r"configuration shoulder must be left or right for ur5 \(the UR family \(axes 2, 3, 4 "
+                            r"parallel\): shoulder left\|right, elbow up\|down, wrist up\|down\), got 'front' "
+                            r"\('shoulder front' names a branch of a spherical wrist\)"),
+    ({"wrist": "flip"}, r"configuration wrist must be up or down for ur5 .*'wrist flip' names a branch of a "
+                        r"spherical wrist"),
     ("N U T", r"a configuration for ur5 .* is a mapping"),
 ])
 def test_spherical_wrist_names_are_refused_for_the_ur5(tmp_path, config, match):

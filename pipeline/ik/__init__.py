@@ -3,8 +3,7 @@
 ``solve_ik(robot, X_target, q_seed=None, method="auto", target_kind="pose", **options)``:
 ``analytic`` (closed form, every branch, for arms whose last three axes meet or whose axes 2, 3, 4 are
 parallel: the UR family; EAIK's for other arms it decomposes), ``jacobian`` (damped least squares with
-restarts), ``drake`` (pydrake InverseKinematics), ``auto`` (analytic where it
-applies, else jacobian).
+restarts), ``drake`` (pydrake InverseKinematics), ``auto`` (analytic where it applies, else jacobian).
 """
 
 from __future__ import annotations

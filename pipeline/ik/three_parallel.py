@@ -91,7 +91,8 @@ def _normal(w):
 @njit(cache=True, fastmath=FUSED)
 def _derived_rows(geometry):
     """Rows N6 to K (the module's layout) from the screws at q = 0."""
-    n, w3, w5, w6 = _row(geometry, AXES + 1), _row(geometry, AXES + 2), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
+    n, w3 = _row(geometry, AXES + 1), _row(geometry, AXES + 2)
+    w5, w6 = _row(geometry, AXES + 4), _row(geometry, AXES + 5)
     r1, r2, r3, r4 = (_row(geometry, POINTS), _row(geometry, POINTS + 1), _row(geometry, POINTS + 2),
                       _row(geometry, POINTS + 3))
     u, v = _sub(r4, r3), _sub(r2, r3)
@@ -129,8 +130,8 @@ def _wrist_roots(geometry, G):
 
 @njit(cache=True, fastmath=FUSED)
 def _wrist(geometry, G, p_prime, q5, seed6):
-    """For one q1 (G = R1^T R_goal, p' the wrist point turned back by q1) and q5: (q6, theta, p4, the
-    wrist 1 point turned back by q1). With axes 4 and 6 aligned, q6 is the seed's."""
+    """For one q1 (G = R1^T R_goal, p' the wrist point turned back by q1) and q5: (q6 [rad], theta
+    [rad], p4: the wrist 1 point turned back by q1 [m]). With axes 4 and 6 aligned, q6 is the seed's."""
     n, w5, w6 = _row(geometry, AXES + 1), _row(geometry, AXES + 4), _row(geometry, AXES + 5)
     u = _mv(_t(G), n)                                      # n seen from the end frame's turn
     v = _rotate(w5, -q5, n)

@@ -11,11 +11,12 @@ and the most IK branches (distinct branch labels, or distinct solutions for arms
 branches) any one orientation has.
 
 IK: the compiled closed form (every branch, ``robot.ik_batch(..., method="analytic")``) where the arm
-has one (a spherical wrist, or the UR family's three parallel axes) and the target is a full pose; else damped least squares (``jacobian``) with NUMERIC_RESTARTS
-seeded restarts (a generator per voxel and orientation, seeded with ``(seed, voxel, orientation)``),
-for a pose or, for arms of fewer than 6 joints and for cones, the tool axis alone
-(``position+axis``); a numeric answer is one branch of what may be several. Its time budget is set so
-large that the restart count is what ends a search: the map never depends on the machine's speed.
+has one (a spherical wrist, or the UR family's three parallel axes) and the target is a full pose;
+else damped least squares (``jacobian``) with NUMERIC_RESTARTS seeded restarts (a generator per voxel
+and orientation, seeded with ``(seed, voxel, orientation)``), for a pose or, for arms of fewer than 6
+joints and for cones, the tool axis alone (``position+axis``); a numeric answer is one branch of what
+may be several. Its time budget is set so large that the restart count is what ends a search: the map
+never depends on the machine's speed.
 
 The voxels are cut into chunks of about CHUNK_POSES poses; each chunk is a pure function of its
 arguments (``solve_chunk``), run in this process or on Dask (``cluster.map_chunks``), and the chunks'
