@@ -28,19 +28,20 @@ from pipeline.urdf import import_urdf
 from .conftest import DATA_DIR
 from .test_ik_subproblem import verified
 
-UR5 = DATA_DIR / "ur5.yaml"
+UR5, UR10 = DATA_DIR / "ur5.yaml", DATA_DIR / "ur10.yaml"
 #: Two joint vectors within this (largest difference modulo 2 pi) [rad] are one solution.
 SAME = 1e-6
 
 
-def ur5_copy(limit_deg: float | None = None, rows: dict[int, dict] | None = None) -> Robot:
-    """The UR5 with every limit +-limit_deg [deg] and ``rows`` (joint index -> {key: value}) changed."""
-    document = yaml.safe_load(UR5.read_text())
+def ur5_copy(limit_deg: float | None = None, rows: dict[int, dict] | None = None, path: Path = UR5) -> Robot:
+    """The UR5 (or the robot file ``path``) with every limit +-limit_deg [deg] and ``rows`` (joint index
+    -> {key: value}) changed."""
+    document = yaml.safe_load(path.read_text())
     for i, joint in enumerate(document["joints"]):
         if limit_deg is not None:
             joint.update(q_min=-limit_deg, q_max=limit_deg)
         joint.update((rows or {}).get(i, {}))
-    return Robot(parse_robot_spec(document, str(UR5)))
+    return Robot(parse_robot_spec(document, str(path)))
 
 
 def solution_array(result) -> np.ndarray:
@@ -99,11 +100,12 @@ def test_the_variants_of_a_branch_are_enumerated_on_demand():
     assert verified(robot, candidates[0][valid[0]], robot.fk(q))
 
 
-@pytest.mark.parametrize("limit_deg", [180.0, 360.0])
-def test_the_solution_set_is_eaiks(limit_deg):
+@pytest.mark.parametrize("path, limit_deg", [(UR5, 180.0), (UR5, 360.0), (UR10, 360.0)],
+                         ids=["ur5-180", "ur5-360", "ur10-360"])
+def test_the_solution_set_is_eaiks(path, limit_deg):
     """EAIK's exact answers (an independent solver), modulo 2 pi, are ours and carry our labels (its
     NumPy labels of the same definitions): targets of random configurations and random seeds."""
-    robot = ur5_copy(limit_deg)
+    robot = ur5_copy(limit_deg, path=path)
     rng = np.random.default_rng(6)
     Q, seeds = robot.random_configurations(rng, 150), robot.random_configurations(rng, 150)
     X = robot.fk_batch(Q)
