@@ -161,7 +161,7 @@ def test_the_solve_time_is_bounded_and_running_out_says_what_to_change(monkeypat
 
 
 def test_one_solve_on_stations_where_the_motion_needs_them(monkeypatch):
-    """An ordinary 10-waypoint path takes one COPP3 solve on a few hundred stations (it took three on 541),
+    """An ordinary 10-waypoint path takes one COPP3 solve on a few hundred stations (it took up to four on 541),
     every breakpoint and schedule bound among them, at least MIN_STATIONS_PER_SEGMENT in every segment."""
     import copp_py
 
