@@ -67,8 +67,8 @@ def test_robustness_suite(case, method):
 
 
 #: The first paths of the suite each method takes (the robots take turns, so every count is a multiple of
-#: their number): Ruckig ~5 ms a path takes all of them; toppra ~0.1-0.3 s a path TOPPRA_COUNT in the
-#: default run (test_timing_fuzz times thousands more in the slow run); topp3 ~0.3-3 s a path SLOW_COUNT in
+#: their number): Ruckig ~5 ms a path takes all of them; toppra ~10-50 ms a path TOPPRA_COUNT in the
+#: default run (test_timing_fuzz times thousands more in the slow run); topp3 ~0.1-0.3 s a path SLOW_COUNT in
 #: the slow run only (the default run times topp3 in test_topp3 and test_timing_fuzz).
 TOPPRA_COUNT = 20
 SLOW_COUNT = 50

@@ -49,7 +49,7 @@ Checks on every profile (``check_profile``; the limits are the caller's scaled h
   (another PipelineError, ValueError, ...) is a failure, and so is a result that is not a Profile or has
   non-finite samples.
 
-The default run times a few hundred profiles; the ``slow`` variants thousands (topp3 takes ~0.1-1 s
+The default run times a few hundred profiles; the ``slow`` variants thousands (topp3 takes ~0.1-0.3 s
 a path, so it gets fewer). A run collects every failing case and reports them together, each with
 its robot, seed, family, method, shape, speed scale, dt and waypoints (full precision) and the
 numbers, so that a case can be replayed with ``run_case(make_case(seed, ...), method, shape)``.
@@ -96,7 +96,7 @@ TARGET_SAMPLES = 1500
 #: One case in this many uses the robot's own limits (limits=None).
 OWN_LIMITS_EVERY = 8
 
-#: (method, shape, default count, slow count): topp3 is ~0.1-1 s a path, toppra ~0.05-0.5 s, ruckig fast.
+#: (method, shape, default count, slow count): topp3 is ~0.1-0.3 s a path, toppra ~10-50 ms, ruckig fast.
 RUNS = [
     ("toppra", "monotone", 18, 500),
     ("toppra", "spline", 18, 250),
