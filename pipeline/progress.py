@@ -89,8 +89,15 @@ class CompileNotice(event.Listener):
 
 
 def notice_enabled(stream) -> bool:
-    """Progress on ``stream`` (a terminal), or in a Jupyter kernel (its stderr is not a terminal but is shown)."""
-    return progress_enabled(stream) or (os.environ.get("PIPELINE_PROGRESS", "1") != "0" and "ipykernel" in sys.modules)
+    """Progress on ``stream`` (a terminal), or in a running Jupyter kernel (its stderr is not a terminal but is
+    shown under the cell)."""
+    return progress_enabled(stream) or (os.environ.get("PIPELINE_PROGRESS", "1") != "0" and _in_jupyter_kernel())
+
+
+def _in_jupyter_kernel() -> bool:
+    """Whether this process is a Jupyter kernel running a notebook (IPython's shell there is ZMQInteractiveShell)."""
+    shell = getattr(sys.modules.get("IPython"), "get_ipython", lambda: None)()
+    return type(shell).__name__ == "ZMQInteractiveShell"
 
 
 COMPILE_NOTICE = CompileNotice()
