@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 
@@ -49,3 +50,17 @@ def hermite_peaks(values, slopes, step, out):
                                              h * slopes[i, a + 1, j]))
         out[i] = peak
     return out
+
+
+def joint_peaks_between(s, qd, qdd, qddd, limits, rows: int, step) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of samples (``rows`` rows of k consecutive samples, in order: s, qd, qdd, qddd (rows k,) and
+    (rows k, dof), ``step`` (rows, k - 1) [s] apart) the largest joint speed ratio (over qd_max x the joint speed
+    factor of ``limits``, a PathLimits, at each sample) and acceleration ratio (over qdd_max) between them [1]:
+    ``hermite_peaks`` with the acceleration and the jerk as the slopes."""
+    speed_limit = limits.limits.qd_max * limits.at(s)[0][:, None]
+    shape = (rows, len(s) // rows, -1)
+
+    def peaks(values, slopes):
+        return hermite_peaks(values.reshape(shape), slopes.reshape(shape), step, np.empty(rows))
+
+    return peaks(qd / speed_limit, qdd / speed_limit), peaks(qdd / limits.limits.qdd_max, qddd / limits.limits.qdd_max)

@@ -39,6 +39,7 @@ from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 from ..schedule import LimitSchedule
 from ..tcp import PathLimits
+from .hermite import joint_peaks_between
 from .ruckig_backend import require_jerk_limits
 from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, stretch_for, time_unit,
                              torque_stretch, with_points)
@@ -324,14 +325,19 @@ def interval_jerk_ratios(timing: PathTiming, path: JointPath, limits: Limits) ->
 
 
 def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: PathLimits, torques,
-            stretch: float) -> tuple[float, tuple]:
+            stretch: float, between: bool = False) -> tuple[float, tuple]:
     """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
     slowed by ``stretch`` within ``limits`` (joint speeds x the schedule's factor, accelerations, jerks, and
     the TCP's speed and acceleration where limited: copp limits them at its stations, between them this
-    slow-down does), torques included when ``torques`` is given; and that motion, (q, qd, qdd, qddd) (n, dof)."""
+    slow-down does), torques included when ``torques`` is given; and that motion, (q, qd, qdd, qddd) (n, dof).
+    With ``between`` the joint speeds and accelerations are judged between the samples too (the cubic through
+    their values and slopes, ``hermite.joint_peaks_between``: a bulge between samples is found, not sampled)."""
     state = timing.at(t, stretch)
     motion = joint_motion(path, *state)
     speed, accel = limits.peaks(state[0], *motion[:3])
+    if between:
+        peaks = joint_peaks_between(state[0], *motion[1:], limits, 1, np.diff(t)[None, :] * stretch)
+        speed, accel = max(speed, float(peaks[0][0])), max(accel, float(peaks[1][0]))
     slowed = stretch_for((speed, accel, float((np.abs(motion[3]) / limits.limits.qddd_max).max())), stretch,
                          OUTPUT_MARGIN)
     if torques is not None:
@@ -473,7 +479,7 @@ def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[
     judge = PathLimits(limits, tcp, schedule)
     timing, topp2_s = solve_topp3(path, judge, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    stretch, checked = _slowed(timing, path, check_t, judge, torques, 1.0)
+    stretch, checked = _slowed(timing, path, check_t, judge, torques, 1.0, between=True)
     peaks = _peak_ratios(*checked[1:], limits)
     if stretch > MAX_STRETCH:
         raise TimingError(refusal(path, len(timing.s), f"its solution would need slowing down {stretch:.3g} times "

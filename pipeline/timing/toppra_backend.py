@@ -40,7 +40,7 @@ from ..profile import Profile, TimingDetails
 from ..robot_spec import Limits
 from ..schedule import LimitSchedule
 from ..tcp import PathLimits
-from .hermite import hermite_peaks
+from .hermite import joint_peaks_between
 from .reachability import canonical_rows, solve_rows
 
 #: Grid points of the first solve where the path is straight (more where it bends: on the benchmark paths
@@ -342,7 +342,7 @@ class DenseCheck:
     """How far a timing strays from the limits inside its grid intervals: samples at the start, middle and
     end of every interval (``samples``: s, q or None, qd, qdd at them), and between them, for each joint, the
     largest |speed| and |acceleration| ratio of the cubic in time through the ratios and their time
-    derivatives (acceleration and jerk) at the samples (``hermite.hermite_peaks``: exact for a cubic, so a
+    derivatives (acceleration and jerk) at the samples (``hermite.joint_peaks_between``: exact for a cubic, so a
     smooth bulge between samples is found, not sampled); the TCP's ratios at the middle samples. Per interval the
     largest ratio (``interval_ratios`` (N,) [1]) and over all the peaks (``peaks``: speed, acceleration [1])."""
 
@@ -353,18 +353,12 @@ class DenseCheck:
     @classmethod
     def of(cls, timing: GridTiming, path: JointPath, limits: PathLimits, positions: bool) -> "DenseCheck":
         """The check of ``timing``; the samples' q only with ``positions`` (the TCP's limits need them)."""
-        n, k = len(timing.u), len(CHECK_FRACTIONS)
+        n = len(timing.u)
         *samples, qddd = timing.at(path, timing.times_inside(CHECK_FRACTIONS), jerk=True,
                                    position=positions or limits.limits_tcp)
-        s, q, qd, qdd = samples
-        speed_limit = limits.limits.qd_max * limits.at(s)[0][:, None]
+        s, _, qd, qdd = samples
         step = np.diff(timing.t)[:, None] * np.diff(CHECK_FRACTIONS)                      # (N, k - 1) [s]
-
-        def peaks(values, slopes):
-            return hermite_peaks(values.reshape(n, k, -1), slopes.reshape(n, k, -1), step, np.empty(n))
-
-        speed = peaks(qd / speed_limit, qdd / speed_limit)
-        accel = peaks(qdd / limits.limits.qdd_max, qddd / limits.limits.qdd_max)
+        speed, accel = joint_peaks_between(s, qd, qdd, qddd, limits, n, step)
         if limits.limits_tcp:
             tcp_speed, tcp_accel = limits.sample_ratios(*samples, tcp_rows=TCP_ROWS)
             speed, accel = np.maximum(speed, tcp_speed[TCP_ROWS]), np.maximum(accel, tcp_accel[TCP_ROWS])
