@@ -230,3 +230,16 @@ def test_a_long_path_is_limited_between_its_stations_too():
     robot = load_robot("gp7")
     profile = retime(robot, random_waypoints(robot, 1, 30), method="topp3")
     assert profile.certificate.passed and profile.details.time_stretch < 1.03
+
+
+def test_the_check_between_samples_finds_a_bulge_of_qdd():
+    """bench timing's fourth GP7 path at seed 7: its qdd bulged between two of the dense check's samples in a
+    station interval, and sampled 20,001 times the profile failed certify's mean-value test of qd against qdd by
+    1e-6; judged between the samples (the cubic through their values and slopes) it passes."""
+    from pipeline.bench.timing import random_paths
+
+    robot = load_robot("gp7")
+    path = random_paths(robot, 4, np.random.default_rng(7))[3][0]
+    coarse = retime(robot, path, method="topp3")
+    fine = retime(robot, path, method="topp3", dt=coarse.duration / 20_000)
+    assert certify(fine).passed and abs(fine.duration / coarse.duration - 1.0) < 1e-6
