@@ -146,3 +146,21 @@ class ScaleInputError(ConfigurationError):
 
 class ClusterError(PipelineError):
     """The Dask scheduler named cannot be reached (names its address and why)."""
+
+
+class VendorConfigurationError(ConfigurationError):
+    """A controller's configuration data cannot be computed or read: an unknown vendor, a malformed
+    configuration (names the vendor, the field and what it allows), or an arm without named branches."""
+
+
+class ConfigurationNotFoundError(VendorConfigurationError):
+    """No in-limit IK solution of a pose has the vendor configuration asked for, or more than one has
+    it. ``pose`` (4, 4) [m], ``requested`` the configuration's text, ``available`` the texts of the
+    configurations the pose's solutions have."""
+
+    def __init__(self, message: str, pose, requested: str, available: tuple[str, ...]):
+        self.pose, self.requested, self.available = pose, requested, available
+        super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.pose, self.requested, self.available)
