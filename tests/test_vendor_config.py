@@ -84,11 +84,11 @@ def test_kuka_status_bits():
 
 
 def test_yaskawa_rconf_follows_the_nx100_manual():
-    """Flip by the R axis (-90 < R <= 90 deg and 270 < |R| <= 360), R/T/S >= 180 as |angle| >= 180."""
+    """Flip by the R axis (-90 < R <= 90 deg and 270 < |R| <= 360), R/T/S >= 180 as |angle| >= 180 (the
+    formula: R = -280 deg is outside the GP7's +-190 deg)."""
     robot = load_robot("gp7")
-    rows = configurations(robot, deg(*[[0, 0, 0, r, 20, t] for r, t in
-                                       ((0, 0), (120, 0), (-100, 0), (185, -200), (-280, 160), (80, 200))]).reshape(-1, 6),
-                          "yaskawa")
+    Q = np.radians([[0, 0, 0, r, 20, t] for r, t in ((0, 0), (120, 0), (-100, 0), (185, -200), (-280, 160), (80, 200))])
+    rows = configurations(robot, Q, "yaskawa")
     flips, r_bits, t_bits = rows[:, 0].tolist(), rows[:, 3].tolist(), rows[:, 4].tolist()
     assert flips == [0, 1, 1, 1, 0, 0]
     assert r_bits == [0, 0, 0, 1, 1, 0]
@@ -192,6 +192,18 @@ def test_no_matching_solution_names_pose_request_and_what_exists():
     assert error.requested == "[3,3,3,0]" and "[0,0,0,0]" in error.available
     assert "mm with rotation" in str(error) and "no in-limit IK solution has it" in str(error)
     assert isinstance(error, ConfigurationError)
+
+
+def test_an_unreachable_pose_and_mismatched_counts_are_typed_errors():
+    robot = load_robot("gp7")
+    X = np.eye(4)
+    X[0, 3] = 5.0                                           # 5 m away: out of reach
+    with pytest.raises(ConfigurationNotFoundError, match="none"):
+        select_solution(robot, X, "0,0,0,0,0,0", "yaskawa")
+    with pytest.raises(VendorConfigurationError, match="2 poses but 1 configurations"):
+        select_solutions(robot, np.stack([X, X]), ["0,0,0,0,0,0"], "yaskawa")
+    with pytest.raises(VendorConfigurationError, match="unknown controller vendor"):
+        axis_angles(robot, np.zeros(6), "comau")
 
 
 def test_a_configuration_that_leaves_two_variants_is_refused():

@@ -2,7 +2,7 @@
 
 Computed for N configurations at once from the controller's axis angles (``axes``) and the geometric
 shoulder and elbow sides (``geometry``). The fields, their sources and the readings we follow where
-open implementations disagree (models/SOURCES.md, "Controller configuration data", says the same):
+open implementations disagree (models/SOURCES.md, "Controller axis angles and configuration data", says the same):
 
 ABB ``confdata`` [cf1, cf4, cf6, cfx] (RAPID reference manual, data type confdata): cf1, cf4, cf6 the
 quadrant of axes 1, 4, 6, quadrant 0 from 0 to 90 deg, 1 from 90 to 180 deg, -1 from 0 to -90 deg, ...,
@@ -45,7 +45,8 @@ from ..errors import VendorConfigurationError, shown
 from .axes import ABB, FANUC, KUKA, YASKAWA, axis_angles, check_vendor
 from .geometry import arm_sides
 
-#: Field names per vendor, in the order of the integer rows and of the text.
+#: Field names per vendor, in the order of the integer rows and of the text (FANUC's flip, up and front
+#: are 1 for the letters F, U, T and 0 for N, D, B).
 FIELDS = {
     ABB: ("cf1", "cf4", "cf6", "cfx"),
     FANUC: ("flip", "up", "front", "t1", "t4", "t6"),

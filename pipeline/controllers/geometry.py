@@ -24,7 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..configurations import SPHERICAL_WRIST
 from ..errors import VendorConfigurationError
+from ..ik.analytic import analytic_solver_for
 
 
 @dataclass(frozen=True)
@@ -48,9 +50,6 @@ def _rotations(w: np.ndarray, angles: np.ndarray) -> np.ndarray:
 
 def _solver(robot):
     """The closed-form geometry of a robot, or VendorConfigurationError: the bits need a spherical wrist."""
-    from ..ik.analytic import analytic_solver_for
-    from ..configurations import SPHERICAL_WRIST
-
     solver = analytic_solver_for(robot)
     if not solver.applicable or solver.family != SPHERICAL_WRIST:
         raise VendorConfigurationError(f"{robot.name}: vendor configuration data needs a 6R arm with a spherical "
