@@ -14,7 +14,7 @@ from pipeline.controllers.configuration import fanuc_turns
 from pipeline.controllers.geometry import arm_sides
 from pipeline.errors import ConfigurationError, ConfigurationNotFoundError, VendorConfigurationError
 from pipeline.ik.branches import configuration_labels
-from pipeline.robot import load_robot
+from pipeline.robot import load_robot, robot_with_tool
 from pipeline.urdf import import_urdf
 
 from .conftest import DATA_DIR
@@ -145,6 +145,19 @@ def test_pose_and_configuration_give_back_the_joint_values(name):
 @pytest.mark.parametrize("vendor", VENDORS)
 def test_every_vendor_on_the_generic_arm(vendor):
     round_trip("arm6", vendor, 2_000, 7)
+
+
+def test_a_tcp_pose_selects_the_same_joint_values():
+    """The configuration is a property of q, not of the tool: a TCP pose with the robot carrying the tool
+    gives back q."""
+    robot = load_robot("gp7")
+    tool = np.eye(4)
+    tool[:3, 3] = [0.03, -0.02, 0.15]
+    with_tool = robot_with_tool(robot, tool)
+    Q = draws(robot, 500, 3)
+    np.testing.assert_array_equal(configurations(with_tool, Q, "yaskawa"), configurations(robot, Q, "yaskawa"))
+    Q_back = select_solutions(with_tool, with_tool.fk_batch(Q), configurations(robot, Q, "yaskawa"), "yaskawa")
+    assert np.abs(Q_back - Q).max() < 1e-6
 
 
 @pytest.mark.slow

@@ -75,6 +75,9 @@ def arm_sides(robot, Q) -> ArmSides:
     c = wrist_centres(robot, Q)
     R1 = _rotations(w[0], Q[:, 0])
     forward0 = (c0 - r[0]) - w[0] * (w[0] @ (c0 - r[0]))
+    if np.linalg.norm(forward0) == 0.0:
+        raise VendorConfigurationError(f"{robot.name}: the zero pose has the wrist centre on axis 1, so it cannot "
+                                       "tell front from back")
     forward = R1 @ forward0
     along = np.einsum("ij,ij->i", forward, c - r[0]) / np.linalg.norm(forward0)
     radial = (c - r[0]) - np.outer((c - r[0]) @ w[0], w[0])

@@ -25,7 +25,8 @@ SAME_SOLUTION = 1e-6
 
 def select_solution(robot, X_target, configuration, vendor: str) -> np.ndarray:
     """The joint values q (6,) [rad] of pose X_target (4, 4) [m, base frame to the robot's end frame]
-    with the vendor configuration asked for (its text or integer fields)."""
+    with the vendor configuration asked for (its text or integer fields). For a TCP pose, pass the robot
+    with its tool (``pipeline.robot.robot_with_tool``): the configuration does not depend on the tool."""
     return select_solutions(robot, np.asarray(X_target, dtype=float)[None], [configuration], vendor)[0]
 
 
