@@ -1,0 +1,258 @@
+"""``write_ls(program, name) -> str``: a program as a FANUC teach pendant program in ASCII (``.ls``).
+
+The file (FANUC R-30iA/R-30iB operator's manuals: "program header information", "motion instructions",
+"position data"; the ASCII layout is the one the ASCII Program Loader reads and ROBOGUIDE/``PrintTP``
+writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/POS`` (the points) and
+``/END``. What this writer emits, and why:
+
+* Name: 1 to 8 characters, an upper-case letter then letters, digits or ``_``. Controllers from the
+  R-30iA on accept longer names (up to 36 characters, not checked against a manual here); 8 is the limit
+  every controller generation that reads ``.ls`` accepts, so a program loads anywhere unchanged.
+* Moves: the robot first goes to the program's first waypoint with a joint move (where it starts is not
+  known), then one line per move: ``J`` (joint), ``L`` (linear), ``C`` (circular: via point, then end point
+  on a continuation line). Joint moves run at ``%`` of the joints' maximum speed (the move's fraction of the
+  speed limits x the job's ``speed_scale``, 1 to 100), tool moves at ``mm/sec`` (the move's TCP speed x
+  ``speed_scale``, whole mm/sec as the pendant takes them).
+* Termination: ``FINE`` where the move's zone is 0 (every stop, and the waypoints a joint path passes through:
+  the controller stops there), else ``CNTn``. CNT is not a distance: it is how far the controller lets the
+  next move start during this one's deceleration (a percentage), so the corner it cuts grows with speed.
+  We pick n = ceil(100 zone / reach), 1..100, where reach is the distance over which the controller can round
+  at all: for a tool move with a TCP acceleration limit, its deceleration distance v^2 / (2 a) at the
+  programmed speed (CNT100 rounds over about that distance, so the corner is not cut by more than the zone
+  at the programmed speed); otherwise half the shorter of the two neighbouring TCP moves (the largest zone
+  the program may have). The zone in mm and the reach are stated in a comment line before each CNT move.
+* Points: ``P[i]{ GP1: UF : 0, UT : 1, CONFIG : 'F/N U/D T/B, t1, t4, t6', X Y Z W P R }`` for poses, the
+  TCP in user frame 0 (FANUC's world frame) in mm, W P R in deg as FANUC defines them: rotations about the
+  fixed x, y, z axes of the frame, R = Rz(R) Ry(P) Rx(W); CONFIG from ``pipeline.controllers.configuration``.
+  A waypoint the job gives in joints is written in joints, J1..J6 in deg as the pendant shows them
+  (J3 = q3 - q2 on FANUC arms, ``pipeline.controllers.axes``). Values are rounded to 0.001 mm and 0.001 deg.
+* Frames: FANUC's world frame on the LR Mate 200iD is 330 mm above the mounting face (ROS-Industrial
+  ``fanuc_lrmate200id_support``: the ``base_link-base`` transform "to Fanuc World Coordinates"); any other
+  robot has no published world frame on this controller and is written in our base frame (the mounting
+  face). UT 1 must hold the job's tool (stated in the header comment; the identity when the job has none).
+
+``program_points`` (the points in the order they are written, with their joint values) and
+``controller_frame`` are shared with the Yaskawa writer.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import re
+import textwrap
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigurationError
+from ..poses import rotation_to_rpy
+from ..program.model import CIRCULAR, JOINT, Move, Program
+from .axes import FANUC, axis_angles
+from .configuration import configurations, format_configuration
+from .selection import select_solution
+
+#: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
+#: with its source (ROS-Industrial descriptions: the ``base_link-base`` transform to the maker's frame).
+CONTROLLER_FRAMES = {
+    ("lrmate200id", "fanuc"): (0.330, "FANUC world frame: 330 mm above the mounting face (ROS-Industrial "
+                                      "fanuc_lrmate200id_support, base_link-base)"),
+    ("gp7", "yaskawa"): (0.330, "Yaskawa robot frame: 330 mm above the mounting face (ROS-Industrial "
+                                "motoman_gp7_support, base_link-base)"),
+}
+#: Comment lines of a pendant program: at most this many characters each.
+COMMENT_CHARS = 32
+NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
+FANUC_SPEED_MM_S = (1, 2000)
+MM, DEG = 1000.0, 180.0 / math.pi
+_SEPARATOR = ",\t"
+
+
+@dataclass(frozen=True, eq=False)
+class Point:
+    """A point a program goes to: ``q`` (6,) [rad] its joint values, ``X_BT`` (4, 4) [m] the TCP in our
+    base frame, ``in_joints`` (the job gave it as joint values), ``via`` (a circular move's via point)."""
+
+    q: np.ndarray
+    X_BT: np.ndarray
+    in_joints: bool
+    via: bool = False
+
+
+def check_six_joints(program: Program) -> None:
+    """ConfigurationError unless the program's robot has 6 revolute joints (the controllers' arms)."""
+    robot = program.robot
+    if robot.dof != 6 or not np.all(robot.revolute_mask):
+        raise ConfigurationError(f"{robot.name}: a controller program needs a 6-axis arm of revolute joints")
+
+
+def program_points(program: Program, vendor: str) -> list[tuple[Move | None, list[Point]]]:
+    """The points of each written move in order: (None, [start]) for the joint move to the first
+    waypoint, then (move, [via, end]) for a circular move and (move, [end]) for the others. A via point
+    takes its orientation from the move's nearest IK sample and its joint values from ``select_solution``
+    with that sample's ``vendor`` configuration."""
+    start = program.waypoints[0]
+    points = [(None, [Point(start.q, program.robot.fk(start.q), start.method is None)])]
+    for move in program.moves:
+        end = Point(move.target, move.X_BT, program.waypoints[move.end].method is None)
+        points.append((move, [via_point(program, move, vendor), end] if move.kind == CIRCULAR else [end]))
+    return points
+
+
+def via_point(program: Program, move: Move, vendor: str) -> Point:
+    """The via point of a circular move (see ``program_points``)."""
+    robot, samples = program.robot, move.samples
+    X = robot.fk_batch(samples)
+    nearest = int(np.argmin(np.linalg.norm(X[:, :3, 3] - move.via, axis=1)))
+    X_via = X[nearest].copy()
+    X_via[:3, 3] = move.via
+    config = configurations(robot, samples[nearest], vendor)
+    return Point(select_solution(robot, X_via, config, vendor), X_via, False, True)
+
+
+def controller_frame(robot, vendor: str) -> tuple[float, str]:
+    """(height [m] of the controller's robot frame above our base frame, what it rests on)."""
+    known = CONTROLLER_FRAMES.get((robot.name, vendor))
+    if known is not None:
+        return known
+    return 0.0, f"{robot.name} has no published {vendor} robot frame: positions are in our base frame (mounting face)"
+
+
+def xyz_rpy(X_BT: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y, z [mm] in the controller frame ``height`` [m] above the base, rotations about the fixed x, y, z
+    axes [deg] with R = Rz Ry Rx) of a TCP pose X_BT (4, 4) [m]."""
+    p = (X_BT[:3, 3] - [0.0, 0.0, height]) * MM
+    return p, rotation_to_rpy(X_BT[:3, :3]) * DEG
+
+
+def rounded(values, decimals: int) -> np.ndarray:
+    """``values`` rounded to ``decimals``, without negative zeros (a file shows 0.000, not -0.000)."""
+    return np.round(np.asarray(values, dtype=float), decimals) + 0.0
+
+
+def comment_lines(text: str) -> list[str]:
+    """``text`` in lines of at most COMMENT_CHARS characters, without the characters pendants refuse."""
+    return textwrap.wrap(re.sub(r"[;'\"!]", "", text), COMMENT_CHARS)
+
+
+def tool_text(program: Program) -> str:
+    """The tool as x, y, z [mm] and rotations about the fixed x, y, z axes [deg] (R = Rz Ry Rx)."""
+    return "tool " + " ".join(f"{v:.3f}" for v in rounded(np.concatenate(xyz_rpy(program.tool.X_FT, 0.0)), 3))
+
+
+def check_name(name: str, pattern: re.Pattern, what: str) -> str:
+    if not isinstance(name, str) or not pattern.match(name):
+        raise ConfigurationError(f"{what} name {name!r}: 1 to 8 characters, an upper-case letter first, then upper-case "
+                                 "letters, digits or _")
+    return name
+
+
+def zone_reach(program: Program, k: int) -> tuple[float, str]:
+    """(the distance [m] over which the controller rounds at all at move k's end, what it is): move k's
+    deceleration distance at its programmed TCP speed when it is a tool move and the TCP acceleration is
+    limited, else half the shorter of moves k and k + 1 (TCP chords)."""
+    move = program.moves[k]
+    if move.kind != JOINT and program.tcp_accel_max:
+        v = move.speed * program.speed_scale
+        return v * v / (2.0 * program.tcp_accel_max), "decel"
+    before = program.robot.fk(program.targets[k])[:3, 3]
+    lengths = [np.linalg.norm(move.X_BT[:3, 3] - before)]
+    if k + 1 < len(program.moves):
+        lengths.append(np.linalg.norm(program.moves[k + 1].X_BT[:3, 3] - move.X_BT[:3, 3]))
+    return min(lengths) / 2.0, "half move"
+
+
+def cnt_value(zone: float, reach: float) -> int:
+    """CNT n, 1..100, for a zone [m] over a reach [m] (module docstring)."""
+    if reach <= 0.0:
+        return 100
+    return int(min(100, max(1, math.ceil(100.0 * zone / reach - 1e-9))))
+
+
+def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -> str:
+    """The program as a FANUC ``.ls`` file (module docstring); ``name`` its /PROG name, ``created`` the
+    header's date (None: now, UTC). ConfigurationError for a bad name, a non-6R robot or a speed the
+    controller cannot take."""
+    check_name(name, NAME_PATTERN, "FANUC program")
+    check_six_joints(program)
+    height, frame = controller_frame(program.robot, FANUC)
+    lines = [f"!{line}" for line in comment_lines(_header_text(program, frame))]
+    positions, index = [], 0
+    for move, points in program_points(program, FANUC):
+        labels = []
+        for point in points:
+            index += 1
+            labels.append(f"P[{index}]")
+            positions.append(_position(program, index, point, height))
+        if move is not None and move.zone > 0.0:
+            lines.extend(f"!{line}" for line in comment_lines(_zone_comment(program, move)))
+        lines.append(_motion(program, move, labels))
+    return "\n".join([f"/PROG  {name}", *_attributes(program, len(lines), created), "/MN",
+                      *(f"{n:4d}:  {line} ;" for n, line in enumerate(lines, start=1)), "/POS", *positions, "/END",
+                      ""])
+
+
+def _header_text(program: Program, frame: str) -> str:
+    return (f"{program.name} on {program.robot.name}. The controller plans its own speed profile for each move, "
+            "not the certified one: timing and the path in zones differ. It stops (FINE) at every waypoint "
+            f"without a zone. UT 1 = {tool_text(program)} (x y z w p r, mm deg). {frame}. Loading .ls needs the "
+            "ASCII Program Loader option (or MakeTP offline).")
+
+
+def _zone_comment(program: Program, move: Move) -> str:
+    reach, how = zone_reach(program, move.end - 1)
+    return f"zone {move.zone * MM:.1f}mm CNT{cnt_value(move.zone, reach)} {how} {reach * MM:.1f}mm"
+
+
+def _termination(program: Program, move: Move | None) -> str:
+    if move is None or move.zone <= 0.0:
+        return "FINE"
+    return f"CNT{cnt_value(move.zone, zone_reach(program, move.end - 1)[0])}"
+
+
+def _speed(program: Program, move: Move | None) -> str:
+    """A joint move's % (1..100), a tool move's mm/sec; ConfigurationError where the controller cannot."""
+    if move is None or move.kind == JOINT:
+        fraction = program.speed_scale if move is None else move.speed * program.speed_scale
+        return f"{int(min(100, max(1, round(fraction * 100.0))))}%"
+    mm_s = round(move.speed * program.speed_scale * MM)
+    low, high = FANUC_SPEED_MM_S
+    if not low <= mm_s <= high:
+        raise ConfigurationError(f"move {move.end}: TCP speed {mm_s} mm/sec is outside FANUC's {low}..{high} mm/sec")
+    return f"{mm_s}mm/sec"
+
+
+def _motion(program: Program, move: Move | None, labels: list[str]) -> str:
+    """One numbered /MN line: J or L to a point, or C through the via point with the end point on a
+    continuation line (":"), then speed and termination."""
+    tail = f"{_speed(program, move)} {_termination(program, move)}"
+    if move is None or move.kind == JOINT:
+        return f"J {labels[0]} {tail}"
+    if move.kind == CIRCULAR:
+        return f"C {labels[0]}\n       :  {labels[1]} {tail}"
+    return f"L {labels[0]} {tail}"
+
+
+def _position(program: Program, index: int, point: Point, height: float) -> str:
+    """One /POS entry: joints as the pendant shows them, or CONFIG and X Y Z W P R."""
+    head = f"P[{index}]{{\n   GP1:\n\tUF : 0, UT : 1,"
+    if point.in_joints:
+        J = rounded(axis_angles(program.robot, point.q, FANUC), 3)
+        values = [f"J{i + 1}= {v:10.3f} deg" for i, v in enumerate(J)]
+        return f"{head}\n\t{_SEPARATOR.join(values[:3])},\n\t{_SEPARATOR.join(values[3:])}\n}};"
+    config = format_configuration(FANUC, configurations(program.robot, point.q, FANUC))
+    p, wpr = (rounded(v, 3) for v in xyz_rpy(point.X_BT, height))
+    xyz = _SEPARATOR.join(f"{axis} = {v:10.3f}  mm" for axis, v in zip("XYZ", p))
+    angles = _SEPARATOR.join(f"{axis} = {v:10.3f} deg" for axis, v in zip("WPR", wpr))
+    return f"{head}\t\tCONFIG : '{config}',\n\t{xyz},\n\t{angles}\n}};"
+
+
+def _attributes(program: Program, line_count: int, created: _dt.datetime | None) -> list[str]:
+    when = created or _dt.datetime.now(_dt.timezone.utc)
+    stamp = f"DATE {when:%y-%m-%d}  TIME {when:%H:%M:%S}"
+    return ["/ATTR", "OWNER\t\t= MNEDITOR;", 'COMMENT\t\t= "";', "PROG_SIZE\t= 0;", f"CREATE\t\t= {stamp};",
+            f"MODIFIED\t= {stamp};", "FILE_NAME\t= ;", "VERSION\t\t= 0;", f"LINE_COUNT\t= {line_count};",
+            "MEMORY_SIZE\t= 0;", "PROTECT\t\t= READ_WRITE;",
+            "TCD:  STACK_SIZE\t= 0,", "      TASK_PRIORITY\t= 50,", "      TIME_SLICE\t= 0,",
+            "      BUSY_LAMP_OFF\t= 0,", "      ABORT_REQUEST\t= 0,", "      PAUSE_REQUEST\t= 0;",
+            "DEFAULT_GROUP\t= 1,*,*,*,*;", "CONTROL_CODE\t= 00000000 00000000;"]
