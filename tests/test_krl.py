@@ -158,7 +158,7 @@ def test_moves_speeds_and_zones(programs):
     lines = src.splitlines()
     motion_lines = [i for i, text in enumerate(lines) if text.split()[0] in ("PTP", "LIN", "CIRC")]
     for move, i in zip(program.moves, motion_lines[1:]):
-        assert lines[i].split(",")[-1].split()[0] == f"XP{move.end}"
+        assert lines[i].split(",")[-1].split()[-1 if move.zone <= 0.0 else -2] == f"XP{move.end}"
         if move.zone > 0.0:
             assert lines[i].endswith(" C_DIS") and lines[i - 1] == f"$APO.CDIS = {move.zone * 1000:.3f}"
         else:

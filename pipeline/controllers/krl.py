@@ -19,7 +19,8 @@ Programming Instructions for System Integrators; the chapter and section named a
 * Moves: ``PTP`` to an E6AXIS (a waypoint given as joint values) or E6POS (a pose waypoint), ``LIN`` to an
   E6POS, a PTP's pose target as an E6AXIS when its written E6POS with S and T would not name its joint
   values alone (Turn is a sign per axis: an axis of more than +-180 deg, such as the IRB 1600's axis 6 of
-  +-400 deg, has two 2 pi variants of one sign; an axis at 0 can cross the sign by the rounding), ``CIRC aux, end`` with the via point as a FRAME (KRL ignores the auxiliary point's orientation
+  +-400 deg, has two 2 pi variants of one sign; an axis at 0 can cross the sign by the rounding),
+  ``CIRC aux, end`` with the via point as a FRAME (KRL ignores the auxiliary point's orientation
   and Status/Turn; we write the end's orientation). The first motion is a PTP to the start (the BCO run)
   at 10 % of the axes' speeds.
 * Zones: a move with a zone gets ``$APO.CDIS`` = the zone [mm] and ``C_DIS`` ("Approximate positioning":

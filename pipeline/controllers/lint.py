@@ -27,6 +27,8 @@ import numpy as np
 from ..errors import OutputError, shown
 from .configuration import FIELDS, configurations
 
+#: A zone may exceed half a move by this much [m]: the floating-point rounding of the move's length.
+ZONE_SLACK = 1e-9
 RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
 LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
 
@@ -86,19 +88,20 @@ LIMITS = {
               "language (the robot's own TCP speed bounds it)"),
         "RAPID kernel reference: identifiers are at most 32 characters, a letter first, then letters, digits, _"),
     FANUC_LS: LanguageLimits(
-        "fanuc", 36, r"[A-Z][A-Z0-9_]*", 32, 9999,
+        "fanuc", 8, r"[A-Z][A-Z0-9_]*", 32, 9999,
         Speed(_PERCENT, 100.0, 1.0, 1.0, 100.0, "FANUC TP: J moves at an integer 1-100 %"),
         Speed("mm/sec", 1000.0, 1.0, 1.0, 2000.0, "FANUC TP: L/C moves at an integer 1-2000 mm/sec (the "
               "controller's default range; unverified against a manual here)"),
-        "FANUC R-30iA/R-30iB: program names up to 36 characters, upper-case letter first (older controllers: 8); "
-        "comment lines (!) up to 32 characters; positions P[1]..P[9999] (index of 4 digits); unverified here"),
+        "FANUC teach pendant programs: names of 8 characters, an upper-case letter first, load on every controller "
+        "generation (R-30iA and later take up to 36, unverified here); comment lines (!) up to 32 characters; "
+        "positions P[1]..P[9999] (unverified here)"),
     JBI: LanguageLimits(
-        "yaskawa", 8, r"[A-Z0-9_\-]+", 32, 9999,
+        "yaskawa", 8, r"[A-Z][A-Z0-9_]*", 32, 100000,
         Speed(_PERCENT, 100.0, 0.01, 0.01, 100.0, "INFORM MOVJ VJ=0.01 to 100.00 (%)"),
         Speed("mm/s", 1000.0, 0.1, 0.1, 1500.0, "INFORM MOVL/MOVC V=0.1 to 1500.0 mm/s (NX100 INFORM; "
               "unverified here)"),
-        "NX100 operator's manual 4.1: job names up to 8 characters, comments up to 32; position variables "
-        "C0000..C9999 (4 digits)"),
+        "NX100 operator's manual 4.1 (job data format): //NAME up to 8 characters, comments up to 32; teaching "
+        "positions C00000..C99999 (5 digits in the job file; no smaller per-job limit found)"),
     KRL: LanguageLimits(
         "kuka", 24, r"[A-Za-z_][A-Za-z0-9_]*", None, None,
         Speed(_PERCENT, 100.0, 1.0, 1.0, 100.0, "KSS expert programming, $VEL_AXIS[i]: INT, 1-100 % of the axis' "
@@ -205,7 +208,7 @@ def check_zones(language: str, program) -> None:
             continue
         neighbours = lengths[k: k + 2]
         shortest = float(neighbours.min())
-        if move.zone > 0.5 * shortest:
+        if move.zone > 0.5 * shortest + ZONE_SLACK:
             raise ControllerLintError(language, move.end, "zone", move.zone,
                                       f"zone {move.zone * 1e3:.3f} mm is more than half of a neighbouring move "
                                       f"({shortest * 1e3:.3f} mm long); the controller would shrink it to "
