@@ -42,7 +42,7 @@ from ..errors import ConfigurationError
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import YASKAWA
 from .configuration import configurations
-from .fanuc_ls import (MM, check_name, check_six_joints, comment_lines, controller_frame, program_points, rounded,
+from .fanuc_ls import (MM, Point, check_name, check_six_joints, comment_lines, controller_frame, program_points, rounded,
                        tool_text, xyz_rpy)
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
@@ -67,16 +67,15 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     height, frame = controller_frame(program.robot, YASKAWA)
-    positions, instructions, index, written = [], [], 0, program_points(program, YASKAWA)
-    for k, (move, points) in enumerate(written):
-        if move is not None and move.kind == CIRCULAR:
-            points = [written[k - 1][1][-1], *points]             # the arc starts where the last move ended
+    positions, instructions, index = [], [], 0
+    moves = job_points(program)
+    for k, (move, points) in enumerate(moves):
         labels = []
         for point in points:
             labels.append(f"C{index:05d}")
             positions.extend(_position(program, labels[-1], point.q, point.X_BT, height, positions))
             index += 1
-        following = written[k + 1][0] if k + 1 < len(written) else None
+        following = moves[k + 1][0] if k + 1 < len(moves) else None
         instructions.extend(_instructions(program, move, labels, following, pl_mm))
     comments = [f"'{line}" for line in comment_lines(_header_text(program, frame))]
     when = created or _dt.datetime.now(_dt.timezone.utc)
@@ -84,6 +83,14 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
                       "///POSTYPE ROBOT", "///RECTAN", *positions, "//INST", f"///DATE {when:%Y/%m/%d %H:%M}",
                       f"///COMM {comment_lines(program.name)[0] if program.name else name}", "///ATTR SC,RW",
                       "///GROUP1 RB1", "NOP", *comments, *instructions, "END", ""])
+
+
+def job_points(program: Program) -> list[tuple[Move | None, list[Point]]]:
+    """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous move's end) as the
+    first of its three MOVC points: the points in the order C00000, C00001, ... are written."""
+    moves = program_points(program, YASKAWA)
+    return [(move, [moves[k - 1][1][-1], *points] if move is not None and move.kind == CIRCULAR else points)
+            for k, (move, points) in enumerate(moves)]
 
 
 def _header_text(program: Program, frame: str) -> str:
