@@ -1,7 +1,8 @@
 """FANUC .ls writer (pipeline.controllers.fanuc_ls): the demo jobs written, parsed by a grammar of the
 subset (tests/grammars/fanuc_ls.lark), each CONFIG equal to the configuration of the move's joints, and
 each Cartesian target re-solved with its written CONFIG landing on the exported joint values within what
-the file's rounding (0.001 mm, 0.001 deg) allows."""
+the file's rounding (0.001 mm, 0.001 deg) allows (``fanuc_ls.rounding_bound``: half a step on every written
+number, carried to the joints through the inverse Jacobian, doubled)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ import pytest
 from lark import Lark
 
 from pipeline.controllers import axis_angles, configurations, format_configuration, select_solution
-from pipeline.controllers.fanuc_ls import COMMENT_CHARS, cnt_value, controller_frame, program_points, write_ls
+from pipeline.controllers.fanuc_ls import (COMMENT_CHARS, cnt_value, controller_frame, program_points, rounding_bound,
+                                          write_ls)
 from pipeline.errors import ConfigurationError
 from pipeline.jobs import load_job
 from pipeline.poses import rpy_position_to_pose
@@ -35,19 +37,6 @@ def programs():
 @pytest.fixture(scope="module")
 def ls_parser():
     return Lark((GRAMMARS / "fanuc_ls.lark").read_text(), parser="lalr")
-
-
-def joint_tolerance(robot, q, mm_step: float, deg_step: float) -> np.ndarray:
-    """How far (6,) [rad] re-solving a pose written to ``mm_step`` [mm] and ``deg_step`` [deg] may land
-    from q (6,) [rad]: each written number is off by at most half a step, so the TCP position by at most
-    sqrt(3) mm_step / 2 and its rotation (three rotations about fixed axes, each off by deg_step / 2) by
-    at most 3 deg_step / 2; to first order joint i moves by |J^-1 row i, v part| |dp| + |J^-1 row i, w
-    part| |dtheta| (J the TCP Jacobian at q); twice that, plus 1e-9 rad, covers the second order and the
-    closed-form IK's own error."""
-    J_inv = np.linalg.inv(robot.jacobian(q))
-    dp = np.sqrt(3.0) * mm_step / 2.0 / 1000.0
-    dtheta = 3.0 * np.radians(deg_step) / 2.0
-    return 2.0 * (np.linalg.norm(J_inv[:, :3], axis=1) * dp + np.linalg.norm(J_inv[:, 3:], axis=1) * dtheta) + 1e-9
 
 
 def written_positions(parser, text: str) -> dict[int, dict]:
@@ -88,7 +77,7 @@ def test_config_is_the_joints_configuration_and_resolving_lands_on_the_exported_
         assert entry["config"] == format_configuration("fanuc", configurations(robot, point.q, "fanuc"))
         X = rpy_position_to_pose(np.radians(entry["wpr"]), entry["xyz"] / 1000.0 + [0.0, 0.0, height])
         q = select_solution(robot, X, entry["config"], "fanuc")
-        tolerance = joint_tolerance(robot, point.q, 0.001, 0.001)
+        tolerance = rounding_bound(robot, point.q, 0.001, 0.001)
         assert np.all(np.abs(q - point.q) <= tolerance), (index, np.degrees(q - point.q), np.degrees(tolerance))
         assert tolerance.max() < np.radians(0.01)       # the bound is tight enough to tell branches apart
 

@@ -26,6 +26,10 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   fixed x, y, z axes of the frame, R = Rz(R) Ry(P) Rx(W); CONFIG from ``pipeline.controllers.configuration``.
   A waypoint the job gives in joints is written in joints, J1..J6 in deg as the pendant shows them
   (J3 = q3 - q2 on FANUC arms, ``pipeline.controllers.axes``). Values are rounded to 0.001 mm and 0.001 deg.
+* Checked before writing: each Cartesian point, as written (rounded) and with its written CONFIG, is solved
+  again (``selection.select_solution``) and must land on the program's joint values within what the rounding
+  allows (``rounding_bound``); a point on or near a configuration boundary (an axis at exactly +-180 deg, a
+  singular set), where the rounding alone could send the controller to another branch or turn, is refused.
 * Frames: FANUC's world frame on the LR Mate 200iD is 330 mm above the mounting face (ROS-Industrial
   ``fanuc_lrmate200id_support``: the ``base_link-base`` transform "to Fanuc World Coordinates"); any other
   robot has no published world frame on this controller and is written in our base frame (the mounting
@@ -45,8 +49,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigurationError
-from ..poses import rotation_to_rpy
+from ..errors import ConfigurationError, ConfigurationNotFoundError
+from ..poses import rotation_to_rpy, rpy_position_to_pose
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import FANUC, axis_angles
 from .configuration import configurations, format_configuration
@@ -55,10 +59,10 @@ from .selection import select_solution
 #: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
 #: with its source (ROS-Industrial descriptions: the ``base_link-base`` transform to the maker's frame).
 CONTROLLER_FRAMES = {
-    ("lrmate200id", "fanuc"): (0.330, "FANUC world frame: 330 mm above the mounting face (ROS-Industrial "
-                                      "fanuc_lrmate200id_support, base_link-base)"),
-    ("gp7", "yaskawa"): (0.330, "Yaskawa robot frame: 330 mm above the mounting face (ROS-Industrial "
-                                "motoman_gp7_support, base_link-base)"),
+    ("lrmate200id", "fanuc"): (0.330, ("FANUC world frame: 330 mm above the mounting face (ROS-Industrial "
+                                       "fanuc_lrmate200id_support, base_link-base)")),
+    ("gp7", "yaskawa"): (0.330, ("Yaskawa robot frame: 330 mm above the mounting face (ROS-Industrial "
+                                 "motoman_gp7_support, base_link-base)")),
 }
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
@@ -125,6 +129,40 @@ def xyz_rpy(X_BT: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
     return p, rotation_to_rpy(X_BT[:3, :3]) * DEG
 
 
+def rounding_bound(robot, q, mm_step: float, deg_step: float) -> np.ndarray:
+    """How far (6,) [rad] re-solving a pose written to ``mm_step`` [mm] and ``deg_step`` [deg] may land
+    from q (6,) [rad]: each written number is off by at most half a step, so the TCP position by at most
+    sqrt(3) mm_step / 2 and its rotation (three rotations about fixed axes, each off by deg_step / 2) by
+    at most 3 deg_step / 2; to first order joint i moves by |J^-1 row i, v part| |dp| + |J^-1 row i, w
+    part| |dtheta| (J the TCP Jacobian at q); twice that, plus 1e-9 rad, covers the second order and the
+    closed-form IK's own error."""
+    J_inv = np.linalg.inv(robot.jacobian(q))
+    dp = math.sqrt(3.0) * mm_step / 2.0 / MM
+    dtheta = 3.0 * math.radians(deg_step) / 2.0
+    return 2.0 * (np.linalg.norm(J_inv[:, :3], axis=1) * dp + np.linalg.norm(J_inv[:, 3:], axis=1) * dtheta) + 1e-9
+
+
+def check_written_point(robot, vendor: str, label: str, q, xyz_mm, angles_deg, height: float, config,
+                        steps: tuple[float, float]) -> None:
+    """ConfigurationError naming the point unless the pose as written (``xyz_mm`` [mm] in the controller
+    frame ``height`` [m] above the base, ``angles_deg`` [deg]) with its written ``config`` selects joint values
+    within ``rounding_bound`` (``steps``: the file's mm and deg steps) of q (6,) [rad]: a point on or near a
+    configuration boundary (a turn window's edge at +-180 deg, a singular set), where the rounding alone can
+    make the controller take another branch or 2 pi variant, is refused rather than written."""
+    X = rpy_position_to_pose(np.radians(angles_deg), np.asarray(xyz_mm) / MM + [0.0, 0.0, height])
+    try:
+        landed = select_solution(robot, X, config, vendor)
+        why = f"it selects {np.round(np.degrees(landed), 4).tolist()} deg"
+    except ConfigurationNotFoundError as error:
+        landed, why = None, str(error)
+    if landed is None or np.any(np.abs(landed - q) > rounding_bound(robot, q, *steps)):
+        written = format_configuration(vendor, config)
+        raise ConfigurationError(f"{label}: joint values {np.round(np.degrees(q), 4).tolist()} deg lie on or near a "
+                                 f"{vendor} configuration boundary: the pose as written with {written} does not bring "
+                                 f"them back within the file's rounding ({why}); move the waypoint off the boundary "
+                                 "(e.g. an axis at exactly +-180 deg)")
+
+
 def rounded(values, decimals: int) -> np.ndarray:
     """``values`` rounded to ``decimals``, without negative zeros (a file shows 0.000, not -0.000)."""
     return np.round(np.asarray(values, dtype=float), decimals) + 0.0
@@ -142,8 +180,8 @@ def tool_text(program: Program) -> str:
 
 def check_name(name: str, pattern: re.Pattern, what: str) -> str:
     if not isinstance(name, str) or not pattern.match(name):
-        raise ConfigurationError(f"{what} name {name!r}: 1 to 8 characters, an upper-case letter first, then upper-case "
-                                 "letters, digits or _")
+        raise ConfigurationError(f"{what} name {name!r}: 1 to 8 characters, an upper-case letter first, then "
+                                 "upper-case letters, digits or _")
     return name
 
 
@@ -242,6 +280,7 @@ def _position(program: Program, index: int, point: Point, height: float) -> str:
         return f"{head}\n\t{_SEPARATOR.join(values[:3])},\n\t{_SEPARATOR.join(values[3:])}\n}};"
     config = format_configuration(FANUC, configurations(program.robot, point.q, FANUC))
     p, wpr = (rounded(v, 3) for v in xyz_rpy(point.X_BT, height))
+    check_written_point(program.robot, FANUC, f"P[{index}]", point.q, p, wpr, height, config, (0.001, 0.001))
     xyz = _SEPARATOR.join(f"{axis} = {v:10.3f}  mm" for axis, v in zip("XYZ", p))
     angles = _SEPARATOR.join(f"{axis} = {v:10.3f} deg" for axis, v in zip("WPR", wpr))
     return f"{head}\t\tCONFIG : '{config}',\n\t{xyz},\n\t{angles}\n}};"

@@ -26,7 +26,10 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
   0.001 mm, Rx, Ry, Rz in deg to 0.01 deg, the rotations "in the order Rz, Ry, Rx" of the frame (DX100
   manual, section 4.3: R = Rz Ry Rx, rotations about the fixed x, y, z axes), with ``///RCONF`` from
   ``pipeline.controllers.configuration``. Pulse data (``POSTYPE PULSE``) would need each axis's pulses per
-  degree, which the robot files do not give: joint waypoints are written as Cartesian data too.
+  degree, which the robot files do not give: joint waypoints are written as Cartesian data too. Each point
+  is solved again as written, with its RCONF, and must land on the program's joint values within the
+  rounding (``fanuc_ls.check_written_point``): a joint waypoint with R, T or S at exactly +-180 deg, where
+  the ">= 180" bit is decided by the last digit, is refused (it needs pulse data).
 * Frames: the GP7's robot frame is 330 mm above its mounting face (``fanuc_ls.CONTROLLER_FRAMES``); other
   robots are written in our base frame. ``///TOOL 1`` must hold the job's tool (stated in the comments).
 """
@@ -42,8 +45,8 @@ from ..errors import ConfigurationError
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import YASKAWA
 from .configuration import configurations
-from .fanuc_ls import (MM, Point, check_name, check_six_joints, comment_lines, controller_frame, program_points, rounded,
-                       tool_text, xyz_rpy)
+from .fanuc_ls import (MM, Point, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
+                       program_points, rounded, tool_text, xyz_rpy)
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
@@ -101,11 +104,13 @@ def _header_text(program: Program, frame: str) -> str:
 
 def _position(program: Program, label: str, q, X_BT, height: float, written: list[str]) -> list[str]:
     """The lines of one Cartesian point: ///RCONF when it differs from the last one written, then Cxxxxx=."""
-    fields = [*configurations(program.robot, q, YASKAWA), *([0] * UNUSED_RCONF)]
-    rconf = "///RCONF " + ",".join(str(int(v)) for v in fields)
+    config = configurations(program.robot, q, YASKAWA)
+    rconf = "///RCONF " + ",".join(str(int(v)) for v in [*config, *([0] * UNUSED_RCONF)])
     last = next((line for line in reversed(written) if line.startswith("///RCONF")), None)
     p, angles = xyz_rpy(X_BT, height)
-    values = [f"{v:.3f}" for v in rounded(p, 3)] + [f"{v:.2f}" for v in rounded(angles, 2)]
+    p, angles = rounded(p, 3), rounded(angles, 2)
+    check_written_point(program.robot, YASKAWA, label, q, p, angles, height, config, (0.001, 0.01))
+    values = [f"{v:.3f}" for v in p] + [f"{v:.2f}" for v in angles]
     return ([] if rconf == last else [rconf]) + [f"{label}={','.join(values)}"]
 
 
