@@ -58,10 +58,12 @@ from .configuration import configurations, format_configuration
 from .selection import select_solution
 
 #: RAPID's reserved words (RAPID kernel manual, "Reserved words"): no identifier may be one of them.
-RESERVED_WORDS = frozenset("""ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR ENDFUNC ENDIF
-ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FALSE FOR FROM FUNC GOTO IF INOUT LOCAL MOD MODULE
-NOSTEPIN NOT NOVIEW OR PERS PROC RAISE READONLY RECORD RETRY RETURN STEP SYSMODULE TASK TEST THEN TO TRUE TRYNEXT UNDO
-VAR VIEWONLY WHILE WITH XOR""".split())
+RESERVED_WORDS = frozenset(("ALIAS", "AND", "BACKWARD", "CASE", "CONNECT", "CONST", "DEFAULT", "DIV", "DO", "ELSE",
+                            "ELSEIF", "ENDFOR", "ENDFUNC", "ENDIF", "ENDMODULE", "ENDPROC", "ENDRECORD", "ENDTEST",
+                            "ENDTRAP", "ENDWHILE", "ERROR", "EXIT", "FALSE", "FOR", "FROM", "FUNC", "GOTO", "IF",
+                            "INOUT", "LOCAL", "MOD", "MODULE", "NOSTEPIN", "NOT", "NOVIEW", "OR", "PERS", "PROC",
+                            "RAISE", "READONLY", "RECORD", "RETRY", "RETURN", "STEP", "SYSMODULE", "TASK", "TEST",
+                            "THEN", "TO", "TRUE", "TRYNEXT", "UNDO", "VAR", "VIEWONLY", "WHILE", "WITH", "XOR"))
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
 #: v_ori [deg/s], v_leax [mm/s], v_reax [deg/s] of every predefined speeddata v5..v7000.
 SPEED_REST = (500.0, 5000.0, 1000.0)
@@ -284,8 +286,8 @@ class _Module:
         program = self.program
         accel = "none" if program.tcp_accel_max is None else f"{program.tcp_accel_max * 1e3:g} mm/s^2"
         return [
-            f"{module_name}: the compiled program {program.name!r} (robot {program.robot.name}, "
-            f"{len(program.moves)} moves), written by pipeline.controllers.rapid.",
+            (f"{module_name}: the compiled program {program.name!r} (robot {program.robot.name}, "
+             f"{len(program.moves)} moves), written by pipeline.controllers.rapid."),
             "Units: mm, deg; quaternions [q1 (scalar), q2, q3, q4]. Rounding: 0.001 mm, 1e-6, 0.0001 deg.",
             "The controller plans its own velocity profile: this is not the certified profile.",
             "- tool moves run at their TCP speed (speeddata v_tcp); joint moves take \\T, the time the",
