@@ -53,7 +53,6 @@ PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
 NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
 #: ///RCONF fields after l, m, n, o, p, q on DX100 and later controllers (r1..r18, unused).
 UNUSED_RCONF = 18
-JBI_SPEED_MM_S = (0.1, 1500.0)
 
 
 def pl_level(zone: float, pl_mm=PL_MM) -> int:
@@ -99,7 +98,8 @@ def job_points(program: Program) -> list[tuple[Move | None, list[Point]]]:
 def _header_text(program: Program, frame: str) -> str:
     return (f"{program.name} on {program.robot.name}. The controller plans its own speed profile for each move, "
             "not the certified one: timing and the path at PL points differ. TOOL 1 = "
-            f"{tool_text(program)} (x y z rx ry rz, mm deg). {frame}.")
+            f"{tool_text(program)} (x y z rx ry rz, mm deg). {frame}. All points are Cartesian data: the robot "
+            "file gives no pulses per degree for pulse data.")
 
 
 def _position(program: Program, label: str, q, X_BT, height: float, written: list[str]) -> list[str]:
@@ -115,14 +115,15 @@ def _position(program: Program, label: str, q, X_BT, height: float, written: lis
 
 
 def _speed(program: Program, move: Move | None) -> str:
-    """VJ= for a joint move (% to 0.01), V= for a tool move (mm/s to 0.1); ConfigurationError outside range."""
+    """VJ= for a joint move (% to 0.01, 0.01..100), V= for a tool move (mm/s to 0.1); ConfigurationError for a
+    TCP speed that rounds to 0 (the robot's own maximum is for the lint to check)."""
     if move is None or move.kind == JOINT:
         fraction = program.speed_scale if move is None else move.speed * program.speed_scale
         return f"VJ={min(100.0, max(0.01, round(fraction * 100.0, 2))):.2f}"
     mm_s = round(move.speed * program.speed_scale * MM, 1)
-    low, high = JBI_SPEED_MM_S
-    if not low <= mm_s <= high:
-        raise ConfigurationError(f"move {move.end}: TCP speed {mm_s} mm/s is outside {low}..{high} mm/s (V=)")
+    if mm_s < 0.1:
+        raise ConfigurationError(f"move {move.end}: TCP speed {move.speed * program.speed_scale * MM:.4g} mm/s rounds "
+                                 "to 0 in V= (0.1 mm/s steps)")
     return f"V={mm_s:.1f}"
 
 
