@@ -6,6 +6,8 @@ rounding; jointtargets are the joint values; the syntax passes rapidchecker (an 
 
 from __future__ import annotations
 
+import dataclasses
+import importlib.util
 import re
 import subprocess
 import sys
@@ -13,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from pipeline.controllers import configurations, select_solution
 from pipeline.controllers.rapid import check_identifier, joint_move_time, via_target, write_rapid, written_configuration
@@ -20,6 +23,7 @@ from pipeline.errors import OutputError
 from pipeline.jobs import load_job
 from pipeline.poses import quaternion_position_to_pose
 from pipeline.program import compile_job
+from pipeline.runner import collision_model
 from pipeline.tool_moves import POSITION_TOLERANCE_M
 
 JOBS = Path(__file__).resolve().parents[1] / "trajectories" / "jobs"
@@ -177,3 +181,47 @@ def test_rapidchecker_rejects_a_broken_module(written, tmp_path):
     text = written["irb1600_tool_moves"][1].replace("MoveL p2, speed_400, zone_40, tool_job;",
                                                     "MoveL p2, speed_400 zone_40, tool_job")
     assert rapidchecker_errors(tmp_path, text).returncode != 0
+
+
+@pytest.fixture(scope="module")
+def cell_program():
+    """The GP7 cell job compiled with its cell: its joint moves over the wall are planned."""
+    job = load_job(JOBS / "gp7_cell_pick_place.yaml")
+    return compile_job(job, collision_model(job))
+
+
+def test_planned_moves_pass_their_vertices_with_exact_stops(cell_program, tmp_path):
+    text = write_rapid(cell_program, "gp7_cell")
+    joints, moves = jointtargets(text), [line for line in instructions(text) if line.startswith("Move")]
+    planned = [m for m in cell_program.moves if m.planned is not None]
+    assert planned
+    for move in planned:
+        vertices = move.planned.waypoints[1:-1]
+        assert len(vertices)
+        for i, vertex in enumerate(vertices, start=1):
+            assert np.abs(joints[f"j{move.end}_{i}"] - np.degrees(vertex)).max() <= JOINT_ROUNDING_DEG
+            assert any(line.startswith(f"MoveAbsJ j{move.end}_{i}, vmax\\T:=") and ", fine," in line
+                       for line in moves)
+        # Into and out of the planned move: exact stops, whatever the job's zones.
+        ends = [line for line in moves if re.match(rf"Move\w+ (?:c\d+, )?p({move.end - 1}|{move.end}),", line)]
+        assert len(ends) == 2 and all(", fine," in line for line in ends)
+    if importlib.util.find_spec("rapidchecker") is not None:
+        assert rapidchecker_errors(tmp_path, text).returncode == 0
+
+
+def test_work_object_when_the_base_is_placed_in_the_cell(cell_program):
+    X_WB = np.eye(4)
+    X_WB[:3, :3] = Rotation.from_euler("z", 90, degrees=True).as_matrix()
+    X_WB[:3, 3] = [1.0, 0.5, 0.2]
+    program = dataclasses.replace(cell_program, cell=dataclasses.replace(cell_program.cell, X_WB=X_WB))
+    text = write_rapid(program, "gp7_cell")
+    assert "TASK PERS wobjdata wobj_base := [FALSE,TRUE,\"\",[[1000,500,200],[0.707107,0,0,0.707107]]," \
+           "[[0,0,0],[1,0,0,0]]];" in text
+    moves = [line for line in instructions(text) if line.startswith("Move") and not line.startswith("MoveAbsJ")]
+    assert moves and all(line.endswith("tool_job\\WObj:=wobj_base;") for line in moves)
+    # The targets stay in the robot's base frame.
+    assert robtargets(text).keys() == robtargets(write_rapid(cell_program, "gp7_cell")).keys()
+    for name, (X, conf) in robtargets(text).items():
+        X0, conf0 = robtargets(write_rapid(cell_program, "gp7_cell"))[name]
+        np.testing.assert_array_equal(X, X0)
+        assert conf == conf0

@@ -15,8 +15,9 @@ from scipy.spatial.transform import Rotation
 
 from pipeline.controllers.urscript import resample, write_urscript
 from pipeline.errors import OutputError
-from pipeline.jobs import parse_job
+from pipeline.jobs import load_job, parse_job
 from pipeline.program import compile_job, time_program
+from pipeline.runner import collision_model
 
 lark = pytest.importorskip("lark", reason="lark (pip install lark) parses the URScript grammar")
 
@@ -187,3 +188,19 @@ def test_grammar_rejects_what_urscript_does_not_allow(parser):
                  "def a():\nmovej([0.0])\n", "movej([0.0])\n"):
         with pytest.raises(lark.exceptions.LarkError):
             parser.parse(text)
+
+
+def test_planned_moves_pass_their_vertices_with_exact_stops(parser):
+    """The GP7 cell job (joint moves planned over a wall, zones of 75 mm next to them): every planner vertex is a
+    movej with r=0, and no blend into or out of a planned move."""
+    job = load_job(TESTS.parent / "trajectories" / "jobs" / "gp7_cell_pick_place.yaml")
+    program = compile_job(job, collision_model(job))
+    calls = functions(parser.parse(write_urscript(program, "gp7_cell")))["gp7_cell"]
+    expected = [program.targets[0]]
+    for move in program.moves:
+        if move.kind == "joint":
+            expected += [*move.planned.waypoints[1:-1], move.target]
+    movej = [(np.array(args[0]), kw["r"]) for args, kw in calls["movej"]]
+    assert len(movej) == len(expected)
+    assert all(np.abs(q - target).max() <= ROUNDING and r == 0.0 for (q, r), target in zip(movej, expected))
+    assert all(kw["r"] == 0.0 for _, kw in calls["movel"])

@@ -19,8 +19,8 @@ lists and poses; "Module motion" for the functions):
   acceleration limit x the scale^2 (the manual's default 1.2 m/s^2 when the job has none) [m/s^2]; mode 0
   interpolates the orientation from the start to the target pose, as the program's slerp does; the via
   pose's rotation is not used by movec (the manual) and is written as the target's.
-* ``r``: the move's zone [m]; 0 at the program's stops, and where the program passes through a waypoint
-  without a zone (the controller stops there).
+* ``r``: the move's zone [m]; 0 at the program's stops, at both ends of a planned joint move, and where the
+  program passes through a waypoint without a zone (the controller stops there).
 * With a certified profile: ``certified_replay()`` moves to the profile's first sample with ``movej`` (the
   manual's default a, v: an approach), then calls ``servoj(q, t=period, lookahead_time, gain)`` once per
   controller period with the profile resampled at k x period (cubic Hermite on the profile's q and qd
@@ -44,6 +44,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import OutputError
 from ..profile import Profile
 from ..program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from .rapid import next_to_planned
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 #: URScript's keywords and the names this module defines: no program name may be one of them.
@@ -139,8 +140,9 @@ def tool_speed(program: Program, move: Move) -> tuple[float, float]:
 
 
 def blend(program: Program, move: Move) -> float:
-    """The blend radius r [m] at the end of ``move``: its zone, 0 at a stop."""
-    return 0.0 if move.end in program.stops else move.zone
+    """The blend radius r [m] at the end of ``move``: its zone; 0 at a stop and at both ends of a planned joint
+    move (a controller's blend there is not a path the planner or the clearance certificate checked)."""
+    return 0.0 if move.end in program.stops or next_to_planned(program, move) else move.zone
 
 
 def _native_moves(program: Program) -> list[str]:
@@ -202,7 +204,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
          f"(URScript has no configuration data); a is the job's TCP acceleration limit ({accel}) or the "
          "manual's default"),
         ("- blend radii r are the program's zones, blended the controller's way; r = 0 stops, also where the "
-         "certified profile passes through a waypoint without a zone"),
+         "certified profile passes through a waypoint without a zone, and at both ends of a planned move"),
         "The first movej goes to the start with the manual's default a and v: an approach.",
     ]
     if profile is not None:
