@@ -120,6 +120,20 @@ class OutputError(PipelineError):
     package did not write."""
 
 
+class ControllerLintError(OutputError):
+    """A program breaks a rule of the controller language it is written in: ``language``, ``move`` (the
+    waypoint index a move ends at, None for the whole program), ``field`` (e.g. ``zone``, ``speed``,
+    ``name``, ``S``) and ``value`` (the offending value)."""
+
+    def __init__(self, language: str, move: int | None, field: str, value, problem: str):
+        self.language, self.move, self.field, self.value, self.problem = language, move, field, value, problem
+        where = "program" if move is None else f"move to waypoint {move}"
+        super().__init__(f"{language}: {where}: {field} = {shown(value)}: {problem}")
+
+    def __reduce__(self):
+        return type(self), (self.language, self.move, self.field, self.value, self.problem)
+
+
 class UrdfFileError(FileFormatError):
     """A URDF file is not valid XML or not a valid URDF (``field`` names the element, e.g.
     ``joint[elbow].limit.velocity``), or its chain cannot become a DH robot (``UrdfChainError``)."""

@@ -54,6 +54,7 @@ from ..poses import rotation_to_rpy, rpy_position_to_pose
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import FANUC, axis_angles
 from .configuration import configurations, format_configuration
+from .lint import FANUC_LS, lint
 from .selection import select_solution
 
 #: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
@@ -210,11 +211,16 @@ def cnt_value(zone: float, reach: float) -> int:
 def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -> str:
     """The program as a FANUC ``.ls`` file (module docstring); ``name`` its /PROG name, ``created`` the
     header's date (None: now, UTC). ConfigurationError for a bad name, a non-6R robot or a speed the
-    controller cannot take."""
+    controller cannot take; ``lint`` runs first on the name, the comment lines and the CONFIG of every Cartesian
+    waypoint (ControllerLintError)."""
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
     height, frame = controller_frame(program.robot, FANUC)
-    lines = [f"!{line}" for line in comment_lines(_header_text(program, frame))]
+    comments = comment_lines(_header_text(program, frame))
+    zones = [line for move in program.moves if move.zone > 0.0 for line in comment_lines(_zone_comment(program, move))]
+    configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
+    lint(program, FANUC_LS, name, comments + zones, configs)
+    lines = [f"!{line}" for line in comments]
     positions, index = [], 0
     for move, points in program_points(program, FANUC):
         labels = []

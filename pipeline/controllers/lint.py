@@ -14,7 +14,10 @@ The rules, each with one table row per language (``LIMITS``, every limit with it
   language writes (0 < written value <= 100 %, after the language's rounding), a tool move's TCP speed in
   the language's unit within the language's range and within the robot's TCP speed limit;
 * configuration consistent with the joint values: the configuration a writer writes for each target
-  equals ``pipeline.controllers.configurations`` of its joint values.
+  equals ``pipeline.controllers.configurations`` of its joint values (a target written as joint values,
+  which carries none, is passed as None).
+
+``ControllerLintError`` lives in ``pipeline.errors`` (an OutputError: the program cannot be written).
 """
 
 from __future__ import annotations
@@ -24,27 +27,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import OutputError, shown
+from ..errors import ControllerLintError
 from .configuration import FIELDS, configurations
 
 #: A zone may exceed half a move by this much [m]: the floating-point rounding of the move's length.
 ZONE_SLACK = 1e-9
 RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
 LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
-
-
-class ControllerLintError(OutputError):
-    """A program breaks a rule of the controller language it is written in: ``language``, ``move`` (the
-    waypoint index a move ends at, None for the whole program), ``field`` (e.g. ``zone``, ``speed``,
-    ``name``, ``S``) and ``value`` (the offending value)."""
-
-    def __init__(self, language: str, move: int | None, field: str, value, problem: str):
-        self.language, self.move, self.field, self.value, self.problem = language, move, field, value, problem
-        where = "program" if move is None else f"move to waypoint {move}"
-        super().__init__(f"{language}: {where}: {field} = {shown(value)}: {problem}")
-
-    def __reduce__(self):
-        return type(self), (self.language, self.move, self.field, self.value, self.problem)
 
 
 @dataclass(frozen=True)
@@ -242,14 +231,19 @@ def check_speeds(language: str, program) -> None:
 
 
 def check_configurations(language: str, program, configs, vendor: str) -> None:
-    """The configuration fields ``configs`` (K, fields) written for the K waypoints equal the vendor's
-    configuration of their joint values (``pipeline.controllers.configurations``)."""
+    """The configuration fields ``configs`` (K rows of fields, a row None where waypoint k is written without
+    one, as joint values) written for the K waypoints equal the vendor's configuration of their joint values
+    (``pipeline.controllers.configurations``)."""
     expected = configurations(program.robot, program.targets, vendor)
-    configs = np.asarray(configs)
-    if configs.shape != expected.shape:
-        raise ControllerLintError(language, None, "configuration", configs.shape,
+    rows = list(configs)
+    written_rows = [np.asarray(row) for row in rows if row is not None]
+    if len(rows) != len(expected) or any(row.shape != expected.shape[1:] for row in written_rows):
+        shape = np.asarray(configs).shape if not any(row is None for row in rows) else (len(rows), "...")
+        raise ControllerLintError(language, None, "configuration", shape,
                                   f"{len(expected)} waypoints need {expected.shape} {vendor} configuration fields")
-    for k, (written, wanted) in enumerate(zip(configs, expected)):
+    for k, (written, wanted) in enumerate(zip(rows, expected)):
+        if written is None:
+            continue
         for field, w, e in zip(FIELDS[vendor], written, wanted):
             if int(w) != int(e):
                 raise ControllerLintError(language, k, field, int(w), f"the {vendor} configuration of the joint "

@@ -55,6 +55,7 @@ from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .axes import ABB, axis_angles, axis_map
 from .configuration import configurations, format_configuration
+from .lint import RAPID, lint
 from .selection import select_solution
 
 #: RAPID's reserved words (RAPID kernel manual, "Reserved words"): no identifier may be one of them.
@@ -89,11 +90,13 @@ STORAGE = {"tooldata": "PERS", "wobjdata": "TASK PERS", "speeddata": "CONST", "z
 
 def write_rapid(program: Program, module_name: str) -> str:
     """The RAPID module text of ``program`` (see the module docstring), named ``module_name`` (a RAPID
-    identifier). OutputError names what cannot be written (a bad name, a robot without 6 joints)."""
+    identifier). OutputError names what cannot be written (a bad name, a robot without 6 joints); ``lint``
+    runs first on the name, the header comments and the confdata of the robtargets (ControllerLintError)."""
     check_identifier(module_name, "module name")
     if program.robot.dof != 6:
         raise OutputError(f"{program.robot.name}: a RAPID robtarget needs a 6-joint arm, it has {program.robot.dof}")
     module = _Module(program)
+    lint(program, RAPID, module_name, module.header(module_name), written_configurations(program))
     module.add_moves()
     return module.text(module_name)
 
@@ -157,6 +160,12 @@ def written_configuration(robot, X: np.ndarray, q: np.ndarray) -> np.ndarray:
                           f"rounded to {MM} decimals of mm and {QUATERNION} of the quaternion, has no solution "
                           f"within {WRITTEN_JOINTS_RAD} rad of them (nearest {gaps.min():.3g} rad): a singular pose?")
     return configurations(robot, candidates[int(np.argmin(gaps))], ABB)
+
+
+def written_configurations(program: Program) -> list[np.ndarray | None]:
+    """The confdata (4,) written for each waypoint: None for the start and joint waypoints (jointtargets)."""
+    return [None] + [None if program.waypoints[m.end].method is None else
+                     written_configuration(program.robot, m.X_BT, m.target) for m in program.moves]
 
 
 def zone_name(program: Program, move: Move) -> tuple[str, str | None]:

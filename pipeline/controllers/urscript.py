@@ -44,6 +44,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import OutputError
 from ..profile import Profile
 from ..program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from .lint import URSCRIPT, lint
 from .rapid import next_to_planned
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -67,14 +68,17 @@ def write_urscript(program: Program, name: str, profile: Profile | None = None, 
                    lookahead_time: float = LOOKAHEAD_S, gain: float = GAIN) -> str:
     """The URScript program text of ``program`` (module docstring), its ``def`` named ``name``; with
     ``profile`` (the program's certified Profile) also its servoj replay every ``period`` [s] with
-    ``lookahead_time`` [s] and ``gain``. OutputError names what cannot be written."""
+    ``lookahead_time`` [s] and ``gain``. OutputError names what cannot be written; ``lint`` runs first on
+    the name and the header comments (ControllerLintError; URScript writes no configuration data)."""
     check_name(name)
     _check_replay_options(period, lookahead_time, gain)
     if program.robot.dof != 6:
         raise OutputError(f"{program.robot.name}: URScript moves a 6-joint arm, this one has {program.robot.dof}")
+    header = _header(program, name, profile, period, lookahead_time, gain)
+    lint(program, URSCRIPT, name, header)
     moves = _native_moves(program)
     lines = [f"def {name}():"]
-    lines += [f"  # {line}" for line in _header(program, name, profile, period, lookahead_time, gain)]
+    lines += [f"  # {line}" for line in header]
     lines.append(f"  set_tcp({pose(program.tool.X_FT)})")
     if profile is None:
         lines += [f"  {move}" for move in moves]

@@ -45,6 +45,7 @@ from ..errors import ConfigurationError
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import YASKAWA
 from .configuration import configurations
+from .lint import JBI, lint
 from .fanuc_ls import (MM, Point, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
                        program_points, rounded, tool_text, xyz_rpy)
 
@@ -63,12 +64,17 @@ def pl_level(zone: float, pl_mm=PL_MM) -> int:
 def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, pl_mm=PL_MM) -> str:
     """The program as a Yaskawa INFORM job (module docstring); ``name`` its //NAME, ``created`` its
     ///DATE (None: now, UTC), ``pl_mm`` the controller's PL1..PL8 distances [mm]. ConfigurationError for
-    a bad name, a non-6R robot, a speed the controller cannot take or pl_mm not 8 increasing distances."""
+    a bad name, a non-6R robot, a speed the controller cannot take or pl_mm not 8 increasing distances;
+    ``lint`` runs first on the name, the comment lines and the RCONF of every waypoint (all are Cartesian:
+    ControllerLintError)."""
     check_name(name, NAME_PATTERN, "Yaskawa job")
     check_six_joints(program)
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     height, frame = controller_frame(program.robot, YASKAWA)
+    header = comment_lines(_header_text(program, frame))
+    zones = [f"zone {m.zone * MM:.1f}mm PL{pl_level(m.zone, pl_mm)}" for m in program.moves if m.zone > 0.0]
+    lint(program, JBI, name, header + zones, configurations(program.robot, program.targets, YASKAWA))
     positions, instructions, index = [], [], 0
     moves = job_points(program)
     for k, (move, points) in enumerate(moves):
@@ -79,7 +85,7 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
             index += 1
         following = moves[k + 1][0] if k + 1 < len(moves) else None
         instructions.extend(_instructions(program, move, labels, following, pl_mm))
-    comments = [f"'{line}" for line in comment_lines(_header_text(program, frame))]
+    comments = [f"'{line}" for line in header]
     when = created or _dt.datetime.now(_dt.timezone.utc)
     return "\n".join(["/JOB", f"//NAME {name}", "//POS", f"///NPOS {index},0,0,0,0,0", "///TOOL 1",
                       "///POSTYPE ROBOT", "///RECTAN", *positions, "//INST", f"///DATE {when:%Y/%m/%d %H:%M}",
