@@ -1,5 +1,5 @@
 """FANUC .ls writer (pipeline.controllers.fanuc_ls): the demo jobs written, parsed by a grammar of the
-subset (tests/grammars/fanuc_ls.lark), each CONFIG equal to the configuration of the move's joints, and
+subset (pipeline/controllers/grammars/fanuc_ls.lark), each CONFIG equal to the configuration of the move's joints, and
 each Cartesian target re-solved with its written CONFIG landing on the exported joint values within what
 the file's rounding (0.001 mm, 0.001 deg) allows (``fanuc_ls.rounding_bound``: half a step on every written
 number, carried to the joints through the inverse Jacobian, doubled)."""
@@ -23,7 +23,7 @@ from pipeline.program import compile_job
 from pipeline.vendor import fanuc_pendant_to_serial
 
 JOBS = Path(__file__).resolve().parents[1] / "trajectories" / "jobs"
-GRAMMARS = Path(__file__).resolve().parent / "grammars"
+GRAMMARS = Path(__file__).resolve().parents[1] / "pipeline" / "controllers" / "grammars"
 WHEN = dt.datetime(2026, 11, 27, 3, 0, 0)
 CARTESIAN_JOBS = ("lrmate200id_quaternion_poses", "gp7_pick_place", "irb1600_tool_moves")
 

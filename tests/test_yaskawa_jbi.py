@@ -1,5 +1,6 @@
 """Yaskawa INFORM writer (pipeline.controllers.yaskawa_jbi): the demo jobs written, parsed by a grammar
-of the subset (tests/grammars/yaskawa_jbi.lark), each RCONF equal to the configuration of the point's
+of the subset
+(pipeline/controllers/grammars/yaskawa_jbi.lark), each RCONF equal to the configuration of the point's
 joints, and each target re-solved with its RCONF landing on the exported joint values within what the
 file's rounding (0.001 mm, 0.01 deg) allows (``fanuc_ls.rounding_bound``: half a step on every written
 number, carried to the joints through the inverse Jacobian, doubled)."""
