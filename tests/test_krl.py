@@ -1,5 +1,5 @@
 """KUKA KRL writer (pipeline.controllers.krl): the demo-style jobs as .src and .dat, parsed with a lark
-grammar written from KUKA's expert programming documentation (tests/grammars/krl.lark), Status and Turn
+grammar written from KUKA's expert programming documentation (pipeline/controllers/grammars/krl.lark), Status and Turn
 equal to pipeline.controllers' values, and every E6POS re-solved with its S and T landing on the exported
 joint values within the format's rounding (X, Y, Z to 0.001 mm, A, B, C and axis angles to 0.0001 deg)."""
 
@@ -21,7 +21,7 @@ from pipeline.jobs import load_job
 from pipeline.program import compile_job
 
 ROOT = Path(__file__).resolve().parents[1]
-GRAMMAR = Lark((ROOT / "tests" / "grammars" / "krl.lark").read_text(), parser="lalr")
+GRAMMAR = Lark((ROOT / "pipeline" / "controllers" / "grammars" / "krl.lark").read_text(), parser="lalr")
 JOBS = ("arm6_joint_rad", "gp7_pick_place", "irb1600_tool_moves", "lrmate200id_quaternion_poses")
 #: Pose jobs; the LR Mate's poses are not round numbers, so their rounding shows (up to 4e-5 deg in the joints).
 POSE_JOBS = ("gp7_pick_place", "irb1600_tool_moves", "lrmate200id_quaternion_poses")

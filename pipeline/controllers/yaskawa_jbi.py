@@ -45,9 +45,9 @@ from ..errors import ConfigurationError
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import YASKAWA
 from .configuration import configurations
-from .lint import JBI, lint
 from .fanuc_ls import (MM, Point, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
                        program_points, rounded, tool_text, xyz_rpy)
+from .lint import JBI, lint
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
