@@ -46,7 +46,7 @@ def read_jbi(text: str, robot, tool: np.ndarray | None = None, pl_mm=PL_MM, sour
     """The job document of a Yaskawa ``.jbi`` job (module docstring). ``robot``: a Robot, preset name or
     robot file; ``tool``: TOOL as X_FT (4, 4) [m] (None: the writer's header comment, else none); ``pl_mm``
     the PL1..PL8 distances [mm]; ``source``: the file's name for errors."""
-    robot = as_robot(robot)
+    robot, reference = as_robot(robot)
     tree = parse_text("yaskawa_jbi", text, source)
     points = _points(tree)
     instructions, comments = _instructions(tree)
@@ -62,7 +62,7 @@ def read_jbi(text: str, robot, tool: np.ndarray | None = None, pl_mm=PL_MM, sour
     waypoints = [dict(solved[moves[0]["points"][-1]][0])]
     for move in moves[1:]:
         waypoints.append(_waypoint(move, solved, pl_mm, source))
-    return job_document(robot, X_FT, waypoints, solved[moves[0]["points"][-1]][1], None)
+    return job_document(reference, X_FT, waypoints, solved[moves[0]["points"][-1]][1], None)
 
 
 def _points(tree: Tree) -> dict[str, dict]:

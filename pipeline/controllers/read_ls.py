@@ -80,9 +80,12 @@ def parse_text(name: str, text: str, source: str) -> Tree:
         raise ControllerProgramError(source, "file", f"not in the subset this reader reads: {error}") from None
 
 
-def as_robot(robot) -> Robot:
-    """A Robot, or the preset name / robot file it is loaded from."""
-    return robot if isinstance(robot, Robot) else load_robot(robot)
+def as_robot(robot) -> tuple[Robot, str]:
+    """(the Robot, how the job names it): a Robot (its name: a preset's), or a preset name or robot file
+    (loaded; the job names it as given)."""
+    if isinstance(robot, Robot):
+        return robot, robot.name
+    return load_robot(robot), str(robot)
 
 
 def model_joints(robot, angles_deg, vendor: str) -> np.ndarray:
@@ -118,21 +121,28 @@ def zone_from_cnt(n: int, speed_mm_s: float | None, accel: float | None, chords:
 
 def pose_waypoint(tool_robot, X_BT: np.ndarray, config, vendor: str, where: str,
                   source: str) -> tuple[dict, np.ndarray]:
-    """(the job waypoint of TCP pose X_BT (4, 4) [m, our base frame] with vendor configuration ``config``:
-    xyz [m], quaternion [w, x, y, z], config (our branch), and the joint values q (6,) [rad] it selects)."""
+    """(the job waypoint of TCP pose X_BT (4, 4) [m, our base frame] with vendor configuration ``config``
+    (``pose_fields``), the joint values q (6,) [rad] it selects)."""
     try:
         q = select_solution(tool_robot, X_BT, config, vendor)
     except ConfigurationNotFoundError as error:
         raise ControllerProgramError(source, where, str(error)) from None
-    label = configuration_labels(tool_robot, q)[0]
+    return pose_fields(tool_robot, X_BT, q), q
+
+
+def pose_fields(tool_robot, X_BT: np.ndarray, q) -> dict:
+    """A pose waypoint's fields: xyz [m] and quaternion [w, x, y, z] of X_BT (4, 4), config: the branch of
+    q (6,) [rad] as a mapping (``configuration_labels``' "shoulder front, elbow up, wrist noflip")."""
     quaternion, p = pose_to_quaternion_position(X_BT)
-    branch = dict(part.split(" ") for part in label.split(", "))
-    return {"xyz": [float(v) for v in p], "quaternion": [float(v) for v in quaternion], "config": branch}, q
+    branch = dict(part.split(" ") for part in configuration_labels(tool_robot, q)[0].split(", "))
+    return {"xyz": [float(v) for v in p], "quaternion": [float(v) for v in quaternion], "config": branch}
 
 
-def job_document(robot: Robot, X_FT: np.ndarray | None, waypoints: list[dict], start, accel: float | None) -> dict:
-    """The job document (module docstring) of read waypoints; ``start`` (6,) [rad] or None."""
-    doc = {"robot": robot.name, "length_unit": "m", "angle_unit": "deg", "speed_scale": 1.0}
+def job_document(reference: str, X_FT: np.ndarray | None, waypoints: list[dict], start,
+                 accel: float | None) -> dict:
+    """The job document (module docstring) of read waypoints: ``reference`` the robot's preset name or
+    file, ``start`` (6,) [rad] or None."""
+    doc = {"robot": reference, "length_unit": "m", "angle_unit": "deg", "speed_scale": 1.0}
     if X_FT is not None and not np.allclose(X_FT, np.eye(4), atol=1e-12):
         doc["tool"] = {"xyz": [float(v) for v in X_FT[:3, 3]],
                        "rpy": [float(v) for v in np.degrees(rotation_to_rpy(X_FT[:3, :3]))]}
@@ -150,7 +160,7 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
     robot file; ``tool``: UT 1 as X_FT (4, 4) [m] (None: the writer's header comment, else none);
     ``tcp_accel_max`` [m/s^2]: the TCP acceleration limit the writer rounded CNT over (comment-less CNT);
     ``source``: the file's name for errors."""
-    robot = as_robot(robot)
+    robot, reference = as_robot(robot)
     tree = parse_text("fanuc_ls", text, source)
     positions = {index: data for index, data in map(_position, tree.find_data("position"))}
     moves, comments, header = _motions(tree)
@@ -158,7 +168,7 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
     tool_robot = robot if X_FT is None else robot_with_tool(robot, X_FT)
     height = controller_frame(robot, FANUC)[0]
     points = [_point(robot, tool_robot, positions, ref, height, source) for move in moves for ref in move["refs"]]
-    return _document(robot, X_FT, moves, comments, points, tcp_accel_max)
+    return _document(reference, X_FT, moves, comments, points, tcp_accel_max)
 
 
 def _motions(tree: Tree) -> tuple[list[dict], list[list[str]], list[str]]:
@@ -210,21 +220,13 @@ def _point(robot, tool_robot, positions: dict, ref: int, height: float, source: 
     if "joints" in data:
         q = model_joints(robot, data["joints"], FANUC)
         return {"waypoint": {"joints": [float(v) for v in np.degrees(q)]}, "q": q, "p": tool_robot.fk(q)[:3, 3],
-                "pose": joint_pose(tool_robot, q)}
+                "pose": pose_fields(tool_robot, tool_robot.fk(q), q)}
     X = rpy_position_to_pose(np.radians(data["wpr"]), np.array(data["xyz"]) / MM + [0.0, 0.0, height])
     waypoint, q = pose_waypoint(tool_robot, X, data["config"], FANUC, where, source)
     return {"waypoint": waypoint, "q": q, "p": X[:3, 3], "pose": waypoint}
 
 
-def joint_pose(tool_robot, q) -> dict:
-    """The pose waypoint fields (xyz [m], quaternion, config: q's branch) of joint values q (6,) [rad]: a
-    joint position that a linear or circular move goes to is its TCP pose on q's branch."""
-    quaternion, p = pose_to_quaternion_position(tool_robot.fk(q))
-    branch = dict(part.split(" ") for part in configuration_labels(tool_robot, q)[0].split(", "))
-    return {"xyz": [float(v) for v in p], "quaternion": [float(v) for v in quaternion], "config": branch}
-
-
-def _document(robot, X_FT, moves: list[dict], comments: list[list[str]], points: list[dict],
+def _document(reference: str, X_FT, moves: list[dict], comments: list[list[str]], points: list[dict],
               accel: float | None) -> dict:
     """The job document from the motion lines and their points (in the order the lines use them)."""
     ends, k = [], 0
@@ -248,7 +250,7 @@ def _document(robot, X_FT, moves: list[dict], comments: list[list[str]], points:
             waypoint["zone"] = zone
         waypoints.append(waypoint)
     start = points[0]["q"] if "xyz" in points[0]["waypoint"] else None
-    return job_document(robot, X_FT, waypoints, start, accel)
+    return job_document(reference, X_FT, waypoints, start, accel)
 
 
 def _first_waypoint(point: dict) -> dict | list:
