@@ -1,8 +1,8 @@
 """URScript programs of compiled programs (pipeline.controllers.urscript, issue 26): a UR5 job (tests/data/ur5.yaml,
 UR's own DH table, so q is the controller's joint vector) with joint, linear and circular moves and a zone. Every
-program parses with tests/grammars/urscript.lark (written from UR's Script Manual); every movej goes to the
-program's joint values; movel/movec poses are the program's TCP poses; the servoj replay is the certified profile
-at the controller's period."""
+program parses with pipeline/controllers/grammars/urscript.lark (written from UR's Script Manual; the reader
+pipeline.controllers.read_urscript uses it too); every movej goes to the program's joint values; movel/movec poses
+are the program's TCP poses; the servoj replay is the certified profile at the controller's period."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from pipeline.runner import collision_model
 lark = pytest.importorskip("lark", reason="lark (pip install lark) parses the URScript grammar")
 
 TESTS = Path(__file__).resolve().parent
-GRAMMAR = TESTS / "grammars" / "urscript.lark"
+GRAMMAR = TESTS.parent / "pipeline" / "controllers" / "grammars" / "urscript.lark"
 #: Written values are rounded to 1e-6 (m, rad): half of that, and double round-off.
 ROUNDING = 0.5e-6 + 1e-12
 DOWN = {"rpy": [180, 0, 90]}
