@@ -37,10 +37,13 @@ from .robot_spec import missing_limit_error, preset_names, resolve_robot_path
 from .schema import Document, Reader, document_from_data, field_name, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
-OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png")
-#: Written when a job lists no outputs (the 3-D views, html and arm_png, and the controller formats,
-#: ros2_yaml and json_trajectory, only when asked for; the TCP figure, tcp_png, by default when the job
-#: has tool moves or TCP limits, and only then).
+OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png", "rapid", "ls",
+           "jbi", "krl", "urscript")
+#: Written when a job lists no outputs (the 3-D views, html and arm_png, the controller formats,
+#: ros2_yaml and json_trajectory, and the programs in a controller's own language, rapid (ABB RAPID
+#: .mod), ls (FANUC LS), jbi (Yaskawa INFORM), krl (KUKA KRL .src + .dat) and urscript (URScript), only
+#: when asked for; the TCP figure, tcp_png, by default when the job has tool moves or TCP limits, and only
+#: then).
 DEFAULT_OUTPUTS = ("csv", "npz", "json", "png")
 #: Allowed sample times [s].
 DT_RANGE = (1e-4, 0.1)
@@ -127,7 +130,9 @@ class Job:
     PoseWaypoint values in order; ``start`` (dof,) [rad or m] or None: the IK seed of the first pose
     waypoint; ``ik``, ``timing``: method names; ``path``: the path shape (None with ``ruckig``, which
     times waypoint to waypoint); ``speed_scale`` in (0, 1]; ``dt`` [s];
-    ``outputs``: which of csv, npz, json, png, html, arm_png, ros2_yaml, json_trajectory to write;
+    ``outputs``: which of csv, npz, json, png, html, arm_png, ros2_yaml, json_trajectory, tcp_png, rapid, ls,
+    jbi, krl, urscript to write (the last five: the program in ABB RAPID, FANUC LS, Yaskawa INFORM, KUKA KRL,
+    URScript);
     ``inputs_sha256``: hash of the job file bytes followed by the robot file bytes;
     ``allow_branch_change``: a change of IK branch between consecutive pose waypoints is reported
     instead of refused. ``tool``: X_ET (4, 4) [m], the TCP in the robot's end frame, or None (then
