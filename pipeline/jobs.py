@@ -56,9 +56,13 @@ _REQUIRED = ("waypoints",)
 _OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
              "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
              "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit")
-#: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have, and
-#: how the TCP gets there (move, via point, zone, speed).
-_POSE_EXTRA = ("target", "config", "move", "via", "zone", "speed")
+#: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have (ours,
+#: a controller's, or both), and how the TCP gets there (move, via point, zone, speed).
+_POSE_EXTRA = ("target", "config", "controller_config", "move", "via", "zone", "speed")
+#: How each vendor's configuration is written under a pose waypoint's ``controller_config`` (the syntax
+#: of ``pipeline.controllers.configuration.parse_configuration``), for messages.
+CONTROLLER_CONFIG_EXAMPLES = {"abb": "{abb: [0, -1, 1, 2]}", "fanuc": "{fanuc: 'N U T, 0, 0, 0'}",
+                              "yaskawa": "{yaskawa: [1, 0, 0, 0, 0, 0]}", "kuka": "{kuka: \"S 'B010', T 'B100011'\"}"}
 #: The keys of a joint waypoint written as a mapping (a plain list is its joint values alone).
 _JOINT_REQUIRED = ("joints",)
 _JOINT_OPTIONAL = ("speed", "zone")
@@ -102,7 +106,9 @@ class JointWaypoint:
 class PoseWaypoint:
     """A waypoint given as an end-frame pose: ``X_BE`` (4, 4), base frame [m]; ``target``: what IK must
     match (pose, position+axis, position); ``config``: the configuration it must have (parts of
-    shoulder/elbow/wrist; None: the rule of ``pipeline.ik.branches`` picks); ``move``: how the TCP gets
+    shoulder/elbow/wrist; None: the rule of ``pipeline.ik.branches`` picks); ``controller_config``: a
+    controller's configuration data, (vendor, its integer fields as ``pipeline.controllers.configuration``
+    orders them), naming one IK branch and 2 pi representative (None: none); ``move``: how the TCP gets
     there (joint, linear, circular through ``via`` (3,) [m]); ``zone`` [m]: the waypoint is passed
     without stopping, the TCP leaving the programmed path at most this far before it and rejoining it at
     most this far after (0: an exact stop, except between two joint moves, which a joint path passes
@@ -116,6 +122,7 @@ class PoseWaypoint:
     via: np.ndarray | None = None
     zone: float = 0.0
     speed: float | None = None
+    controller_config: tuple[str, tuple[int, ...]] | None = None
 
     @property
     def is_tool_move(self) -> bool:
@@ -312,7 +319,50 @@ class _JobReader(Reader):
             self.fail((*path, "target"), f"a {move} move follows the full TCP pose: target must be {FULL_POSE}", target)
         speed = self.joint_speed(path, pose=True) if move == "joint" else \
             self.tcp_value((*path, "speed"), length_scale, "speed")
-        return PoseWaypoint(X, target, config, move, via, self.zone(path, length_scale), speed)
+        return PoseWaypoint(X, target, config, move, via, self.zone(path, length_scale), speed,
+                            self.controller_config(path, robot, target))
+
+    def controller_config(self, path, robot: Robot, target: str) -> tuple[str, tuple[int, ...]] | None:
+        """A pose waypoint's ``controller_config``, one vendor and its configuration data (e.g.
+        ``{abb: [0, -1, 1, 2]}``, CONTROLLER_CONFIG_EXAMPLES) -> (vendor, its integer fields); None when
+        absent. Refused: another shape, an unknown vendor, malformed fields, a target other than the full
+        pose, and a robot whose closed form is not a spherical wrist's (the vendors' fields describe
+        only those arms; the UR family has none)."""
+        field = (*path, "controller_config")
+        if not self.has(field):
+            return None
+        from .controllers.axes import VENDORS                 # the IK kernels only where a waypoint names a branch
+        from .controllers.configuration import parse_configuration as parse_vendor_configuration
+
+        value = self.get(field)
+        examples = ", ".join(CONTROLLER_CONFIG_EXAMPLES.values())
+        if not isinstance(value, dict) or len(value) != 1:
+            self.fail(field, f"is one controller vendor and its configuration data, e.g. {examples}", value)
+        (vendor, fields), = value.items()
+        if vendor not in VENDORS:
+            self.fail(field, f"names the vendor {vendor!r}; the vendors: {', '.join(VENDORS)} (e.g. {examples})",
+                      value)
+        try:
+            parsed = parse_vendor_configuration(vendor, fields)
+        except ConfigurationError as exc:
+            self.fail((*field, vendor), f"{exc} (e.g. {CONTROLLER_CONFIG_EXAMPLES[vendor]})", fields)
+        if target != FULL_POSE:
+            self.fail((*field, vendor), f"names a solution of the full pose: target must be {FULL_POSE}, not "
+                      f"{target}", fields)
+        self.check_vendor_family(field, robot, vendor, fields)
+        return vendor, parsed
+
+    def check_vendor_family(self, field, robot: Robot, vendor: str, fields) -> None:
+        """The robot's closed form is a spherical wrist's, the only family with vendor configuration data."""
+        from .configurations import FAMILY_TITLES, SPHERICAL_WRIST
+        from .ik.analytic import analytic_solver_for
+
+        solver = analytic_solver_for(robot)
+        if solver.applicable and solver.family == SPHERICAL_WRIST:
+            return
+        family = FAMILY_TITLES[solver.family] if solver.applicable else f"no closed-form family ({solver.reason})"
+        self.fail((*field, vendor), f"{robot.name} has {family}: {vendor} configuration data has fields only for 6R "
+                  "arms with a spherical wrist; name its branch with config: instead", fields)
 
     def joint_waypoint(self, path, robot: Robot, scales: np.ndarray, length_scale: float | None) -> JointWaypoint:
         """A joint waypoint: its joint values (a list), or ``{joints, speed, zone}`` (``speed`` a

@@ -2,7 +2,9 @@
 and its joint moves planned, before any timing.
 
 Steps: IK for pose waypoints (``solve_waypoints``: each seeded with the previous solution, one branch
-kept by the rule of ``pipeline.ik.branches``; in a cell, answers that collide are skipped), then the
+kept by the rule of ``pipeline.ik.branches``, or exactly the solution a waypoint's controller
+configuration names, ``pipeline.controllers.selection``; in a cell, answers that collide are skipped),
+then the
 joint path along each run of tool moves (the moves the TCP follows without stopping: tool moves joined
 by zones; ``pipeline.tool_moves``; in a cell its IK samples are checked), then, in a cell with
 ``plan: collision_free``, each joint move planned around the obstacles (``pipeline.planning``). A
@@ -19,7 +21,12 @@ import numpy as np
 
 from ..cell_motion import check_samples, collision_free_ik
 from ..ik import with_drake_model
-from ..ik.branches import branch_change_reason, choose_solution, configuration_labels
+from ..configurations import matches
+from ..controllers.configuration import format_configuration
+from ..controllers.selection import select_solution
+from ..errors import VendorConfigurationError
+from ..ik.branches import BranchChoice, branch_change_reason, choose_solution, configuration_labels
+from ..ik.result import MATCHED_COMPONENTS, make_target, pose_errors
 from ..jobs import Job, JointWaypoint
 from ..planning import plan_joint_path
 from ..tilt import TiltLimit
@@ -86,7 +93,8 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
     a pose is unreachable, has no solution of the configuration asked for, or changes branch from the
     previous pose waypoint (naming both branches and the joint that forces it) unless the job allows
     branch changes. With ``scene`` (a CollisionModel) a joint waypoint that collides is an error naming
-    the pair, and IK answers that collide are skipped (``cell_motion``)."""
+    the pair, and IK answers that collide are skipped (``cell_motion``). A pose with a controller
+    configuration takes exactly the solution it names (``controller_solution``)."""
     robot = job.robot
     previous = job.start if job.start is not None else robot.limits.q_middle
     previous_branch = ""
@@ -99,6 +107,11 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
                 raise job.error(field, f"is not collision-free: {scene.why_not_free(waypoint.q)}")
             solved.append(WaypointSolution(waypoint.q))
             previous, previous_branch = waypoint.q, configuration_labels(robot, waypoint.q[None])[0]
+            continue
+        if waypoint.controller_config is not None:
+            solution = controller_solution(job, k, previous_branch, scene)
+            solved.append(solution)
+            previous, previous_branch = solution.q, solution.branch
             continue
         if scene is None:
             result = robot.ik(waypoint.X_BE, q_seed=previous, method=job.ik, target_kind=waypoint.target, **options)
@@ -125,6 +138,46 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
                                        choice.branch, choice.changed))
         previous, previous_branch = choice.q, choice.branch
     return solved
+
+
+def controller_solution(job: Job, k: int, previous_branch: str, scene=None) -> WaypointSolution:
+    """Pose waypoint k solved as its controller configuration names it: the one in-limit closed-form
+    solution and 2 pi representative ``pipeline.controllers.selection`` selects (whatever the job's IK
+    method). A JobFileError names the waypoint's controller_config (its line and value) when no solution
+    or several have it, listing the configurations the pose's solutions have; names its config when our
+    configuration asked for beside it is not that solution's branch; and names the waypoint when the
+    solution collides (with ``scene``) or changes branch from the previous pose waypoint's and the job
+    does not allow branch changes."""
+    robot, waypoint = job.robot, job.waypoints[k]
+    vendor, fields = waypoint.controller_config
+    field, text = ("waypoints", k, "controller_config", vendor), format_configuration(vendor, fields)
+    try:
+        q = select_solution(robot, waypoint.X_BE, fields, vendor)
+    except VendorConfigurationError as exc:
+        raise job.error(field, str(exc), text) from exc
+    choice = _named_choice(robot, q, previous_branch)
+    if waypoint.config and not matches(choice.branch, waypoint.config):
+        named = ", ".join(f"{key} {value}" for key, value in waypoint.config.items())
+        raise job.error(("waypoints", k, "config"), f"asks for {named}, but the solution of {vendor} configuration "
+                        f"{text} is on the branch '{choice.branch}'", waypoint.config)
+    if scene is not None and not scene.is_free(q):
+        raise job.error(field, f"names a solution that is not collision-free: {scene.why_not_free(q)}", text)
+    if choice.changed and not job.allow_branch_change:
+        raise job.error(("waypoints", k), f"the IK branch changes from '{choice.previous}' to '{choice.branch}', "
+                        f"the branch of {vendor} configuration {text}: name a configuration on '{choice.previous}', "
+                        "add waypoints, or allow the change (allow_branch_change: true)")
+    if choice.changed:
+        log.warning("%s: branch changes from %s to %s (allowed)", job.location(("waypoints", k)), choice.previous,
+                    choice.branch)
+    position_error, rotation_error = pose_errors(robot.fk(q), make_target(waypoint.X_BE))
+    return WaypointSolution(q, "analytic", position_error, rotation_error, 1, waypoint.target,
+                            MATCHED_COMPONENTS[waypoint.target], waypoint.config, choice.branch, choice.changed)
+
+
+def _named_choice(robot, q, previous_branch: str) -> BranchChoice:
+    """The BranchChoice of the one solution q a controller configuration named."""
+    branch = configuration_labels(robot, q[None])[0]
+    return BranchChoice(q, branch, previous_branch, bool(previous_branch) and branch != previous_branch, 1)
 
 
 def _tool_runs(job: Job) -> list[tuple[int, int]]:
