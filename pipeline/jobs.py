@@ -154,7 +154,11 @@ class Job:
     and ``plan_time_budget`` [s] per planned move; ``plan_tilt_max`` [rad] or None: the largest angle
     between the tool's z axis and the cell's vertical on planned moves (``pipeline.tilt``). ``document``:
     the file as read, so that errors found after reading (IK, collisions, timing) name the line of their
-    field (``error``).
+    field (``error``). A pose waypoint's ``controller_config`` is written as ``{vendor: configuration}``,
+    the text a controller's program writes or its integer fields (``pipeline.controllers.configuration``):
+    ``{abb: [0, -1, 1, 2]}`` (confdata cf1, cf4, cf6, cfx), ``{fanuc: 'N U T, 0, 0, 0'}`` (CONFIG),
+    ``{yaskawa: [1, 0, 0, 0, 0, 0]}`` (RCONF l, m, n, o, p, q), ``{kuka: "S 'B010', T 'B100011'"}``
+    (Status, Turn).
     """
 
     name: str
