@@ -111,7 +111,7 @@ def test_a_consistent_config_beside_it_is_accepted():
     for config in ({"shoulder": "back", "elbow": "up", "wrist": "noflip"}, {"shoulder": "back"}, "N U B"):
         doc = job_doc("gp7", [{**GP7_POSE, "controller_config": {"yaskawa": [0, 1, 1, 0, 0, 0]}, "config": config},
                               GP7_POSE], allow_branch_change=True)
-        job, solutions = solved(doc)
+        solutions = solved(doc)[1]
         assert solutions[0].branch == "shoulder back, elbow up, wrist noflip" and solutions[0].config
 
 
@@ -184,5 +184,5 @@ def test_a_branch_change_it_names_is_refused_unless_allowed(tmp_path):
     waypoints = [GP7_POSE, {**GP7_POSE, "controller_config": {"yaskawa": [0, 1, 1, 0, 0, 0]}}]
     refused(tmp_path, job_doc("gp7", waypoints), "waypoints[1]", "to 'shoulder back, elbow up, wrist noflip', the "
             "branch of yaskawa configuration 0,1,1,0,0,0", compile_it=True)
-    job, solutions = solved(job_doc("gp7", waypoints, allow_branch_change=True))
+    solutions = solved(job_doc("gp7", waypoints, allow_branch_change=True))[1]
     assert solutions[1].branch_changed and solutions[1].branch == "shoulder back, elbow up, wrist noflip"

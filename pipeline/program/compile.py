@@ -20,11 +20,11 @@ import logging
 import numpy as np
 
 from ..cell_motion import check_samples, collision_free_ik
-from ..ik import with_drake_model
 from ..configurations import matches
 from ..controllers.configuration import format_configuration
 from ..controllers.selection import select_solution
 from ..errors import VendorConfigurationError
+from ..ik import with_drake_model
 from ..ik.branches import BranchChoice, branch_change_reason, choose_solution, configuration_labels
 from ..ik.result import MATCHED_COMPONENTS, make_target, pose_errors
 from ..jobs import Job, JointWaypoint
