@@ -1,5 +1,6 @@
-"""Command line: ``python -m pipeline {run,show,check,check-cell,bench,export,import-urdf,batch,reach} ...``. The only
-place that configures logging.
+"""Command line: ``python -m pipeline VERB ...``, VERB one of
+{run,program,read-program,show,check,check-cell,bench,export,import-urdf,batch,reach}. The only place that configures
+logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
 cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
@@ -17,11 +18,12 @@ import re
 import sys
 import traceback
 from contextlib import nullcontext
+from pathlib import Path
 
 import numpy as np
 
 from .choices import DEFAULT_MAX_DURATION_S
-from .errors import PipelineError
+from .errors import FileFormatError, OutputError, PipelineError
 from .io import prepare_file_target, staged_output, write_text_atomic
 from .robot import load_robot
 from .robot_spec import preset_names
@@ -127,6 +129,138 @@ def cmd_run(args) -> int:
     outcome = run_job_file(args.job, args.out, max_samples=args.max_samples, max_duration_s=args.max_duration)
     print(outcome.summary())
     return 0
+
+
+#: A controller program's file suffixes by language (the first: the file --out may name; KRL's .dat beside it).
+PROGRAM_SUFFIXES = {"rapid": (".mod",), "ls": (".ls",), "jbi": (".jbi",), "krl": (".src", ".dat"),
+                    "urscript": (".script",)}
+
+
+def cmd_program(args) -> int:
+    """Compile and time a job, then write its program in a controller's language (``runner.program_texts``):
+    into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
+    checked before any work; each file is written atomically."""
+    from .jobs import load_job
+    from .runner import LANGUAGE_TITLES, program_name, program_texts, timed_program
+
+    job = load_job(args.job)
+    name, targets = _program_targets(args.lang, program_name(args.lang, job.name), Path(args.out or "."))
+    for path in targets.values():
+        prepare_file_target(path)
+    program, _, profile = timed_program(job, args.max_samples, args.max_duration)
+    texts = program_texts(job, args.lang, program, profile, name)
+    print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
+          f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
+    for suffix, text in texts.items():
+        print(f"wrote {write_text_atomic(targets[suffix], text)}")
+    return 0
+
+
+def _program_targets(language: str, name: str, out: Path) -> tuple[str, dict[str, Path]]:
+    """(the program's name, suffix -> file): ``out`` with the language's suffix is the file (KRL: its .dat
+    beside it, and the name its stem: KRL wants a program's files named as its DEF), anything else a folder
+    for NAME.<suffix>. OutputError for another language's suffix or a KRL file stem that is no KRL name."""
+    suffixes = PROGRAM_SUFFIXES[language]
+    if out.is_dir() or out.suffix.lower() not in {s for group in PROGRAM_SUFFIXES.values() for s in group}:
+        return name, {suffix: out / f"{name}{suffix}" for suffix in suffixes}
+    if out.suffix.lower() != suffixes[0]:
+        raise OutputError(f"{out}: a {language} program is a {suffixes[0]} file; give such a file or a folder")
+    if language == "krl":
+        from .runner import program_name
+
+        if program_name("krl", out.stem) != out.stem:
+            raise OutputError(f"{out}: a KRL program's files are named as its DEF, and {out.stem!r} is not a KRL "
+                              "name (a letter, then letters, digits or _, at most 24); give a folder or another name")
+        name = out.stem
+    return name, {suffix: out.with_suffix(suffix) for suffix in suffixes}
+
+
+#: Program file suffix -> the language read (KRL: a .src with its .dat beside it).
+READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".script": "urscript"}
+
+
+def cmd_read_program(args) -> int:
+    """Read a controller program back into a job document (``pipeline.controllers.read_*``), check it as a
+    job, and write it as YAML to --out (atomically) or print it."""
+    import yaml
+
+    from .jobs import parse_job
+    from .runner import LANGUAGE_TITLES
+
+    path = Path(args.file)
+    language = READ_SUFFIXES.get(path.suffix.lower())
+    if language is None:
+        raise _program_error(path, f"unknown program file type {path.suffix!r}: the readers take "
+                             f"{', '.join(READ_SUFFIXES)} (KRL: the .src, with its .dat beside it)")
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        prepare_file_target(out)
+    robot = _robot_reference(args.robot, out)
+    document = _read_program(language, path, robot)
+    job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
+    header = f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
+    text = header + yaml.safe_dump(document, sort_keys=False, default_flow_style=None, width=120)
+    if out is None:
+        print(text, end="")
+        return 0
+    write_text_atomic(out, text)
+    print(f"read {path}: {len(document['waypoints'])} waypoints for {robot}; wrote {out}")
+    return 0
+
+
+def _robot_reference(robot: str, out: Path | None) -> str:
+    """The job's ``robot``: a preset name as given; a robot file relative to the job file written (its
+    relative paths start there), as given when the job is printed."""
+    if out is None or Path(robot).suffix not in (".yaml", ".yml"):
+        return robot
+    return os.path.relpath(os.path.abspath(robot), os.path.abspath(out.parent))
+
+
+def _program_error(path: Path, problem: str, field: str = "file", line: int | None = None) -> FileFormatError:
+    from .controllers.read_ls import ControllerProgramError
+
+    return ControllerProgramError(str(path), field, problem, line=line)
+
+
+def _read_text(path: Path) -> str:
+    """The file's UTF-8 text (a byte-order mark allowed), or the one-line error naming it."""
+    try:
+        return path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise _program_error(path, f"cannot read the file: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+def _read_program(language: str, path: Path, robot: str) -> dict:
+    """The job document of the program at ``path`` in ``language``; every reader error names ``path``."""
+    from .controllers.read_jbi import read_jbi
+    from .controllers.read_krl import read_krl
+    from .controllers.read_ls import read_ls
+    from .controllers.read_rapid import read_rapid
+    from .controllers.read_urscript import read_urscript
+
+    text = _read_text(path)
+    dat = _dat_file(path) if language == "krl" else None
+    readers = {"rapid": lambda: read_rapid(text, robot), "ls": lambda: read_ls(text, robot, source=str(path)),
+               "jbi": lambda: read_jbi(text, robot, source=str(path)),
+               "krl": lambda: read_krl(text, _read_text(dat), robot, str(path), str(dat)),
+               "urscript": lambda: read_urscript(text, robot)}
+    try:
+        return readers[language]()
+    except FileFormatError as exc:
+        if exc.source in (str(path), str(dat)):
+            raise
+        raise _program_error(path, exc.problem, exc.field, exc.line) from exc
+    except PipelineError as exc:         # e.g. a pose no joint solution of the written configuration reaches
+        raise _program_error(path, str(exc)) from exc
+
+
+def _dat_file(src: Path) -> Path:
+    """The .dat beside a KRL .src (.dat or .DAT), or the one-line error saying it is missing."""
+    for suffix in (".dat", ".DAT"):
+        if src.with_suffix(suffix).is_file():
+            return src.with_suffix(suffix)
+    raise _program_error(src.with_suffix(".dat"), f"missing: a KRL program's targets are in the .dat beside its "
+                         f"{src.name}")
 
 
 def cmd_batch(args) -> int:
@@ -324,6 +458,37 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                      help="refuse, before timing, a job whose moves take longer at their speed limits "
                           f"(default {DEFAULT_MAX_DURATION_S:g})")
     run.set_defaults(func=cmd_run)
+
+    languages = list(PROGRAM_SUFFIXES)
+    program = _verb(sub, prog, "program", "compile and time a job, then write it in a robot controller's language "
+                    f"({', '.join(languages)})",
+                    "Compile and time a job as run does (a job that fails is never written), then write its program\n"
+                    "in a controller's own language: ABB RAPID (.mod), FANUC LS (.ls), Yaskawa INFORM (.jbi),\n"
+                    "KUKA KRL (.src + .dat), URScript (.script, with the certified profile's servoj replay). The\n"
+                    "program's name is the job's, made valid for the language (the file's header says so when\n"
+                    "it changed). The controller plans its own velocity profile for native moves.",
+                    ["trajectories/jobs/gp7_pick_place.yaml --lang jbi --out out/controller",
+                     "trajectories/jobs/irb1600_tool_moves.yaml --lang rapid --out irb1600_tool_moves.mod"])
+    program.add_argument("job", help="job file, e.g. trajectories/jobs/gp7_pick_place.yaml")
+    program.add_argument("--lang", required=True, choices=languages, help="the controller's language")
+    program.add_argument("--out", metavar="FILE_OR_DIR", help="a file with the language's suffix (KRL: the .src, "
+                         "its .dat beside it), or a folder for NAME.<suffix> (default: the current folder)")
+    program.add_argument("--max-samples", type=POSITIVE, default=DEFAULT_MAX_SAMPLES, metavar="N",
+                         help=f"refuse profiles of more samples (default {DEFAULT_MAX_SAMPLES:,})")
+    program.add_argument("--max-duration", type=_seconds, default=DEFAULT_MAX_DURATION_S, metavar="SECONDS",
+                         help=f"refuse a job whose moves take longer (default {DEFAULT_MAX_DURATION_S:g})")
+    program.set_defaults(func=cmd_program)
+
+    read = _verb(sub, prog, "read-program", "read a controller program (.mod .ls .jbi .src .script) back into a job "
+                 "file", "Read a controller program of the subset the writers emit (also as a pendant writes it)\n"
+                 "back into a job: targets with their configuration as our IK branch, move kinds, speeds, zones,\n"
+                 "the tool. The language comes from the suffix (KRL: the .src, its .dat beside it). The job is\n"
+                 "checked before it is written (YAML, to --out or printed).",
+                 ["out/controller/GP7_PICK.jbi --robot gp7 --out gp7_read.yaml"])
+    read.add_argument("file", help="the program: .mod (RAPID), .ls (FANUC), .jbi (Yaskawa), .src (KRL), .script (UR)")
+    read.add_argument("--robot", required=True, help="preset name or robot file path of the arm the program runs on")
+    read.add_argument("--out", metavar="JOB.yaml", help="the job file to write (default: print it)")
+    read.set_defaults(func=cmd_read_program)
 
     show = _verb(sub, prog, "show", "print a robot's DH table, FK and Jacobian at q = 0",
                  "Print a robot's DH table with its units and limits, the end frame's pose, the Jacobian and the\n"

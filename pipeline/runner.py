@@ -5,22 +5,24 @@ cannot be written), then the job is compiled into a program (``pipeline.program.
 tool tracks, planned moves), checked against the duration limits, timed and certified once
 (``time_program``: a profile that fails is an error, never an output), then every requested output (profile CSV/NPZ, JSON report, profile plot, the 3-D views: a
 standalone Meshcat HTML animation and a PNG drawing of the arm, and the profile as a ROS 2
-JointTrajectory message in YAML or JSON for a controller) written into a staging folder that replaces
-the output folder whole. Used by the CLI (``python -m pipeline run``), the tests and the
+JointTrajectory message in YAML or JSON for a controller, and the program in a controller's own
+language: ABB RAPID, FANUC LS, Yaskawa INFORM, KUKA KRL, URScript, ``program_texts``) written into a
+staging folder that replaces the output folder whole. Used by the CLI (``python -m pipeline run``), the tests and the
 notebooks.
 """
 
 from __future__ import annotations
 
+import functools
 import logging
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, replace
 from pathlib import Path
-
 
 from .controller_formats import write_json_trajectory, write_ros2_yaml
 from .cell_motion import ClearanceError
 from .choices import DEFAULT_MAX_DURATION_S
-from .errors import CollisionError, ConfigurationError, PlanningError, TimingError
+from .errors import CollisionError, ConfigurationError, OutputError, PipelineError, PlanningError, TimingError
 from .io import staged_output, write_json, write_profile_csv, write_profile_npz
 from .jobs import Job, load_job
 from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
@@ -36,6 +38,19 @@ log = logging.getLogger(__name__)
 FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png",
               "html": "view.html", "arm_png": "arm.png", "ros2_yaml": "trajectory.ros2.yaml",
               "json_trajectory": "trajectory.json", "tcp_png": "tcp.png"}
+#: Controller program output kind (``pipeline.controllers.lint.LANGUAGES``) -> the files it writes in the
+#: output directory (KRL: the .src with its motions and the .dat with its targets).
+PROGRAM_FILES = {"rapid": ("program.mod",), "ls": ("program.ls",), "jbi": ("program.jbi",),
+                 "krl": ("program.src", "program.dat"), "urscript": ("program.script",)}
+#: Each language's name, as messages and headers give it.
+LANGUAGE_TITLES = {"rapid": "ABB RAPID", "ls": "FANUC LS", "jbi": "Yaskawa INFORM", "krl": "KUKA KRL",
+                   "urscript": "URScript"}
+#: Each language's program names, as a header states them when the job's name had to be changed.
+NAME_RULES = {"rapid": "RAPID names are a letter, then letters, digits or _, at most 32, not a reserved word",
+              "ls": "FANUC program names are upper case, at most 8 characters",
+              "jbi": "Yaskawa job names are upper case, at most 8 characters",
+              "krl": "KRL names are a letter, then letters, digits or _, at most 24",
+              "urscript": "URScript names are a letter, then letters, digits or _, not a keyword"}
 #: The summary says when a stretch was slowed down uniformly by more than this [1].
 STRETCH_NOTICE = 1.001
 VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "copp-py", "numpy", "scipy")
@@ -139,16 +154,87 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     take more than ``max_duration_s`` [s] or ``max_samples`` samples at their speed limits before any
     timing (``check_duration``)."""
     with staged_output(out_dir) as staging:
-        scene = collision_model(job)
-        program, bound, profile = _compiled_and_timed(job, scene, max_samples, max_duration_s)
+        program, bound, profile = timed_program(job, max_samples, max_duration_s)
         report = build_report(job, program, profile, cycle_report(program, profile, bound))
         writers = _writers(job, profile, report, program)
         for kind in job.outputs:
-            writers[kind](staging / FILE_NAMES[kind])
-    files = tuple(Path(out_dir) / FILE_NAMES[kind] for kind in job.outputs)
+            writers[kind](staging / output_names(kind)[0])
+    files = tuple(Path(out_dir) / name for kind in job.outputs for name in output_names(kind))
     log.info("job %s: %s, %.4f s; wrote %d file(s) to %s", job.name, profile.method, profile.duration,
              len(files), out_dir)
     return JobOutcome(job, profile, files, report)
+
+
+def output_names(kind: str) -> tuple[str, ...]:
+    """The file names an output kind writes in the output directory (FILE_NAMES, PROGRAM_FILES)."""
+    return PROGRAM_FILES.get(kind) or (FILE_NAMES[kind],)
+
+
+def timed_program(job: Job, max_samples: int = DEFAULT_MAX_SAMPLES,
+                  max_duration_s: float = DEFAULT_MAX_DURATION_S) -> tuple[Program, LowerBound, Profile]:
+    """The job's program, its lower bound and its certified profile, in the job's cell if it has one
+    (``_compiled_and_timed``: errors name the job file)."""
+    return _compiled_and_timed(job, collision_model(job), max_samples, max_duration_s)
+
+
+def program_name(language: str, job_name: str) -> str:
+    """A valid program name in ``language`` made from ``job_name``: characters other than letters, digits
+    and _ become _, FANUC and Yaskawa names upper case, ``P_`` before a name that does not start with a
+    letter or is a reserved word, cut to the language's length (``pipeline.controllers.lint.LIMITS``)."""
+    from .controllers.lint import language_limits
+    from .controllers.rapid import RESERVED_WORDS
+    from .controllers.urscript import RESERVED
+
+    limits = language_limits(language)
+    name = re.sub(r"[^A-Za-z0-9_]+", "_", job_name).strip("_")
+    if language in ("ls", "jbi"):
+        name = name.upper()
+    reserved = (language == "rapid" and name.upper() in RESERVED_WORDS) or (language == "urscript" and name in RESERVED)
+    if not name[:1].isalpha() or reserved:
+        name = f"P_{name}"
+    return name[:limits.name_max].rstrip("_")
+
+
+def program_texts(job: Job, language: str, program: Program, profile: Profile,
+                  name: str | None = None) -> dict[str, str]:
+    """The job's ``program`` in a controller's ``language`` (rapid, ls, jbi, krl, urscript) as program
+    ``name`` (None: ``program_name`` of the job's name): file suffix -> text (KRL: .src and .dat). When
+    the name differs from the job's, the writer's header says so (the program's name it states becomes
+    "job name (written as NAME: the language's rule)", the rule when the name was made from the job's).
+    URScript gets the certified ``profile``'s servoj replay at 0.002 s (an e-Series controller's period).
+    OutputError names the job file (and the waypoint whose move breaks a rule of the language) and what
+    the writer refused."""
+    name = program_name(language, job.name) if name is None else name
+    if name != program.name:
+        rule = f": {NAME_RULES[language]}" if name == program_name(language, program.name) else ""
+        program = replace(program, name=f"{program.name} (written as {name}{rule})")
+    try:
+        return _program_texts(language, program, profile, name)
+    except PipelineError as exc:
+        move = getattr(exc, "move", None)
+        where = job.source if move is None else job.location(("waypoints", move))
+        raise OutputError(f"{where}: cannot write the {LANGUAGE_TITLES[language]} program {name}: {exc}") from exc
+
+
+def _program_texts(language: str, program: Program, profile: Profile, name: str) -> dict[str, str]:
+    from .controllers.fanuc_ls import write_ls
+    from .controllers.krl import write_krl
+    from .controllers.rapid import write_rapid
+    from .controllers.urscript import write_urscript
+    from .controllers.yaskawa_jbi import write_jbi
+
+    if language == "krl":
+        return dict(zip((".src", ".dat"), write_krl(program, name)))
+    writers = {"rapid": lambda: {".mod": write_rapid(program, name)}, "ls": lambda: {".ls": write_ls(program, name)},
+               "jbi": lambda: {".jbi": write_jbi(program, name)},
+               "urscript": lambda: {".script": write_urscript(program, name, profile)}}
+    return writers[language]()
+
+
+def _write_program(job: Job, language: str, program: Program, profile: Profile, path: Path) -> None:
+    """The program's files at ``path`` (its first file; KRL's .dat beside its .src)."""
+    for suffix, text in program_texts(job, language, program, profile).items():
+        path.with_suffix(suffix).write_text(text, encoding="utf-8")
 
 
 def collision_model(job: Job):
@@ -213,6 +299,7 @@ def _writers(job: Job, profile: Profile, report: dict, program: Program) -> dict
         "tcp_png": lambda path: _plot_tcp(path, job, profile),
         "ros2_yaml": lambda path: write_ros2_yaml(path, profile),
         "json_trajectory": lambda path: write_json_trajectory(path, profile),
+        **{language: functools.partial(_write_program, job, language, program, profile) for language in PROGRAM_FILES},
     }
 
 
