@@ -195,8 +195,8 @@ def cmd_read_program(args) -> int:
     out = Path(args.out) if args.out else None
     if out is not None:
         prepare_file_target(out)
-    robot = _robot_reference(args.robot, out)
-    document = _read_program(language, path, robot)
+    document = _read_program(language, path, args.robot)
+    document["robot"] = _robot_reference(args.robot, out)
     job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
     header = f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
     text = header + yaml.safe_dump(document, sort_keys=False, default_flow_style=None, width=120)
@@ -204,7 +204,7 @@ def cmd_read_program(args) -> int:
         print(text, end="")
         return 0
     write_text_atomic(out, text)
-    print(f"read {path}: {len(document['waypoints'])} waypoints for {robot}; wrote {out}")
+    print(f"read {path}: {len(document['waypoints'])} waypoints for {args.robot}; wrote {out}")
     return 0
 
 

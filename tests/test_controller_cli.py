@@ -125,3 +125,15 @@ def test_a_job_listing_rapid_writes_program_mod(tmp_path):
 ])
 def test_program_names_are_made_valid(language, job_name, name):
     assert program_name(language, job_name) == name
+
+
+def test_read_program_names_a_robot_file_relative_to_the_job_written(written, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    robot = Path("models") / "gp7.yaml"
+    robot.parent.mkdir()
+    robot.write_text((ROOT / "models" / "gp7.yaml").read_text())
+    out = Path("jobs") / "deep" / "read.yaml"
+    code, _, err = cli(capsys, "read-program", written / "gp7_pick_place.mod", "--robot", robot, "--out", out)
+    assert code == 0, err
+    assert yaml.safe_load(out.read_text())["robot"] == "../../models/gp7.yaml"
+    assert load_job(out).robot.name == "gp7"
