@@ -56,7 +56,7 @@ def written_positions(parser, text: str) -> dict[int, dict]:
 
 
 def flat_points(program):
-    return [point for _, points in program_points(program, "fanuc") for point in points]
+    return [point for motion in program_points(program, "fanuc") for point in motion.points]
 
 
 @pytest.mark.parametrize("job", [*CARTESIAN_JOBS, "irb1600_joint_moves"])

@@ -60,6 +60,7 @@ from pipeline.jobs import load_job, parse_job
 from pipeline.poses import quaternion_position_to_pose, rotation_to_rpy, rpy_position_to_pose
 from pipeline.program import compile_job
 from pipeline.robot import load_robot, robot_with_tool
+from pipeline.runner import collision_model
 from pipeline.urdf import import_urdf
 
 from .conftest import DATA_DIR
@@ -224,14 +225,18 @@ def file_configurations(language: str, text, program) -> dict[int, tuple[int, ..
     return target_points(job_points(program), by_point)
 
 
-def target_points(points: list, by_point: dict[int, tuple]) -> dict[int, tuple]:
+def target_points(motions: list, by_point: dict[int, tuple]) -> dict[int, tuple]:
     """Target k's entry of ``by_point`` (keyed by the points' order from 0): the last point of each written move
-    (``points``: (move, [its points]) in order, the first the start) is target k."""
-    out, n = {}, -1
-    for k, (_, move_points) in enumerate(points):
-        n += len(move_points)
+    (``motions``: ``fanuc_ls.Motion`` in order, the first the start; a planned move's vertices come before its
+    end) is target k."""
+    out, n, k = {}, -1, 0
+    for i, motion in enumerate(motions):
+        n += len(motion.points)
+        if i + 1 < len(motions) and motions[i + 1].move is motion.move:
+            continue
         if n in by_point:
             out[k] = by_point[n]
+        k += 1
     return out
 
 
@@ -293,3 +298,40 @@ def test_rapidchecker_accepts_every_rapid_module(written, tmp_path, name):
         pytest.skip("rapidchecker (pip install rapidchecker) is not installed")
     result = rapidchecker_errors(tmp_path, written[name][1])
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.fixture(scope="module")
+def cell_program():
+    """gp7_cell_pick_place compiled in its cell: both transfers over the wall are planned joint moves."""
+    job = load_job(JOBS / "gp7_cell_pick_place.yaml")
+    program = compile_job(job, collision_model(job))
+    assert all(len(m.planned.waypoints) > 2 for m in program.moves if m.kind == "joint")
+    return program
+
+
+@pytest.mark.parametrize("language", FORMATS)
+def test_a_planned_move_is_written_through_its_vertices_with_exact_stops(cell_program, language):
+    """Every language writes a planned joint move as joint moves through the planner's vertices (the straight
+    joint segments the planner checked), stopping exactly at each vertex and at both ends of the move: read
+    back, the targets are the program's with the vertices between, each within the format's rounding, and none
+    of those has a zone. Without the vertices the controller would cut straight through the cell's wall."""
+    program, form = cell_program, FORMATS[language]
+    document = form.read(form.write(program), "gp7")
+    expected, exact = [program.targets[0]], [True]
+    for move in program.moves:
+        vertices = list(move.planned.waypoints[1:-1]) if move.planned is not None else []
+        expected += [*vertices, move.target]
+        exact += [True] * len(vertices) + [move.planned is not None]
+        if move.planned is not None:
+            exact[-len(vertices) - 2] = True                  # the move into a planned move stops too
+    waypoints = document["waypoints"]
+    assert len(waypoints) == len(expected)
+    for k, (w, q, stop) in enumerate(zip(waypoints, expected, exact)):
+        w = w if isinstance(w, dict) else {"joints": w}
+        if "joints" in w:
+            assert np.all(np.abs(np.radians(w["joints"]) - q) <= bound(program, q, form)), k
+        else:
+            X = quaternion_position_to_pose(w["quaternion"], w["xyz"])
+            assert np.linalg.norm(X[:3, 3] - program.robot.fk(q)[:3, 3]) <= 1e-6, k
+        if stop:
+            assert w.get("zone", 0) == 0, (k, w)

@@ -55,7 +55,7 @@ def written_points(parser, text: str) -> list[dict]:
 
 
 def flat_points(program):
-    return [point for _, points in job_points(program) for point in points]
+    return [point for motion in job_points(program) for point in motion.points]
 
 
 @pytest.mark.parametrize("job", [*CARTESIAN_JOBS, "gp7_joints"])

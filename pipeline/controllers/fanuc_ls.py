@@ -13,8 +13,10 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   on a continuation line). Joint moves run at ``%`` of the joints' maximum speed (the move's fraction of the
   speed limits x the job's ``speed_scale``, 1 to 100), tool moves at ``mm/sec`` (the move's TCP speed x
   ``speed_scale``, whole mm/sec as the pendant takes them).
+* Planned joint moves (a cell's collision-free detour): a ``J`` to each planner vertex, given in joints,
+  each ``FINE``: joint interpolation is straight in joint space, the segments the planner checked.
 * Termination: ``FINE`` where the move's zone is 0 (every stop, and the waypoints a joint path passes through:
-  the controller stops there), else ``CNTn``. CNT is not a distance: it is how far the controller lets the
+  the controller stops there) and at both ends of a planned move, else ``CNTn``. CNT is not a distance: it is how far the controller lets the
   next move start during this one's deceleration (a percentage), so the corner it cuts grows with speed.
   We pick n = ceil(100 zone / reach), 1..100, where reach is the distance over which the controller can round
   at all: for a tool move with a TCP acceleration limit, its deceleration distance v^2 / (2 a) at the
@@ -35,7 +37,7 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   robot has no published world frame on this controller and is written in our base frame (the mounting
   face). UT 1 must hold the job's tool (stated in the header comment; the identity when the job has none).
 
-``program_points`` (the points in the order they are written, with their joint values) and
+``program_points`` (the motions in the order they are written, with their points' joint values) and
 ``controller_frame`` are shared with the Yaskawa writer.
 """
 
@@ -55,6 +57,7 @@ from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import FANUC, axis_angles
 from .configuration import configurations, format_configuration
 from .lint import FANUC_LS, lint
+from .rapid import next_to_planned
 from .selection import select_solution
 
 #: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
@@ -91,17 +94,32 @@ def check_six_joints(program: Program) -> None:
         raise ConfigurationError(f"{robot.name}: a controller program needs a 6-axis arm of revolute joints")
 
 
-def program_points(program: Program, vendor: str) -> list[tuple[Move | None, list[Point]]]:
-    """The points of each written move in order: (None, [start]) for the joint move to the first
-    waypoint, then (move, [via, end]) for a circular move and (move, [end]) for the others. A via point
-    takes its orientation from the move's nearest IK sample and its joint values from ``select_solution``
-    with that sample's ``vendor`` configuration."""
-    start = program.waypoints[0]
-    points = [(None, [Point(start.q, program.robot.fk(start.q), start.method is None)])]
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """One written motion: ``move`` (None: the joint move to the first waypoint; each vertex of a planned
+    move is a motion of that move), the ``points`` it goes to (a circular move: via, end) and the ``zone``
+    [m] at its end (0: an exact stop, as at the start, at a planned move's vertices and at both its ends)."""
+
+    move: Move | None
+    points: list[Point]
+    zone: float
+
+
+def program_points(program: Program, vendor: str) -> list[Motion]:
+    """The motions in the order they are written: the joint move to the first waypoint, then per move its
+    planner vertices (a planned joint move: joint points, exact stops, the straight joint segments the
+    planner checked) and its end, a circular move's via point before its end. A via point takes its
+    orientation from the move's nearest IK sample and its joint values from ``select_solution`` with that
+    sample's ``vendor`` configuration."""
+    robot, start = program.robot, program.waypoints[0]
+    motions = [Motion(None, [Point(start.q, robot.fk(start.q), start.method is None)], 0.0)]
     for move in program.moves:
+        vertices = [] if move.planned is None else move.planned.waypoints[1:-1]
+        motions += [Motion(move, [Point(q, robot.fk(q), True)], 0.0) for q in vertices]
         end = Point(move.target, move.X_BT, program.waypoints[move.end].method is None)
-        points.append((move, [via_point(program, move, vendor), end] if move.kind == CIRCULAR else [end]))
-    return points
+        points = [via_point(program, move, vendor), end] if move.kind == CIRCULAR else [end]
+        motions.append(Motion(move, points, 0.0 if next_to_planned(program, move) else move.zone))
+    return motions
 
 
 def via_point(program: Program, move: Move, vendor: str) -> Point:
@@ -217,20 +235,21 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -
     check_six_joints(program)
     height, frame = controller_frame(program.robot, FANUC)
     comments = comment_lines(_header_text(program, frame))
-    zones = [line for move in program.moves if move.zone > 0.0 for line in comment_lines(_zone_comment(program, move))]
+    motions = program_points(program, FANUC)
+    zones = [line for motion in motions if motion.zone > 0.0 for line in comment_lines(_zone_comment(program, motion))]
     configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
     lint(program, FANUC_LS, name, comments + zones, configs)
     lines = [f"!{line}" for line in comments]
     positions, index = [], 0
-    for move, points in program_points(program, FANUC):
+    for motion in motions:
         labels = []
-        for point in points:
+        for point in motion.points:
             index += 1
             labels.append(f"P[{index}]")
             positions.append(_position(program, index, point, height))
-        if move is not None and move.zone > 0.0:
-            lines.extend(f"!{line}" for line in comment_lines(_zone_comment(program, move)))
-        lines.append(_motion(program, move, labels))
+        if motion.zone > 0.0:
+            lines.extend(f"!{line}" for line in comment_lines(_zone_comment(program, motion)))
+        lines.append(_motion(program, motion, labels))
     return "\n".join([f"/PROG  {name}", *_attributes(program, len(lines), created), "/MN",
                       *(f"{n:4d}:  {line} ;" for n, line in enumerate(lines, start=1)), "/POS", *positions, "/END",
                       ""])
@@ -243,15 +262,15 @@ def _header_text(program: Program, frame: str) -> str:
             "ASCII Program Loader option (or MakeTP offline).")
 
 
-def _zone_comment(program: Program, move: Move) -> str:
-    reach, how = zone_reach(program, move.end - 1)
-    return f"zone {move.zone * MM:.1f}mm CNT{cnt_value(move.zone, reach)} {how} {reach * MM:.1f}mm"
+def _zone_comment(program: Program, motion: Motion) -> str:
+    reach, how = zone_reach(program, motion.move.end - 1)
+    return f"zone {motion.zone * MM:.1f}mm CNT{cnt_value(motion.zone, reach)} {how} {reach * MM:.1f}mm"
 
 
-def _termination(program: Program, move: Move | None) -> str:
-    if move is None or move.zone <= 0.0:
+def _termination(program: Program, motion: Motion) -> str:
+    if motion.zone <= 0.0:
         return "FINE"
-    return f"CNT{cnt_value(move.zone, zone_reach(program, move.end - 1)[0])}"
+    return f"CNT{cnt_value(motion.zone, zone_reach(program, motion.move.end - 1)[0])}"
 
 
 def _speed(program: Program, move: Move | None) -> str:
@@ -266,10 +285,11 @@ def _speed(program: Program, move: Move | None) -> str:
     return f"{mm_s}mm/sec"
 
 
-def _motion(program: Program, move: Move | None, labels: list[str]) -> str:
+def _motion(program: Program, motion: Motion, labels: list[str]) -> str:
     """One numbered /MN line: J or L to a point, or C through the via point with the end point on a
     continuation line (":"), then speed and termination."""
-    tail = f"{_speed(program, move)} {_termination(program, move)}"
+    move = motion.move
+    tail = f"{_speed(program, move)} {_termination(program, motion)}"
     if move is None or move.kind == JOINT:
         return f"J {labels[0]} {tail}"
     if move.kind == CIRCULAR:

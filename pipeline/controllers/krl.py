@@ -26,7 +26,9 @@ Programming Instructions for System Integrators; the chapter and section named a
 * Zones: a move with a zone gets ``$APO.CDIS`` = the zone [mm] and ``C_DIS`` ("Approximate positioning":
   approximation starts at the earliest when the TCP is closer than $APO.CDIS to the end point; KSS 8.x
   accepts C_DIS on PTP as well, as its inline forms write it; a KR C2 / KSS 5.x controller needs
-  ``C_PTP C_DIS`` on a PTP instead); a zone of 0 is an exact stop (no approximation parameter).
+  ``C_PTP C_DIS`` on a PTP instead); a zone of 0 is an exact stop (no approximation parameter), as are
+  both ends of a planned joint move and its planner vertices (``PTP XPk_i`` to E6AXIS targets: PTP is
+  straight in joint space, the segments the planner checked).
 * E6POS ``{X, Y, Z, A, B, C, S, T, E1..E6}``: the TCP in the base frame, X, Y, Z [mm] rounded to 0.001
   mm, A, B, C [deg] rounded to 0.0001 deg in KUKA's convention R = Rz(A) Ry(B) Rx(C) (A about Z, then B
   about the new Y, then C about the newest X: "Orientation angles A, B, C"); S and T the KUKA Status and
@@ -44,7 +46,8 @@ import numpy as np
 from ..errors import ConfigurationNotFoundError
 from .axes import KUKA, axis_angles, axis_map
 from .configuration import configurations
-from .lint import KRL, ControllerLintError, lint, written_speed
+from .lint import KRL, lint, written_speed
+from .rapid import next_to_planned
 from .selection import select_solution
 
 #: Axis speed [% of the axes' maximum] of the first motion (the BCO run to the start).
@@ -174,12 +177,13 @@ def _speed_lines(move, speed_scale: float, current: dict) -> list[str]:
     return [f"$VEL_AXIS[{i}] = {percent}" for i in range(1, 7)]
 
 
-def _motion(move, point: str, aux: str | None) -> list[str]:
-    """The approximation distance and the motion line of ``move`` to ``point`` (via ``aux`` if circular)."""
+def _motion(move, point: str, aux: str | None, zone_m: float) -> list[str]:
+    """The approximation distance and the motion line of ``move`` to ``point`` (via ``aux`` if circular)
+    with a zone of ``zone_m`` [m] (0: an exact stop)."""
     zone = []
     approx = ""
-    if move.zone > 0.0:
-        zone, approx = [f"$APO.CDIS = {move.zone * 1000.0:.3f}"], " C_DIS"
+    if zone_m > 0.0:
+        zone, approx = [f"$APO.CDIS = {zone_m * 1000.0:.3f}"], " C_DIS"
     if aux is not None:
         return zone + [f"CIRC {aux}, {point}{approx}"]
     return zone + [f"{'LIN' if move.is_tool_move else 'PTP'} {point}{approx}"]
@@ -196,8 +200,8 @@ def _as_axes(program, k: int, X: np.ndarray, status_turn) -> bool:
 
 
 def _declarations(program, status_turn: np.ndarray, angles: np.ndarray) -> list[str]:
-    """The .dat declarations: waypoint k as XPk (E6AXIS or E6POS: ``_as_axes``) and the via point of a
-    circular move to waypoint k as XAk."""
+    """The .dat declarations: waypoint k as XPk (E6AXIS or E6POS: ``_as_axes``), the via point of a
+    circular move to waypoint k as XAk and vertex i of a planned move to waypoint k as XPk_i (E6AXIS)."""
     poses = [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
     lines = []
     for k, X in enumerate(poses):
@@ -210,26 +214,33 @@ def _declarations(program, status_turn: np.ndarray, angles: np.ndarray) -> list[
             X = move.X_BT.copy()
             X[:3, 3] = move.via
             lines.append(frame(f"XA{move.end}", X))
+        lines += [e6axis(name, axis_angles(program.robot, q, KUKA)) for name, q in _vertices(move)]
     return lines
+
+
+def _vertices(move) -> list[tuple[str, np.ndarray]]:
+    """(name, joint values (6,) [rad]) of each planner vertex of a planned move between its ends."""
+    if move.planned is None:
+        return []
+    return [(f"XP{move.end}_{i}", q) for i, q in enumerate(move.planned.waypoints[1:-1], start=1)]
 
 
 def write_krl(program, name: str) -> tuple[str, str]:
     """The program's .src and .dat texts (module docstring) as program ``name``. ``lint`` runs first: a
     ControllerLintError names what KRL cannot hold (a name over 24 characters, a zone over half a move, a
-    speed out of range, a configuration that does not match its joint values); a planned joint move (a
-    cell's collision-free detour) is refused, its vertices are not written yet."""
+    speed out of range, a configuration that does not match its joint values). A planned joint move (a
+    cell's collision-free detour) is a PTP to each planner vertex (E6AXIS), exact stops at the vertices and
+    at both ends of the move: PTP is straight in joint space, the segments the planner checked."""
     status_turn = configurations(program.robot, program.targets, KUKA)
     comments = header(program, name)
     lint(program, KRL, name, comments, status_turn)
-    for move in program.moves:
-        if move.planned is not None:
-            raise ControllerLintError(KRL, move.end, "planned", len(move.planned.waypoints),
-                                      "a planned joint move's vertices are not written to KRL yet")
     angles = axis_angles(program.robot, program.targets, KUKA)
     body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
     for move in program.moves:
         body += _speed_lines(move, program.speed_scale, speeds)
-        body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None)
+        body += [f"PTP {name}" for name, _ in _vertices(move)]
+        zone = 0.0 if next_to_planned(program, move) else move.zone
+        body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone)
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
     dat = [f"DEFDAT {name}"] + _declarations(program, status_turn, angles) + ["ENDDAT"]
     return "\n".join(src) + "\n", "\n".join(dat) + "\n"

@@ -13,7 +13,8 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
   newer controllers take longer names, a short one loads on all). Comments (``'text``): up to 32 characters.
 * Moves: a joint move to the first waypoint (where the robot starts is not known), then ``MOVJ C.. VJ=``
   (% of the joints' maximum speed, 0.01 to 100.00: the move's fraction of the speed limits x the job's
-  ``speed_scale``), ``MOVL C.. V=`` (TCP speed in mm/s, to 0.1 mm/s), ``MOVC`` x 3 for a circular move: INFORM
+  ``speed_scale``; a planned move's planner vertices each get a MOVJ without PL, an exact stop, as do both
+  ends of a planned move), ``MOVL C.. V=`` (TCP speed in mm/s, to 0.1 mm/s), ``MOVC`` x 3 for a circular move: INFORM
   defines an arc by three MOVC points, so the arc's start (where the previous move ends) is written again as
   the first MOVC point, then the via and the end point; an arc ending where the next arc starts gets ``FPT``.
 * Zones: ``PL=n`` (positioning level, 0 to 8). A level is a distance the controller's parameters
@@ -38,6 +39,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import re
+from dataclasses import replace
 
 import numpy as np
 
@@ -45,7 +47,7 @@ from ..errors import ConfigurationError
 from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import YASKAWA
 from .configuration import configurations
-from .fanuc_ls import (MM, Point, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
+from .fanuc_ls import (MM, Motion, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
                        program_points, rounded, tool_text, xyz_rpy)
 from .lint import JBI, lint
 
@@ -73,18 +75,18 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     height, frame = controller_frame(program.robot, YASKAWA)
     header = comment_lines(_header_text(program, frame))
-    zones = [f"zone {m.zone * MM:.1f}mm PL{pl_level(m.zone, pl_mm)}" for m in program.moves if m.zone > 0.0]
+    motions = job_points(program)
+    zones = [f"zone {m.zone * MM:.1f}mm PL{pl_level(m.zone, pl_mm)}" for m in motions if m.zone > 0.0]
     lint(program, JBI, name, header + zones, configurations(program.robot, program.targets, YASKAWA))
     positions, instructions, index = [], [], 0
-    moves = job_points(program)
-    for k, (move, points) in enumerate(moves):
+    for k, motion in enumerate(motions):
         labels = []
-        for point in points:
+        for point in motion.points:
             labels.append(f"C{index:05d}")
             positions.extend(_position(program, labels[-1], point.q, point.X_BT, height, positions))
             index += 1
-        following = moves[k + 1][0] if k + 1 < len(moves) else None
-        instructions.extend(_instructions(program, move, labels, following, pl_mm))
+        following = motions[k + 1].move if k + 1 < len(motions) else None
+        instructions.extend(_instructions(program, motion, labels, following, pl_mm))
     comments = [f"'{line}" for line in header]
     when = created or _dt.datetime.now(_dt.timezone.utc)
     return "\n".join(["/JOB", f"//NAME {name}", "//POS", f"///NPOS {index},0,0,0,0,0", "///TOOL 1",
@@ -93,12 +95,12 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
                       "///GROUP1 RB1", "NOP", *comments, *instructions, "END", ""])
 
 
-def job_points(program: Program) -> list[tuple[Move | None, list[Point]]]:
-    """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous move's end) as the
+def job_points(program: Program) -> list[Motion]:
+    """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous motion's end) as the
     first of its three MOVC points: the points in the order C00000, C00001, ... are written."""
-    moves = program_points(program, YASKAWA)
-    return [(move, [moves[k - 1][1][-1], *points] if move is not None and move.kind == CIRCULAR else points)
-            for k, (move, points) in enumerate(moves)]
+    motions = program_points(program, YASKAWA)
+    return [replace(m, points=[motions[k - 1].points[-1], *m.points]) if m.move is not None and m.move.kind == CIRCULAR
+            else m for k, m in enumerate(motions)]
 
 
 def _header_text(program: Program, frame: str) -> str:
@@ -133,13 +135,14 @@ def _speed(program: Program, move: Move | None) -> str:
     return f"V={mm_s:.1f}"
 
 
-def _instructions(program: Program, move: Move | None, labels: list[str], following: Move | None,
+def _instructions(program: Program, motion: Motion, labels: list[str], following: Move | None,
                   pl_mm) -> list[str]:
-    """The INFORM lines of one move: a zone comment and MOVJ / MOVL / MOVC x 3 with speed and PL."""
+    """The INFORM lines of one motion: a zone comment and MOVJ / MOVL / MOVC x 3 with speed and PL."""
+    move = motion.move
     speed = _speed(program, move)
     tail = ""
-    if move is not None and move.zone > 0.0:
-        tail = f" PL={pl_level(move.zone, pl_mm)}"
+    if motion.zone > 0.0:
+        tail = f" PL={pl_level(motion.zone, pl_mm)}"
     if move is None or move.kind == JOINT:
         lines = [f"MOVJ {labels[0]} {speed}{tail}"]
     elif move.kind == CIRCULAR:
@@ -148,5 +151,5 @@ def _instructions(program: Program, move: Move | None, labels: list[str], follow
     else:
         lines = [f"MOVL {labels[0]} {speed}{tail}"]
     if tail:
-        lines.insert(0, f"'zone {move.zone * MM:.1f}mm PL{pl_level(move.zone, pl_mm)}")
+        lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{pl_level(motion.zone, pl_mm)}")
     return lines
