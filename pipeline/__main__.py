@@ -141,14 +141,17 @@ def cmd_program(args) -> int:
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
     from .jobs import load_job
-    from .runner import LANGUAGE_TITLES, program_name, program_texts, timed_program
+    from .runner import LANGUAGE_TITLES, SERVO_PERIOD_S, program_name, program_texts, timed_program
 
+    if args.servo_period is not None and args.lang != "urscript":
+        raise OutputError(f"--servo-period is the period of URScript's servoj replay; {args.lang} has none")
+    period = SERVO_PERIOD_S if args.servo_period is None else args.servo_period
     job = load_job(args.job)
     name, targets = _program_targets(args.lang, program_name(args.lang, job.name), Path(args.out or "."))
     for path in targets.values():
         prepare_file_target(path)
     program, _, profile = timed_program(job, args.max_samples, args.max_duration)
-    texts = program_texts(job, args.lang, program, profile, name)
+    texts = program_texts(job, args.lang, program, profile, name, period)
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
     for suffix, text in texts.items():
@@ -468,11 +471,15 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                     "program's name is the job's, made valid for the language (the file's header says so when\n"
                     "it changed). The controller plans its own velocity profile for native moves.",
                     ["trajectories/jobs/gp7_pick_place.yaml --lang jbi --out out/controller",
-                     "trajectories/jobs/irb1600_tool_moves.yaml --lang rapid --out irb1600_tool_moves.mod"])
+                     "trajectories/jobs/irb1600_tool_moves.yaml --lang rapid --out irb1600_tool_moves.mod",
+                     "my_ur5_job.yaml --lang urscript --servo-period 0.008 --out out/cb3"])
     program.add_argument("job", help="job file, e.g. trajectories/jobs/gp7_pick_place.yaml")
     program.add_argument("--lang", required=True, choices=languages, help="the controller's language")
     program.add_argument("--out", metavar="FILE_OR_DIR", help="a file with the language's suffix (KRL: the .src, "
                          "its .dat beside it), or a folder for NAME.<suffix> (default: the current folder)")
+    program.add_argument("--servo-period", type=_seconds, metavar="SECONDS",
+                         help="urscript: the controller period of the servoj replay (default 0.002, e-Series; "
+                              "0.008 on a CB3)")
     program.add_argument("--max-samples", type=POSITIVE, default=DEFAULT_MAX_SAMPLES, metavar="N",
                          help=f"refuse profiles of more samples (default {DEFAULT_MAX_SAMPLES:,})")
     program.add_argument("--max-duration", type=_seconds, default=DEFAULT_MAX_DURATION_S, metavar="SECONDS",

@@ -195,13 +195,17 @@ def program_name(language: str, job_name: str) -> str:
     return name[:limits.name_max].rstrip("_")
 
 
+#: URScript's servoj replay period [s] by default: an e-Series controller's (a CB3's is 0.008 s).
+SERVO_PERIOD_S = 0.002
+
+
 def program_texts(job: Job, language: str, program: Program, profile: Profile,
-                  name: str | None = None) -> dict[str, str]:
+                  name: str | None = None, servo_period: float = SERVO_PERIOD_S) -> dict[str, str]:
     """The job's ``program`` in a controller's ``language`` (rapid, ls, jbi, krl, urscript) as program
     ``name`` (None: ``program_name`` of the job's name): file suffix -> text (KRL: .src and .dat). When
     the name differs from the job's, the writer's header says so (the program's name it states becomes
     "job name (written as NAME: the language's rule)", the rule when the name was made from the job's).
-    URScript gets the certified ``profile``'s servoj replay at 0.002 s (an e-Series controller's period).
+    URScript gets the certified ``profile``'s servoj replay every ``servo_period`` [s].
     OutputError names the job file (and the waypoint whose move breaks a rule of the language) and what
     the writer refused."""
     name = program_name(language, job.name) if name is None else name
@@ -209,14 +213,15 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
         rule = f": {NAME_RULES[language]}" if name == program_name(language, program.name) else ""
         program = replace(program, name=f"{program.name} (written as {name}{rule})")
     try:
-        return _program_texts(language, program, profile, name)
+        return _program_texts(language, program, profile, name, servo_period)
     except PipelineError as exc:
         move = getattr(exc, "move", None)
         where = job.source if move is None else job.location(("waypoints", move))
         raise OutputError(f"{where}: cannot write the {LANGUAGE_TITLES[language]} program {name}: {exc}") from exc
 
 
-def _program_texts(language: str, program: Program, profile: Profile, name: str) -> dict[str, str]:
+def _program_texts(language: str, program: Program, profile: Profile, name: str,
+                   servo_period: float) -> dict[str, str]:
     from .controllers.fanuc_ls import write_ls
     from .controllers.krl import write_krl
     from .controllers.rapid import write_rapid
@@ -227,7 +232,7 @@ def _program_texts(language: str, program: Program, profile: Profile, name: str)
         return dict(zip((".src", ".dat"), write_krl(program, name)))
     writers = {"rapid": lambda: {".mod": write_rapid(program, name)}, "ls": lambda: {".ls": write_ls(program, name)},
                "jbi": lambda: {".jbi": write_jbi(program, name)},
-               "urscript": lambda: {".script": write_urscript(program, name, profile)}}
+               "urscript": lambda: {".script": write_urscript(program, name, profile, servo_period)}}
     return writers[language]()
 
 

@@ -89,6 +89,7 @@ def test_program_into_a_named_file(tmp_path, capsys):
 @pytest.mark.parametrize("args, message", [
     (["program", GP7_JOB, "--lang", "cobol"], "invalid choice: 'cobol'"),
     (["program", GP7_JOB, "--lang", "rapid", "--out", "x.ls"], "a rapid program is a .mod file"),
+    (["program", GP7_JOB, "--lang", "rapid", "--servo-period", "0.008"], "servoj replay; rapid has none"),
     (["read-program", "missing.mod", "--robot", "gp7"], "cannot read the file"),
     (["read-program", "job.txt", "--robot", "gp7"], "unknown program file type '.txt'"),
 ])
@@ -101,6 +102,17 @@ def test_mistakes_are_one_error_line(tmp_path, capsys, monkeypatch, args, messag
     stdout, err = capsys.readouterr()
     assert code == 2 and stdout == "" and err.startswith("error: ") and err.count("\n") == 1 and message in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_servo_period_sets_the_replay_period(tmp_path, capsys):
+    """A CB3 takes servoj every 0.008 s: the replay has one servoj per period of the certified profile."""
+    code, stdout, err = cli(capsys, "program", GP7_JOB, "--lang", "urscript", "--servo-period", "0.008", "--out",
+                            tmp_path / "cb3.script")
+    assert code == 0, err
+    duration = float(stdout.split("the certified profile takes ")[1].split(" s")[0])
+    calls = [line for line in (tmp_path / "cb3.script").read_text().splitlines() if "servoj(" in line]
+    assert all("t=0.008," in line for line in calls)
+    assert len(calls) == int(np.ceil(duration / 0.008 - 1e-9))
 
 
 def test_a_krl_src_without_its_dat_is_one_error_line(written, tmp_path, capsys):

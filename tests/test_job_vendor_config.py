@@ -70,6 +70,8 @@ def test_gp7_pose_lands_on_the_yaskawa_rconf_branch_and_turn(fields, branch):
     assert tuple(configurations(job.robot, q, "yaskawa")) == tuple(fields)
     assert (solutions[0].branch, solutions[0].method, solutions[0].solutions) == (branch, "analytic", 1)
     assert solutions[0].position_error < 1e-9 and solutions[0].rotation_error < 1e-9
+    assert solutions[0].to_dict()["controller_config"] == {"yaskawa": ",".join(map(str, fields))}
+    assert solutions[1].to_dict()["controller_config"] is None       # report.json: as the waypoint named it
 
 
 def test_the_rconf_fixes_the_2pi_representative():

@@ -37,7 +37,6 @@ number) is a ``KrlReadError`` naming the file, the line and the statement or poi
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,9 +53,9 @@ from ..robot import Robot, load_robot, robot_with_tool
 from .axes import KUKA, axis_map
 from .configuration import configurations
 from .krl import abc_rotation
+from .read_ls import grammar_parser
 from .selection import select_solution
 
-GRAMMAR = Path(__file__).resolve().parent / "grammars" / "krl.lark"
 MOVE_KINDS = {"ptp": "joint", "lin": "linear", "circ": "circular"}
 AXIS_TYPES, POSE_TYPES = ("E6AXIS", "AXIS"), ("E6POS", "POS", "FRAME")
 #: What a program may set these system variables to (KSS "System variables"), where it sets them.
@@ -90,15 +89,11 @@ class _Motion:
     settings: dict
 
 
-@functools.cache
-def _parser() -> lark.Lark:
-    return lark.Lark(GRAMMAR.read_text(), parser="lalr", propagate_positions=True)
-
 
 def parse_krl(text: str, part: str, source: str) -> lark.Tree:
     """The ``src`` or ``dat`` (``part``) node of a KRL text; KrlReadError at the line that does not parse."""
     try:
-        node = _parser().parse(text).children[0]
+        node = grammar_parser("krl").parse(text).children[0]
     except lark.exceptions.UnexpectedInput as exc:
         raise KrlReadError(source, "syntax", str(exc).splitlines()[0] + " (not KRL of the subset read here)",
                            line=exc.line) from None

@@ -64,9 +64,10 @@ class ControllerProgramError(FileFormatError):
 
 @cache
 def grammar_parser(name: str) -> Lark:
-    """The LALR parser of ``grammars/<name>.lark`` (package data)."""
+    """The LALR parser of ``grammars/<name>.lark`` (package data), built once per process; its trees
+    carry line numbers (for messages)."""
     text = resources.files(__package__).joinpath("grammars", f"{name}.lark").read_text()
-    return Lark(text, parser="lalr")
+    return Lark(text, parser="lalr", propagate_positions=True)
 
 
 def parse_text(name: str, text: str, source: str) -> Tree:

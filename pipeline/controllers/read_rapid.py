@@ -39,10 +39,8 @@ The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import lark
 import numpy as np
@@ -53,9 +51,9 @@ from ..ik.branches import configuration_labels
 from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..robot import Robot, load_robot, robot_with_tool
 from .axes import ABB, axis_map
+from .read_ls import grammar_parser
 from .selection import select_solution
 
-GRAMMAR = Path(__file__).resolve().parent / "grammars" / "rapid.lark"
 MOVES = ("moveabsj", "movej", "movel", "movec")
 CONFIG_INSTRUCTIONS = ("confj", "confl")
 #: Predefined data (RAPID Instructions manual, "speeddata", "zonedata"): vN is N mm/s, zN is N mm, z0 and fine 0.
@@ -115,15 +113,11 @@ class _Values(lark.Transformer):
 def parse_rapid(text: str) -> lark.Tree:
     """The parse tree of a module (``grammars/rapid.lark``); RapidReadError at the line that does not parse."""
     try:
-        return _parser().parse(text)
+        return grammar_parser("rapid").parse(text)
     except lark.exceptions.UnexpectedInput as exc:
         raise RapidReadError(SOURCE, "syntax", f"not RAPID of the subset read here: {exc}".splitlines()[0],
                              line=exc.line) from None
 
-
-@functools.cache
-def _parser() -> lark.Lark:
-    return lark.Lark(GRAMMAR.read_text(), parser="lalr", propagate_positions=True)
 
 
 def read_rapid(text: str, robot: str, base_in_world: np.ndarray | None = None) -> dict:

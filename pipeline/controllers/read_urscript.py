@@ -37,9 +37,7 @@ The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
-from pathlib import Path
 
 import lark
 import numpy as np
@@ -51,8 +49,8 @@ from ..ik import solve_ik_batch
 from ..ik.branches import configuration_labels
 from ..ik.result import limit_variants
 from ..robot import Robot, load_robot, robot_with_tool
+from .read_ls import grammar_parser
 
-GRAMMAR = Path(__file__).resolve().parent / "grammars" / "urscript.lark"
 #: Each move's parameters in the Script Manual's order.
 PARAMETERS = {"movej": ("q", "a", "v", "t", "r"), "movel": ("pose", "a", "v", "t", "r"),
               "movec": ("pose_via", "pose_to", "a", "v", "r", "mode")}
@@ -108,15 +106,11 @@ class _Variable(str):
 def parse_urscript(text: str) -> lark.Tree:
     """The parse tree of a program (``grammars/urscript.lark``); UrscriptReadError at the line that does not parse."""
     try:
-        return _parser().parse(text)
+        return grammar_parser("urscript").parse(text)
     except lark.exceptions.UnexpectedInput as exc:
         raise UrscriptReadError(SOURCE, "syntax", f"not URScript of the subset read here: {exc}".splitlines()[0],
                                 line=exc.line) from None
 
-
-@functools.cache
-def _parser() -> lark.Lark:
-    return lark.Lark(GRAMMAR.read_text(), parser="lalr", propagate_positions=True)
 
 
 def read_urscript(text: str, robot: str) -> dict:

@@ -171,7 +171,8 @@ def controller_solution(job: Job, k: int, previous_branch: str, scene=None) -> W
                     choice.branch)
     position_error, rotation_error = pose_errors(robot.fk(q), make_target(waypoint.X_BE))
     return WaypointSolution(q, "analytic", position_error, rotation_error, 1, waypoint.target,
-                            MATCHED_COMPONENTS[waypoint.target], waypoint.config, choice.branch, choice.changed)
+                            MATCHED_COMPONENTS[waypoint.target], waypoint.config, choice.branch, choice.changed,
+                            (vendor, text))
 
 
 def _named_choice(robot, q, previous_branch: str) -> BranchChoice:

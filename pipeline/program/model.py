@@ -34,7 +34,8 @@ class WaypointSolution:
     """How waypoint k became joint values: ``q`` [rad or m]; for a pose, the IK method that solved it,
     its errors [m, rad], the number of in-limit solutions it chose from, the target kind and the
     components matched, the configuration asked for, the branch kept and whether that is a change from
-    the previous pose waypoint's (None for joint waypoints)."""
+    the previous pose waypoint's (None for joint waypoints); ``controller_config`` (vendor, its text) when
+    the waypoint named its solution by a controller's configuration data."""
 
     q: np.ndarray
     method: str | None = None
@@ -46,13 +47,15 @@ class WaypointSolution:
     config: dict | None = None
     branch: str | None = None
     branch_changed: bool | None = None
+    controller_config: tuple[str, str] | None = None
 
     def to_dict(self) -> dict:
         return {"q": self.q.tolist(), "given_as": "joints" if self.method is None else "pose",
                 "ik_method": self.method, "position_error_m": self.position_error,
                 "rotation_error_rad": self.rotation_error, "solutions": self.solutions, "target": self.target,
                 "matched": None if self.matched is None else list(self.matched), "config": self.config,
-                "branch": self.branch or None, "branch_changed": self.branch_changed}
+                "branch": self.branch or None, "branch_changed": self.branch_changed,
+                "controller_config": None if self.controller_config is None else dict([self.controller_config])}
 
 
 @dataclass(frozen=True, eq=False)
