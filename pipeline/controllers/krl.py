@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigurationNotFoundError
+from ..poses import rotation_to_rpy, rpy_to_rotation
 from .axes import KUKA, axis_angles, axis_map
 from .configuration import configurations
 from .lint import KRL, lint, written_speed
@@ -61,20 +62,15 @@ _NO_EXTERNAL = ",".join(f"E{i} 0.0" for i in range(1, 7))
 
 
 def kuka_abc(R: np.ndarray) -> tuple[float, float, float]:
-    """KUKA's A, B, C [deg] of a rotation matrix R (3, 3): R = Rz(A) Ry(B) Rx(C), B in [-90, 90] deg."""
-    b = np.arctan2(-R[2, 0], np.hypot(R[0, 0], R[1, 0]))
-    a = np.arctan2(R[1, 0], R[0, 0])
-    c = np.arctan2(R[2, 1], R[2, 2])
-    return float(np.degrees(a)), float(np.degrees(b)), float(np.degrees(c))
+    """KUKA's A, B, C [deg] of a rotation (3, 3): R = Rz(A) Ry(B) Rx(C), our yaw, pitch, roll
+    (``pipeline.poses``; at B = +-90 deg, where only A -+ C is defined, A = 0)."""
+    roll, pitch, yaw = np.degrees(rotation_to_rpy(R))
+    return float(yaw), float(pitch), float(roll)
 
 
 def abc_rotation(a: float, b: float, c: float) -> np.ndarray:
     """The rotation matrix (3, 3) Rz(A) Ry(B) Rx(C) of KUKA's A, B, C [deg]."""
-    a, b, c = np.radians([a, b, c])
-    rz = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
-    ry = np.array([[np.cos(b), 0.0, np.sin(b)], [0.0, 1.0, 0.0], [-np.sin(b), 0.0, np.cos(b)]])
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(c), -np.sin(c)], [0.0, np.sin(c), np.cos(c)]])
-    return rz @ ry @ rx
+    return rpy_to_rotation(*np.radians([c, b, a]))
 
 
 def written_pose(X: np.ndarray) -> np.ndarray:

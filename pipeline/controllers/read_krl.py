@@ -89,7 +89,6 @@ class _Motion:
     settings: dict
 
 
-
 def parse_krl(text: str, part: str, source: str) -> lark.Tree:
     """The ``src`` or ``dat`` (``part``) node of a KRL text; KrlReadError at the line that does not parse."""
     try:

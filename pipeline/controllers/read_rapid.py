@@ -119,7 +119,6 @@ def parse_rapid(text: str) -> lark.Tree:
                              line=exc.line) from None
 
 
-
 def read_rapid(text: str, robot: str, base_in_world: np.ndarray | None = None) -> dict:
     """The job document of a RAPID module ``text`` (module docstring) for ``robot`` (a preset name or robot file
     path, written into the document as given); ``base_in_world`` (4, 4) [m]: the robot's base in the

@@ -112,7 +112,6 @@ def parse_urscript(text: str) -> lark.Tree:
                                 line=exc.line) from None
 
 
-
 def read_urscript(text: str, robot: str) -> dict:
     """The job document of a URScript program ``text`` (module docstring) for ``robot`` (a preset name or robot
     file path, written into the document as given). UrscriptReadError names what cannot be read."""
