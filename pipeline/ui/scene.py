@@ -1,0 +1,152 @@
+"""The page's 3-D scene on a viser server, in the cell frame W [m]: the arm as its collision capsules
+(``pipeline.geometry.link_capsules``, the geometry the clearance is computed on), the tool (its shapes and
+the TCP's axes), the cell's obstacles, the IK branches of a target as ghost arms coloured by state, and
+the TCP's trace of a profile. Nothing here computes kinematics beyond placing what it is given.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from ..geometry import compute_arm_path, link_capsules, visual_radius
+from ..poses import pose_to_quaternion_position
+from ..tool import Tool
+
+#: Colours (RGB 0-255): the arm, the tool, obstacles, the TCP's trace, and a ghost arm per branch state.
+ARM_RGB, TOOL_RGB, OBSTACLE_RGB, TRACE_RGB = (235, 140, 45), (70, 90, 200), (160, 165, 175), (200, 40, 160)
+STATE_RGB = {"free": (40, 170, 80), "colliding": (215, 40, 40), "near_singular": (230, 170, 20)}
+#: Ghost arms drawn at most (a 6R arm has at most 8 branches); their lines [m] and handle size [radii].
+MAX_GHOSTS, GHOST_THICKNESS_M, HANDLE_RADII = 8, 0.006, 1.2
+#: Sides of a capsule's circle (trimesh's count) and the obstacles' opacity.
+CAPSULE_SIDES, OBSTACLE_OPACITY = 12, 0.55
+
+
+def _pose(X: np.ndarray) -> dict:
+    """viser's wxyz and position of a pose (4, 4) [m]."""
+    quaternion, position = pose_to_quaternion_position(X)
+    return {"wxyz": quaternion, "position": position}
+
+
+def _place(node, X: np.ndarray) -> None:
+    """Move a scene node to pose X (4, 4) [m] in its parent's frame."""
+    node.wxyz, node.position = pose_to_quaternion_position(X)
+
+
+def _segment_pose(p: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The pose (4, 4) whose z axis runs along p -> r (3,) and whose origin is their middle."""
+    X = np.eye(4)
+    X[:3, 3] = (p + r) / 2.0
+    axis = r - p
+    length = np.linalg.norm(axis)
+    if length > 0.0:
+        z = axis / length
+        helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        x = np.cross(helper, z)
+        x /= np.linalg.norm(x)
+        X[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    return X
+
+
+def shape_mesh(kind: str, size) -> trimesh.Trimesh:
+    """A mesh of a cell shape centred at its pose: box (full sizes), sphere (radius), cylinder and capsule
+    (radius, length along z) [m]."""
+    if kind == "box":
+        return trimesh.creation.box(extents=size)
+    if kind == "sphere":
+        return trimesh.creation.icosphere(subdivisions=2, radius=size[0])
+    if kind == "cylinder":
+        return trimesh.creation.cylinder(radius=size[0], height=size[1], sections=2 * CAPSULE_SIDES)
+    return trimesh.creation.capsule(height=size[1], radius=size[0], count=[CAPSULE_SIDES, CAPSULE_SIDES])
+
+
+class ArmScene:
+    """The arm, its tool and its cell in a viser scene. ``robot``'s end frame is the TCP (a job's robot),
+    ``tool`` the Tool it carries, ``cell`` a Cell or None; ``X_WB`` (4, 4) [m] the base in W."""
+
+    def __init__(self, server, robot, tool: Tool, cell=None):
+        self.server, self.robot, self.tool = server, robot, tool
+        self.flange = tool.flange_robot(robot)
+        self.X_WB = np.eye(4) if cell is None else cell.X_WB
+        scene = server.scene
+        scene.set_up_direction("+z")
+        self.bodies = [scene.add_frame(f"/arm/body{i}", show_axes=False) for i in range(self.flange.dof + 1)]
+        for k, capsule in enumerate(link_capsules(self.flange)):
+            mesh = trimesh.creation.capsule(height=capsule.length, radius=capsule.radius,
+                                            count=[CAPSULE_SIDES, CAPSULE_SIDES])
+            mesh.apply_transform(_segment_pose(capsule.p, capsule.r))
+            scene.add_mesh_simple(f"/arm/body{capsule.body}/capsule{k}", mesh.vertices, mesh.faces, color=ARM_RGB)
+        self.flange_frame = scene.add_frame("/arm/flange", show_axes=False)
+        for shape in tool.shapes:
+            mesh = shape_mesh(shape.kind, shape.size)
+            scene.add_mesh_simple(f"/arm/flange/{shape.name}", mesh.vertices, mesh.faces, color=TOOL_RGB,
+                                  **_pose(shape.X))
+        size = visual_radius(self.flange)
+        self.tcp_frame = scene.add_frame("/arm/flange/tcp", axes_length=4.0 * size, axes_radius=0.15 * size,
+                                         **_pose(tool.X_FT))
+        if cell is not None:
+            for shape in cell.objects:
+                mesh = shape_mesh(shape.kind, shape.size)
+                scene.add_mesh_simple(f"/cell/{shape.name}", mesh.vertices, mesh.faces, color=OBSTACLE_RGB,
+                                      opacity=OBSTACLE_OPACITY, **_pose(shape.X))
+        self.ghosts = GhostArms(server, self.flange, self.X_WB, size)
+        self.trace = None
+
+    def show(self, q: np.ndarray) -> None:
+        """Place the arm at q (dof,) [rad or m]."""
+        X_WD = self.X_WB @ self.flange.fk_all(q)                 # DH frames 0..dof, then the flange
+        for body, X in zip(self.bodies, [self.X_WB, *X_WD[1:-1]]):  # the base's capsules sit in B
+            _place(body, X)
+        _place(self.flange_frame, X_WD[-1])
+
+    def show_trace(self, tcp_W: np.ndarray | None) -> None:
+        """The TCP's trace (N, 3) [m, W] as a line, or none."""
+        if self.trace is not None:
+            self.trace.remove()
+            self.trace = None
+        if tcp_W is not None and len(tcp_W) > 1:
+            segments = np.stack([tcp_W[:-1], tcp_W[1:]], axis=1)
+            self.trace = self.server.scene.add_line_segments("/trace", segments, TRACE_RGB, thickness=2.0,
+                                                             thickness_units="screen")
+
+
+class GhostArms:
+    """Up to MAX_GHOSTS ghost arms (stick figures) with a clickable handle and a label each, made once and
+    then only moved, recoloured and shown or hidden: a drag update sends no new geometry."""
+
+    def __init__(self, server, flange_robot, X_WB: np.ndarray, radius: float):
+        self.robot, self.X_WB = flange_robot, X_WB
+        scene = server.scene
+        path = compute_arm_path(flange_robot, np.zeros(flange_robot.dof))
+        empty = np.zeros((len(path) - 1, 2, 3))
+        self.lines = [scene.add_line_segments(f"/ghosts/{k}/arm", empty, STATE_RGB["free"],
+                                              thickness=GHOST_THICKNESS_M, visible=False) for k in range(MAX_GHOSTS)]
+        self.handles = [scene.add_icosphere(f"/ghosts/{k}/handle", radius=HANDLE_RADII * radius,
+                                            color=STATE_RGB["free"], visible=False) for k in range(MAX_GHOSTS)]
+        self.labels = [scene.add_label(f"/ghosts/{k}/handle/label", "", visible=False) for k in range(MAX_GHOSTS)]
+        self.offset = 2.5 * radius
+
+    def handle_point(self, q: np.ndarray) -> np.ndarray:
+        """Where branch q's handle sits [m, W]: off the wrist along axis 5, so that branches that differ
+        only by the wrist flip (same stick figure up to the wrist) have handles apart."""
+        X_WD = self.X_WB @ self.robot.fk_all(q)
+        wrist = min(4, self.robot.dof - 1)
+        return X_WD[wrist + 1, :3, 3] + self.offset * X_WD[wrist, :3, 2]
+
+    def show(self, branches) -> None:
+        """Draw each branch (``pipeline.ui.branches.Branch``: q, state, name, vendor_config); hide the rest."""
+        for k in range(MAX_GHOSTS):
+            visible = k < len(branches)
+            if visible:
+                branch = branches[k]
+                path = compute_arm_path(self.robot, branch.q) @ self.X_WB[:3, :3].T + self.X_WB[:3, 3]
+                colour = STATE_RGB[branch.state]
+                self.lines[k].points = np.stack([path[:-1], path[1:]], axis=1)
+                self.lines[k].colors = np.broadcast_to(np.array(colour, dtype=np.uint8), (len(path) - 1, 2, 3))
+                self.handles[k].position = self.handle_point(branch.q)
+                self.handles[k].color = colour
+                text = branch.name or f"solution {k + 1}"
+                self.labels[k].text = f"{k + 1}: {text}" + (f" {branch.vendor_config}" if branch.vendor_config else "")
+            for node in (self.lines[k], self.handles[k], self.labels[k]):
+                if node.visible != visible:
+                    node.visible = visible

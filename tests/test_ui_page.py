@@ -1,0 +1,138 @@
+"""The local web page (``pipeline.ui.page``), served in this process on an ephemeral 127.0.0.1 port and driven
+through its own API and its controls: it binds to 127.0.0.1 only; dragging the target to a known pose yields
+the known branches, drawn as ghosts and listed; a program built on the page, saved and run from the CLI's
+runner gives the page's profile sample for sample; a bad value in a field is shown next to it and changes
+nothing; and one headless Chromium screenshot of the page (skipped where Debian's ``chromium`` is missing).
+"""
+
+from __future__ import annotations
+
+import socket
+
+import numpy as np
+import pytest
+
+from pipeline.ik.branches import configuration_labels
+from pipeline.runner import run_job_file
+from pipeline.tool import rigid_inverse
+from pipeline.ui.page import LOCALHOST, Page, load_source
+from pipeline.ui.screenshot import chromium, take_screenshot
+
+#: Joint values [deg] of the GP7 in gp7_shelf_cell that are collision-free, off every singular set.
+FREE_DEG = (10.0, 20.0, -10.0, 15.0, -60.0, 20.0)
+
+
+@pytest.fixture(scope="module")
+def shelf_page():
+    page = Page(load_source("gp7_shelf_cell"), port=0)
+    yield page
+    page.stop()
+
+
+@pytest.fixture
+def robot_page():
+    page = Page(load_source("gp7"), port=0)
+    yield page
+    page.stop()
+
+
+def connects(host: str, port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.settimeout(1.0)
+        return probe.connect_ex((host, port)) == 0
+
+
+def other_addresses() -> list[str]:
+    """This machine's IPv4 addresses other than loopback (the UDP socket sends nothing)."""
+    addresses = set()
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.connect(("192.0.2.1", 9))             # TEST-NET-1: routing lookup only, no packet
+            addresses.add(probe.getsockname()[0])
+        except OSError:
+            pass
+    return sorted(a for a in addresses if not a.startswith("127."))
+
+
+def test_the_server_binds_to_127_0_0_1_only(shelf_page):
+    assert shelf_page.host == LOCALHOST and shelf_page.server.get_host() == LOCALHOST
+    assert connects(LOCALHOST, shelf_page.port)
+    others = other_addresses()
+    if not others:
+        pytest.skip("this machine has no address besides loopback")
+    assert not any(connects(address, shelf_page.port) for address in others)
+
+
+def test_dragging_the_target_to_a_known_pose_yields_its_branches(shelf_page):
+    q0 = np.radians(FREE_DEG)
+    shelf_page.set_joints(q0)
+    X_WT = shelf_page.X_WB @ shelf_page.robot.fk(q0)
+    view = shelf_page.drag_target(X_WT)
+    assert 2 <= len(view.branches) <= 8
+    ours = [b for b in view.branches if np.abs(b.q - q0).max() < 1e-9]
+    assert len(ours) == 1 and ours[0].name == configuration_labels(shelf_page.robot, q0[None])[0]
+    assert ours[0].state == "free" and ours[0].vendor_config is not None      # the GP7 on a Yaskawa: RCONF
+    X_BT = rigid_inverse(shelf_page.X_WB) @ X_WT
+    for branch in view.branches:
+        np.testing.assert_allclose(shelf_page.robot.fk(branch.q), X_BT, atol=1e-9)
+    ghosts = shelf_page.scene.ghosts
+    assert [line.visible for line in ghosts.lines] == [k < len(view.branches) for k in range(len(ghosts.lines))]
+    assert all(b.name in shelf_page.branch_table.content for b in view.branches)
+    assert len(shelf_page.branch_choice.options) == len(view.branches)
+
+
+def test_adopting_a_branch_jogs_the_arm_and_the_sliders(shelf_page):
+    shelf_page.set_joints(np.radians(FREE_DEG))
+    view = shelf_page.drag_target(shelf_page.X_WB @ shelf_page.robot.fk(np.radians(FREE_DEG)))
+    k = len(view.branches) - 1
+    shelf_page.adopt(k)
+    np.testing.assert_array_equal(shelf_page.q, view.branches[k].q)
+    np.testing.assert_allclose([s.value for s in shelf_page.sliders], np.degrees(view.branches[k].q), atol=1e-6)
+
+
+def test_a_slider_jogs_the_arm_and_the_readout(robot_page):
+    robot_page.sliders[0].value = 30.0                 # as the browser sets it: the callback runs
+    assert robot_page.q[0] == pytest.approx(np.radians(30.0))
+    assert robot_page.tcp_readout() == robot_page.readout.content and "xyz" in robot_page.readout.content
+
+
+def test_a_bad_zone_is_shown_next_to_the_field_and_changes_nothing(robot_page):
+    before = len(robot_page.program.waypoints)
+    robot_page.move_kind.value = "joint"
+    robot_page.zone_text.value = "ten"
+    robot_page.add_button.value = True                 # a click
+    assert len(robot_page.program.waypoints) == before
+    assert "zone" in robot_page.program_error.content
+
+
+def test_a_program_built_on_the_page_runs_the_same_from_its_saved_job(robot_page, tmp_path):
+    """Joint start, a joint move at 50 %, a linear move at 200 mm/s with a 20 mm zone, a linear stop: the
+    page's profile and the CLI runner's on the saved file are equal sample for sample."""
+    page = robot_page
+    for q_deg, move, speed, zone in (((0, 10, -10, 0, -60, 0), "joint", "", ""),
+                                     ((20, 20, -5, 0, -70, 10), "joint", "50", ""),
+                                     ((20, 30, -5, 0, -60, 10), "linear", "200", "20"),
+                                     ((10, 30, -5, 0, -60, 10), "linear", "200", "")):
+        page.set_joints(np.radians(q_deg))
+        page.add_waypoint(move, speed, zone)
+    outcome = page.plan_and_time(wait=True)
+    assert outcome.limit_report.passed and len(outcome.profile.t) > 10
+    saved = page.save_job(tmp_path / "page_job.yaml")
+    again = run_job_file(saved, tmp_path / "cli")
+    assert np.array_equal(again.profile.t, outcome.profile.t) and np.array_equal(again.profile.q, outcome.profile.q)
+    assert page.plots["q"].data[0][-1] == pytest.approx(outcome.profile.t[-1] - outcome.profile.t[0])
+    assert page.scene.trace is not None
+
+
+@pytest.mark.slow
+def test_a_headless_chromium_screenshot_of_the_page(shelf_page, tmp_path):
+    if chromium() is None:
+        pytest.skip("Debian's chromium is not installed")
+    shelf_page.set_joints(np.radians(FREE_DEG))
+    shelf_page.drag_target(shelf_page.X_WB @ shelf_page.robot.fk(np.radians(FREE_DEG)))
+    picture = take_screenshot(f"http://{LOCALHOST}:{shelf_page.port}", tmp_path / "page.png")
+    from PIL import Image
+
+    pixels = np.asarray(Image.open(picture).convert("RGB"), dtype=float)
+    middle = pixels[200:700, 200:900]                  # the 3-D view, left of the control panel
+    assert middle.std() > 10.0                         # drawn: not a blank or single-colour view
