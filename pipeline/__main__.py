@@ -1,6 +1,6 @@
 """Command line: ``python -m pipeline VERB ...``, VERB one of
-{run,program,read-program,show,check,check-cell,bench,export,import-urdf,batch,reach}. The only place that configures
-logging.
+{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach}. The only place that
+configures logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
 cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .choices import DEFAULT_MAX_DURATION_S
-from .errors import FileFormatError, OutputError, PipelineError
+from .errors import ConfigurationError, FileFormatError, OutputError, PipelineError
 from .io import prepare_file_target, staged_output, write_text_atomic
 from .robot import load_robot
 from .robot_spec import preset_names
@@ -46,6 +46,105 @@ def cmd_show(args) -> int:
         print(f"\nJacobian at q = 0 (rows vx vy vz wx wy wz):\n{robot.jacobian(q)}")
     print(f"\nSingularity at q = 0: {compute_singularity(robot.jacobian(q))}")
     return 0
+
+
+def cmd_fk(args) -> int:
+    """Print the TCP pose at joint values (the robot file's angle unit unless --unit; prismatic joints in mm):
+    position [mm], rpy [deg], quaternion [w x y z], our branch name and the maker's configuration text."""
+    from .poses import pose_to_quaternion_position, rotation_to_rpy
+    from .ui.branches import branch_names
+
+    robot = load_robot(args.robot)
+    unit = args.unit or robot.spec.angle_unit or "deg"
+    q = _joint_values(robot, args.q, unit, "joint values")
+    robot, tool = _with_tool(robot, args.tool)
+    X = robot.fk(q)
+    quaternion, position = pose_to_quaternion_position(X)
+    (name,), vendor, (text,) = branch_names(robot, q[None])
+    rows = {"position [mm]": _numbers(position * 1e3),
+            "rpy [deg]": _numbers(np.degrees(rotation_to_rpy(X[:3, :3]))),
+            "quaternion [w x y z]": _numbers(quaternion, 9),
+            "branch": name or f"none ({robot.name} has no named branches)",
+            f"{vendor or 'controller'} configuration":
+                text or f"none (no maker whose configuration data applies to {robot.name})"}
+    print(f"{robot.name} at q = [{', '.join(args.q)}] {unit}; TCP: {tool}")
+    width = max(map(len, rows)) + 1
+    for label, value in rows.items():
+        print(f"  {label + ':':<{width}} {value}")
+    return 0
+
+
+def cmd_ik(args) -> int:
+    """Print every IK branch of a TCP pose (mm, deg; base frame): its name, the maker's configuration, joint
+    values [deg], state, sigma_min and, in a cell, the closest pair. An unreachable pose is a result (exit 0)."""
+    from .poses import rpy_position_to_pose
+    from .ui.branches import target_branches
+
+    robot, scene, where = load_robot(args.robot), None, ""
+    if args.cell:
+        from .cell import load_cell
+        from .collision import CollisionModel
+
+        cell = load_cell(args.cell)
+        robot_F = cell.load_robot()
+        if robot_F.name != robot.name:
+            raise ConfigurationError(f"ROBOT {args.robot!r} is {robot.name}, but the cell {cell.name} holds "
+                                     f"{robot_F.name} ({cell.robot}): name the cell's robot")
+        robot, scene = robot_F, CollisionModel(robot_F, cell)
+        where = f" in cell {cell.name} (clearance {cell.clearance * 1e3:g} mm)"
+    seed = None if args.seed is None else _joint_values(robot, args.seed, "deg", "--seed")
+    robot, tool = _with_tool(robot, args.tool)
+    pose = [getattr(args, name) for name in POSE_NAMES]
+    X_BT = rpy_position_to_pose(np.radians(pose[3:]), np.array(pose[:3]) * 1e-3)
+    print(f"{robot.name}{where}; TCP: {tool}")
+    print(target_branches(robot, X_BT, seed, scene).describe())
+    return 0
+
+
+def _joint_values(robot, texts: list[str], unit: str, what: str) -> np.ndarray:
+    """Joint values typed on the command line (revolute joints in ``unit``, prismatic ones in mm) -> q [rad or
+    m]; ConfigurationError for a wrong count, a non-number or a value outside the joint's limits (naming the
+    joint, its limits and, for rad values only degrees would explain, the unit)."""
+    from .units import ANGLE_UNITS, LENGTH_UNITS
+
+    names = robot.joint_names
+    if len(texts) != robot.dof:
+        raise ConfigurationError(f"{what}: {robot.name} has {robot.dof} joints ({', '.join(names)}), got "
+                                 f"{len(texts)} value(s)")
+    revolute = robot.revolute_mask
+    scales = np.where(revolute, ANGLE_UNITS[unit], LENGTH_UNITS["mm"])
+    limits = robot.limits
+    q = np.empty(robot.dof)
+    for j, text in enumerate(texts):
+        try:
+            q[j] = float(text) * scales[j]
+        except ValueError:
+            raise ConfigurationError(f"{what}: joint {j + 1} ({names[j]}): {text!r} is not a number") from None
+        shown = unit if revolute[j] else "mm"
+        if not limits.q_min[j] <= q[j] <= limits.q_max[j]:
+            hint = (" (a value beyond a turn: are these degrees? give --unit deg)"
+                    if unit == "rad" and revolute[j] and abs(q[j]) > 2.0 * np.pi else "")
+            raise ConfigurationError(f"{what}: joint {j + 1} ({names[j]}) = {text} {shown} is outside its limits "
+                                     f"[{limits.q_min[j] / scales[j]:.6g}, {limits.q_max[j] / scales[j]:.6g}] "
+                                     f"{shown}{hint}")
+    return q
+
+
+def _with_tool(robot, tool: list[float] | None):
+    """(the robot whose end frame is the TCP of ``--tool X Y Z R P Y`` [mm, deg] in the flange, words for the
+    TCP); without --tool the flange (the robot file's end frame)."""
+    from .poses import check_pose, rpy_position_to_pose
+    from .robot import robot_with_tool
+
+    if tool is None:
+        return robot, "the flange (no --tool)"
+    X_FT = check_pose(rpy_position_to_pose(np.radians(tool[3:]), np.array(tool[:3]) * 1e-3), "--tool")
+    return robot_with_tool(robot, X_FT), f"--tool xyz [{_numbers(tool[:3])}] mm, rpy [{_numbers(tool[3:])}] deg"
+
+
+def _numbers(values, decimals: int = 3) -> str:
+    """Numbers with ``decimals`` decimals, without "-0.000"."""
+    return ", ".join(f"{v:.{decimals}f}" for v in np.round(np.asarray(values, dtype=float), decimals) + 0.0)
 
 
 def cmd_check(args) -> int:
@@ -388,6 +487,17 @@ def _positive_number(unit: str):
 _millimetres, _seconds = _positive_number("millimetres"), _positive_number("seconds")
 
 
+#: A pose on the command line: position [mm], roll, pitch, yaw [deg].
+POSE_NAMES = ("x", "y", "z", "roll", "pitch", "yaw")
+
+
+def _add_tool_option(parser) -> None:
+    """--tool X Y Z R P Y: the TCP in the flange frame [mm, deg]."""
+    parser.add_argument("--tool", nargs=6, type=float, metavar=tuple(name.upper() for name in POSE_NAMES),
+                        help="the TCP in the flange frame: position [mm], roll, pitch, yaw [deg] (default: the "
+                             "flange)")
+
+
 def _add_dask_options(parser) -> None:
     """--workers N | --scheduler ADDRESS, checked together by ``scale.dask_client``."""
     parser.add_argument("--workers", type=POSITIVE, metavar="N",
@@ -502,6 +612,37 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                  "singularity measures at q = 0.", ["gp7", "models/arm6.yaml"])
     show.add_argument("robot", help="preset name or robot file path")
     show.set_defaults(func=cmd_show)
+
+    fk = _verb(sub, prog, "fk", "print the TCP pose (mm, deg, quaternion), branch and controller configuration at "
+               "joint values", "Forward kinematics at the joint values given (the robot file's angle unit unless\n"
+               "--unit; prismatic joints in mm): the TCP's position, roll-pitch-yaw and quaternion in the base\n"
+               "frame, our IK branch name and the maker's controller configuration (gp7: Yaskawa RCONF).",
+               ["gp7 0 0 0 0 -90 0", "gp7 10 30 -20 15 -40 25 --tool 0 0 120 0 0 0",
+                "irb1600 0.1 0.5 -0.3 0 -1.2 0 --unit rad"])
+    fk.add_argument("robot", help="preset name or robot file path")
+    fk.add_argument("q", nargs="+", metavar="Q", help="one value per joint")
+    fk.add_argument("--unit", choices=["deg", "rad"], help="angle unit of the values (default: the robot file's)")
+    _add_tool_option(fk)
+    fk.set_defaults(func=cmd_fk)
+
+    ik = _verb(sub, prog, "ik", "print every IK branch of a TCP pose: name, controller configuration, joint values, "
+               "collision and singularity state", "Inverse kinematics of a TCP pose in the robot's base frame (X Y Z in "
+               "mm, roll pitch yaw in deg about\nthe fixed axes): every in-limit branch (the closed form; the numeric "
+               "IK from --seed for\narms without one) with our branch name, the maker's controller configuration, its "
+               "joint\nvalues [deg] nearest --seed, free, colliding (in --cell, with the closest pair) or near a\n"
+               "singularity (with the smallest singular value). An unreachable pose prints why (exit 0).",
+               ["gp7 560 0 700 0 90 0 --tool 0 0 120 0 0 0",
+                "gp7 700 0 450 0 90 0 --cell gp7_shelf_cell --tool 0 0 120 0 0 0"])
+    ik.add_argument("robot", help="preset name or robot file path (with --cell: the cell's robot)")
+    for name, words in zip(POSE_NAMES, ("TCP position in the base frame [mm]",) * 3 +
+                           ("TCP roll, pitch, yaw about the base frame's fixed x, y, z axes [deg]",) * 3):
+        ik.add_argument(name, type=float, metavar=name.upper(), help=words if name in ("x", "roll") else "")
+    ik.add_argument("--cell", help=f"a demo cell ({', '.join(cell_names())}) or a cell file: collision states, "
+                    "closest pairs, the cell's tool shapes")
+    _add_tool_option(ik)
+    ik.add_argument("--seed", nargs="+", metavar="Q", help="reference joint values [deg; mm] each branch is shown "
+                    "nearest to (default: the middle of the joint ranges)")
+    ik.set_defaults(func=cmd_ik)
 
     check = _verb(sub, prog, "check", "check Drake's FK/Jacobian against the analytic one and finite differences",
                   "Compare Drake's forward kinematics and Jacobian with the analytic (NumPy) ones and both with\n"

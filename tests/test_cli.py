@@ -97,9 +97,9 @@ def test_an_interrupt_exits_130_and_removes_the_staging(tmp_path, monkeypatch, c
 
 
 def test_help_names_every_command_and_an_existing_job(capsys):
-    assert ("{run,program,read-program,show,check,export,import-urdf,check-cell,bench,batch,reach}"
+    assert ("{run,program,read-program,show,fk,ik,check,export,import-urdf,check-cell,bench,batch,reach}"
             in build_parser().format_help())
-    assert "{run,program,read-program,show,check,check-cell,bench,export,import-urdf,batch,reach}" in \
+    assert "{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach}" in \
         pipeline.__main__.__doc__
     with pytest.raises(SystemExit):
         main(["run", "--help"])
