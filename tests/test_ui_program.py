@@ -184,3 +184,18 @@ def test_a_robot_file_is_named_so_that_the_saved_job_loads(tmp_path):
     again = PageProgram.from_job_file(saved)
     assert again.robot_reference == program.robot_reference == str(ROOT / "models" / "gp7.yaml")
     assert [w.move for w in again.waypoints] == [w.move for w in program.waypoints]
+
+
+def test_add_typed_takes_a_zone_for_the_corner_into_the_next_move():
+    program = build(PageProgram("gp7", tool=TOOL), OPEN_POSES)
+    q = program.waypoints[1].q
+    assert program.add_typed(q, "joint", "50", "20 mm") == 4
+    assert (program.waypoints[4].speed, program.waypoints[4].zone) == (0.5, 0.02)
+    for speed, zone, named in (("", "-3", "waypoints[5].zone"), ("500", "", "waypoints[5].speed")):
+        with pytest.raises(JobFileError) as refused:
+            program.add_typed(q, "joint", speed, zone)
+        assert refused.value.field == named and len(program.waypoints) == 5
+    empty = PageProgram("gp7")
+    with pytest.raises(JobFileError) as refused:
+        empty.add_typed(q, "linear", "", "10")               # the start: no move into it, no zone
+    assert refused.value.field == "waypoints[0].zone" and empty.waypoints == []

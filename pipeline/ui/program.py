@@ -122,26 +122,49 @@ class PageProgram:
         del self.waypoints[index]
         self._start_at_rest()
 
+    def add_typed(self, q, move: str = "joint", speed_text: str = "", zone_text: str = "") -> int:
+        """``add`` with the speed and zone as a user types them on the page (as ``edit``), checked as the
+        corner into the next move the user is about to add (so a zone is allowed on it while it is the
+        last waypoint; ``edit`` refuses that). A refused value raises the reader's error naming the field
+        (``waypoints[3].zone``) and adds nothing."""
+        if move not in MOVES:
+            raise ConfigurationError(f"move must be one of {', '.join(MOVES)}, got {move!r}")
+        index = len(self.waypoints)
+        rows = [*self.waypoints, PageWaypoint("joint" if index == 0 else move, self._joints(q, "q"))]
+        for field, text in (("speed", speed_text), ("zone", zone_text)):
+            if str(text).strip():
+                rows = self._edited(rows, index, field, text, open_end=True)
+        self.waypoints = rows
+        return index
+
     def edit(self, index: int, field: str, text: str) -> None:
         """Set ``field`` (move, speed, zone) of waypoint ``index`` from ``text`` as a user types it in the
         page's units (speed: % for joint moves, mm/s for tool moves; zone: mm; empty: the job's default
-        speed, no zone). A value the job reader refuses raises its typed error (JobFileError) naming the field as
-        a file would (``waypoints[3].zone``) and changes nothing. A change between a joint and a tool move
-        resets the speed to the job's default (the units differ)."""
+        speed, no zone). A value the job reader refuses (not a number, a negative zone, a speed above 100 %
+        or any arm's TCP speed, a circular move without via, a zone on the first or last waypoint, ...)
+        raises its typed error (JobFileError) naming the field as a file would (``waypoints[3].zone``) and
+        changes nothing. A change between a joint and a tool move resets the speed to the job's default
+        (the units differ)."""
         self._check_index(index)
+        self.waypoints = self._edited(self.waypoints, index, field, text, open_end=False)
+
+    def _edited(self, rows: list[PageWaypoint], index: int, field: str, text: str,
+                open_end: bool) -> list[PageWaypoint]:
+        """``rows`` with ``field`` of waypoint ``index`` set from ``text`` (``edit``), checked by the job
+        reader; ``open_end``: a next waypoint is to come (``add_typed``)."""
         if field not in EDITABLE:
             raise ConfigurationError(f"field must be one of {', '.join(EDITABLE)}, got {field!r}")
-        waypoint = self.waypoints[index]
+        waypoint = rows[index]
         unit = EDITABLE[field][waypoint.move != "joint"]
         text = str(text).strip()
         if unit and text.endswith(unit):
             text = text[: -len(unit)].strip()
         written = text if field == "move" else _typed(text)
-        candidate = list(self.waypoints)
+        candidate = list(rows)
         if field == "move":
             kind_changed = (written == "joint") != (waypoint.move == "joint")
             candidate[index] = replace(waypoint, move=written, speed=None if kind_changed else waypoint.speed)
-        document = self._document(candidate, check=(index, field))
+        document = self._document(candidate, check=(index, field), open_end=open_end)
         if field != "move":
             entry = document["waypoints"][index]
             if isinstance(entry, list):
@@ -152,7 +175,7 @@ class PageProgram:
         read = parse_job(document, source=f"<page {self.name}>", name=self.name).waypoints[index]
         if field != "move":
             candidate[index] = replace(waypoint, **{field: getattr(read, field)})
-        self.waypoints = candidate
+        return candidate
 
     # -- the job file ---------------------------------------------------------------------------
     def to_document(self, relative_to: str | Path | None = None) -> dict:
@@ -215,17 +238,19 @@ class PageProgram:
         return parse_job(self.to_document(), source=f"<page {self.name}>", name=self.name)
 
     # -- helpers ----------------------------------------------------------------------------------
-    def _document(self, waypoints: list[PageWaypoint], relative_to=None, check: tuple[int, str] | None = None) -> dict:
+    def _document(self, waypoints: list[PageWaypoint], relative_to=None, check: tuple[int, str] | None = None,
+                  open_end: bool = False) -> dict:
         """The job document of ``waypoints``. ``check``: (index, field) of a field being edited; the
         program's unfinished parts elsewhere (a circular move without via, a zone on the last waypoint, a
-        single waypoint) are left out so that only the edit's own problems show."""
+        single waypoint) are left out so that only the edit's own problems show; ``open_end``: a joint
+        waypoint stands in for the next one to come."""
         rows = list(waypoints)
         if check is not None:
             last = len(rows) - 1
             rows = [replace(w, move="linear" if w.move == "circular" and w.via_q is None and (k, "move") != check
                             else w.move, zone=0.0 if k == last else w.zone) for k, w in enumerate(rows)]
-            if len(rows) == 1:
-                rows.append(PageWaypoint("joint", rows[0].q))
+            if len(rows) == 1 or open_end:
+                rows.append(PageWaypoint("joint", rows[-1].q))
         document = {"description": f"{self.name}: built on the page"}
         document["robot"] = _written_reference(self.robot_reference, relative_to)
         if self.cell_reference is not None:
