@@ -626,10 +626,11 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     fk.set_defaults(func=cmd_fk)
 
     ik = _verb(sub, prog, "ik", "print every IK branch of a TCP pose: name, controller configuration, joint values, "
-               "collision and singularity state", "Inverse kinematics of a TCP pose in the robot's base frame (X Y Z in "
-               "mm, roll pitch yaw in deg about\nthe fixed axes): every in-limit branch (the closed form; the numeric "
-               "IK from --seed for\narms without one) with our branch name, the maker's controller configuration, its "
-               "joint\nvalues [deg] nearest --seed, free, colliding (in --cell, with the closest pair) or near a\n"
+               "collision and singularity state",
+               "Inverse kinematics of a TCP pose in the robot's base frame (X Y Z in mm, roll pitch yaw in deg\n"
+               "about the fixed axes): every in-limit branch (the closed form; the numeric IK from --seed for\n"
+               "arms without one) with our branch name, the maker's controller configuration, its joint\n"
+               "values [deg] nearest --seed, free, colliding (in --cell, with the closest pair) or near a\n"
                "singularity (with the smallest singular value). An unreachable pose prints why (exit 0).",
                ["gp7 560 0 700 0 90 0 --tool 0 0 120 0 0 0",
                 "gp7 700 0 450 0 90 0 --cell gp7_shelf_cell --tool 0 0 120 0 0 0"])

@@ -50,7 +50,8 @@ def test_fk_prints_our_fk_pose_branch_and_configuration(capsys):
 
 
 def test_fk_reads_the_robot_files_angle_unit_unless_told(capsys, tmp_path):
-    document = yaml.safe_load(open(load_robot_spec("gp7").source))
+    with open(load_robot_spec("gp7").source) as file:
+        document = yaml.safe_load(file)
     for joint in document["joints"]:
         for key in ("alpha", "theta_offset", "q_min", "q_max", "qd_max", "qdd_max", "qddd_max"):
             joint[key] = float(np.radians(joint[key]))
@@ -99,10 +100,11 @@ def test_an_unreachable_pose_is_a_result(capsys):
 @pytest.mark.parametrize("args, message", [
     (["fk", "gp7", 0, 0, 0, 0, 0], "error: joint values: gp7 has 6 joints (S, L, U, R, B, T), got 5 value(s)\n"),
     (["fk", "gp7", 0, 0, 0, "x", 0, 0], "error: joint values: joint 4 (R): 'x' is not a number\n"),
-    (["fk", "gp7", 0, 0, 0, 0, 200, 0], "error: joint values: joint 5 (B) = 200 deg is outside its limits "
-                                        "[-135, 135] deg\n"),
-    (["fk", "gp7", 0, 0, 0, 0, 0, 400, "--unit", "rad"], "error: joint values: joint 6 (T) = 400 rad is outside its "
-     "limits [-6.28319, 6.28319] rad (a value beyond a turn: are these degrees? give --unit deg)\n"),
+    (["fk", "gp7", 0, 0, 0, 0, 200, 0],
+     "error: joint values: joint 5 (B) = 200 deg is outside its limits [-135, 135] deg\n"),
+    (["fk", "gp7", 0, 0, 0, 0, 0, 400, "--unit", "rad"],
+     ("error: joint values: joint 6 (T) = 400 rad is outside its limits [-6.28319, 6.28319] rad (a value beyond a "
+      "turn: are these degrees? give --unit deg)\n")),
     (["ik", "gp7", 560, 0, 700, 0, 90, 0, "--seed", 0, 0, 0, 0, 0, 0, 0],
      "error: --seed: gp7 has 6 joints (S, L, U, R, B, T), got 7 value(s)\n"),
     (["ik", "gp7", 560, 0, 700, 0, 90, 0, "--seed", 0, -80, 0, 0, 0, 0],
