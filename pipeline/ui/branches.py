@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..collision import SELF_CLEARANCE_M, Clearance
 from ..configurations import SPHERICAL_WRIST
 from ..controllers import configurations, format_configuration
 from ..controllers.axes import PRESET_MAPS
@@ -33,6 +33,9 @@ from ..ik.branches import configuration_labels
 from ..ik.result import MAX_TARGET_COORDINATE_M, Solutions, limit_variants
 from ..ik.velocity import NEAR_SINGULAR
 from ..poses import check_pose, rotation_to_rpy
+
+if TYPE_CHECKING:                     # Drake's collision module is imported only where a scene is used
+    from ..collision import Clearance
 
 #: States of a branch; colliding wins over near_singular.
 FREE, COLLIDING, NEAR_SINGULAR_STATE = "free", "colliding", "near_singular"
@@ -108,6 +111,8 @@ def closest_words(clearance: Clearance | None) -> str:
     obstacle; "-" without one."""
     if clearance is None:
         return "-"
+    from ..collision import SELF_CLEARANCE_M
+
     if clearance.self_pair is not None and clearance.self <= SELF_CLEARANCE_M:
         return f"links {clearance.self_pair[0]} - {clearance.self_pair[1]} {clearance.self * 1e3:.1f} mm"
     if clearance.obstacle_pair is None:
@@ -172,6 +177,8 @@ def _clearance(scene, q: np.ndarray, colliding: bool) -> Clearance | None:
     0.6 ms, a drag's budget for some 10 branches."""
     if scene is None:
         return None
+    from ..collision import SELF_CLEARANCE_M
+
     if colliding or not scene.padded_checker(CLEARANCE_SHOWN_WITHIN_M, SELF_CLEARANCE_M).CheckConfigCollisionFree(q):
         return scene.clearance(q)
     return None
