@@ -1,5 +1,5 @@
 """Command line: ``python -m pipeline VERB ...``, VERB one of
-{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach}. The only place that
+{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach,ui}. The only place that
 configures logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
@@ -16,6 +16,7 @@ import logging
 import os
 import re
 import sys
+import threading
 import traceback
 from contextlib import nullcontext
 from pathlib import Path
@@ -397,6 +398,30 @@ def cmd_reach(args) -> int:
     return 0
 
 
+def cmd_ui(args) -> int:
+    """Serve the local web page until Ctrl-C (or, with --screenshot, take its picture and stop)."""
+    from .ui.page import open_page
+
+    if args.screenshot:
+        prepare_file_target(args.screenshot)
+    page = open_page(args.source, args.host, args.port)
+    url = f"http://{page.host}:{page.port}"
+    try:
+        if args.screenshot:
+            from .ui.screenshot import take_screenshot
+
+            page.show_for_screenshot()
+            print(f"wrote {take_screenshot(url, args.screenshot)}")
+            return 0
+        print(f"the page of {page.source.title}: open {url} in a browser (Ctrl-C stops it)")
+        threading.Event().wait()
+    except KeyboardInterrupt:
+        print("stopped")
+    finally:
+        page.stop()
+    return 0
+
+
 def _robot_or_cell(name_or_path: str):
     """A demo cell's name -> its file; anything else (a preset, a robot or cell file) as given."""
     from .cell import cell_names, resolve_cell_path
@@ -435,6 +460,10 @@ def cmd_bench(args) -> int:
         from .bench.job import run_job_benchmark
 
         report = run_job_benchmark(None if args.jobs is None else _names(args.jobs, ()), repeats=args.repeats)
+    elif args.suite == "ui":
+        from .bench.ui import run_ui_benchmark
+
+        report = run_ui_benchmark(seed=args.seed)
     elif args.suite == "cartesian":
         from .bench.cartesian import ROBOTS, run_cartesian_benchmark
 
@@ -694,7 +723,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "Time one part of the pipeline beside the libraries it is compared with, in the same run (the\n"
                   "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
                   ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale", "job"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale", "job",
+                                         "ui"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -760,6 +790,24 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     reach.add_argument("--seed", type=NON_NEGATIVE, default=0, help="seed of the orientations (default 0)")
     _add_dask_options(reach)
     reach.set_defaults(func=cmd_reach)
+
+    ui = _verb(sub, prog, "ui", "a local web page: jog and drag the tool, every IK branch, build, plan and time, save",
+               "Serve a page on this machine (127.0.0.1 unless --host says otherwise): the arm with its joint\n"
+               "sliders and TCP pose, a draggable TCP target with every IK branch drawn as a ghost arm (name,\n"
+               "controller configuration, collision state and closest pair, near-singular), a program of joint,\n"
+               "linear and circular moves with speeds and zones, plan and time with the certificate, plots and a\n"
+               "replay, and the program saved as a job file that run reproduces sample for sample.",
+               ["gp7", "gp7_shelf_cell --port 8081", "trajectories/jobs/gp7_cell_pick_place.yaml",
+                "gp7_shelf_cell --screenshot page.png"])
+    ui.add_argument("source", nargs="?", help="a preset or robot file, a demo cell or cell file, or a job file "
+                    "(default gp7)")
+    ui.add_argument("--port", type=NON_NEGATIVE, default=8080, help="the port (default 8080; the next free one if "
+                    "taken; 0: any)")
+    ui.add_argument("--host", default="127.0.0.1", help="the interface to serve on (default 127.0.0.1: this machine "
+                    "only; another exposes the page to the network)")
+    ui.add_argument("--screenshot", metavar="FILE.png", help="take a headless Chromium picture of the page (a job's "
+                    "program planned and timed, the target's branches shown) and stop")
+    ui.set_defaults(func=cmd_ui)
     return parser
 
 

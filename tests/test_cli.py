@@ -97,9 +97,9 @@ def test_an_interrupt_exits_130_and_removes_the_staging(tmp_path, monkeypatch, c
 
 
 def test_help_names_every_command_and_an_existing_job(capsys):
-    assert ("{run,program,read-program,show,fk,ik,check,export,import-urdf,check-cell,bench,batch,reach}"
+    assert ("{run,program,read-program,show,fk,ik,check,export,import-urdf,check-cell,bench,batch,reach,ui}"
             in build_parser().format_help())
-    assert "{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach}" in \
+    assert "{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach,ui}" in \
         pipeline.__main__.__doc__
     with pytest.raises(SystemExit):
         main(["run", "--help"])
@@ -118,7 +118,8 @@ def test_bench_out_that_is_a_folder_fails_before_the_benchmark(tmp_path, monkeyp
 
 
 # -- the first hour: help for users, the console script, demo cells by name ------------------------------
-VERBS = ("run", "show", "check", "export", "import-urdf", "check-cell", "bench", "batch", "reach")
+VERBS = ("run", "program", "read-program", "show", "fk", "ik", "check", "export", "import-urdf", "check-cell", "bench",
+         "batch", "reach", "ui")
 
 
 @pytest.mark.parametrize("verb", ["", *VERBS])

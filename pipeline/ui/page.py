@@ -25,11 +25,11 @@ import yaml
 
 from ..cell import cell_names, load_cell, resolve_cell_path
 from ..errors import ConfigurationError, PipelineError
-from ..poses import pose_to_quaternion_position, quaternion_position_to_pose, rotation_to_rpy
+from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..robot import load_robot
 from ..tool import Tool, rigid_inverse
 from ..views import camera_pose, scene_spheres
-from .branches import TargetBranches, target_branches
+from .branches import TargetBranches, branch_names, closest_words, pose_words, target_branches
 from .program import PageProgram
 from .scene import ArmScene
 
@@ -65,7 +65,7 @@ def load_source(name: str | None) -> PageSource:
     if name in cell_names() or (path.suffix in (".yaml", ".yml") and _yaml_keys(path) >= {"objects"}):
         cell = load_cell(resolve_cell_path(name) if name in cell_names() else path)
         robot = cell.load_robot()
-        program = PageProgram(str(cell.robot), name, None, f"{cell.name}_program")
+        program = PageProgram(str(cell.robot), name, None, f"{cell.name}_program")     # TCP: the flange
         return PageSource(robot, Tool.from_job_and_cell(None, cell, cell.name), cell, program, f"cell {cell.name}")
     if path.suffix in (".yaml", ".yml") and "waypoints" in _yaml_keys(path):
         from ..jobs import load_job
@@ -86,11 +86,9 @@ def _yaml_keys(path: Path) -> set:
 
 
 def pose_text(X: np.ndarray) -> str:
-    """Position [mm], rpy [deg] and quaternion [w x y z] of a pose (4, 4) [m], as the page shows them."""
-    quaternion, position = pose_to_quaternion_position(X)
-    rpy = np.degrees(rotation_to_rpy(X[:3, :3]))
-    return (f"xyz {' '.join(f'{v:.2f}' for v in position * 1e3)} mm · rpy {' '.join(f'{v:.3f}' for v in rpy)} deg"
-            f" · quaternion {' '.join(f'{v:.6f}' for v in quaternion)}")
+    """A pose (4, 4) [m] as the page shows it: position [mm], rpy [deg] and quaternion [w x y z]."""
+    quaternion, _ = pose_to_quaternion_position(X)
+    return f"{pose_words(X)}, quaternion [{', '.join(f'{v:.6f}' for v in quaternion)}]"
 
 
 class Page:
@@ -111,7 +109,8 @@ class Page:
         self.host, self.port = host, self.server.get_port()
         self.scene = ArmScene(self.server, self.robot, source.tool, self.cell)
         limits = self.robot.limits
-        self.q = np.clip(np.zeros(self.robot.dof), limits.q_min, limits.q_max)
+        start = self.program.waypoints[0].q if self.program.waypoints else np.zeros(self.robot.dof)
+        self.q = np.clip(start, limits.q_min, limits.q_max)
         self.branches: TargetBranches | None = None
         self.update_seconds: list[float] = []
         self.outcome = None
@@ -147,12 +146,10 @@ class Page:
 
     def tcp_readout(self) -> str:
         """The TCP pose in W, our branch name and the maker's configuration of the current q (markdown)."""
-        X_WT = self.X_WB @ self.robot.fk(self.q)
-        view = target_branches(self.robot, rigid_inverse(self.X_WB) @ X_WT, self.q, None)
-        mine = min(view.branches, key=lambda b: float(np.abs(b.q - self.q).max()), default=None)
-        branch = "" if mine is None or not mine.name else f"  \nbranch **{mine.name}**"
-        vendor = "" if mine is None or mine.vendor_config is None else f" · {view.vendor} {mine.vendor_config}"
-        return f"**TCP** {pose_text(X_WT)}{branch}{vendor}"
+        names, vendor, texts = branch_names(self.robot, self.q[None])
+        branch = f"  \nbranch **{names[0]}**" if names[0] else ""
+        config = f" · {vendor} {texts[0]}" if vendor is not None else ""
+        return f"**TCP** {pose_text(self.X_WB @ self.robot.fk(self.q))}{branch}{config}"
 
     # -- the target and its branches -------------------------------------------------------------------------
     def place_target(self, X_WT: np.ndarray) -> None:
@@ -184,14 +181,7 @@ class Page:
     def add_waypoint(self, move: str, speed_text: str = "", zone_text: str = "") -> int:
         """Add the arm's current joint values as a ``move`` (joint, linear, circular) with the speed (% for
         joint moves, mm/s for tool moves) and zone [mm] as typed; an error names the field."""
-        index = self.program.add(self.q, move)
-        try:
-            for field, text in (("speed", speed_text), ("zone", zone_text)):
-                if text.strip():
-                    self.program.edit(index, field, text)
-        except PipelineError:
-            self.program.delete(index)
-            raise
+        index = self.program.add_typed(self.q, move, speed_text, zone_text)
         self._show_program()
         return index
 
@@ -228,6 +218,14 @@ class Page:
             self.progress.visible = False
             self._busy.release()
 
+    def show_for_screenshot(self) -> None:
+        """What a picture of the page shows: a program with moves planned and timed and the arm half way
+        through it, and the branches of the TCP's pose."""
+        if len(self.program.waypoints) > 1:
+            self.plan_and_time(wait=True)
+            self.replay.value = round(self.replay.max / 2.0, 2)
+        self._snap_target()
+
     def save_job(self, path) -> Path:
         """The program as a job file that ``python -m pipeline run`` reproduces sample for sample."""
         return self.program.save(path)
@@ -262,11 +260,8 @@ class Page:
             return f"no branch: {view.reason}"
         rows = ["| # | branch | config | state | σmin | closest |", "|---|---|---|---|---|---|"]
         for k, b in enumerate(view.branches):
-            closest = "-"
-            if b.clearance is not None and b.clearance.obstacle_pair is not None:
-                closest = f"{' – '.join(b.clearance.obstacle_pair)} {b.clearance.obstacle * 1e3:.1f} mm"
             rows.append(f"| {k + 1} | {b.name or '-'} | {b.vendor_config or '-'} | {b.state} | {b.sigma_min:.3g} | "
-                        f"{closest} |")
+                        f"{closest_words(b.clearance)} |")
         return "\n".join(rows)
 
     def _show_program(self) -> None:
@@ -293,12 +288,12 @@ class Page:
         self.replay.value = 0.0
 
     def _replay_at(self, seconds: float) -> None:
+        """The arm (and its sliders) where the certified profile is at ``seconds`` [s] from its start."""
         if self.outcome is None:
             return
         profile = self.outcome.profile
         t = profile.t - profile.t[0]
-        q = np.array([np.interp(seconds, t, profile.q[:, j]) for j in range(profile.dof)])
-        self.scene.show(q)
+        self.set_joints(np.array([np.interp(seconds, t, profile.q[:, j]) for j in range(profile.dof)]))
 
     def _frame_camera(self) -> None:
         centres, radii = scene_spheres(self.robot, self.q[None], self.cell, self.source.tool)

@@ -12,12 +12,13 @@ import trimesh
 from ..geometry import compute_arm_path, link_capsules, visual_radius
 from ..poses import pose_to_quaternion_position
 from ..tool import Tool
+from .branches import closest_words
 
 #: Colours (RGB 0-255): the arm, the tool, obstacles, the TCP's trace, and a ghost arm per branch state.
 ARM_RGB, TOOL_RGB, OBSTACLE_RGB, TRACE_RGB = (235, 140, 45), (70, 90, 200), (160, 165, 175), (200, 40, 160)
 STATE_RGB = {"free": (40, 170, 80), "colliding": (215, 40, 40), "near_singular": (230, 170, 20)}
 #: Ghost arms drawn at most (a 6R arm has at most 8 branches); their lines [m] and handle size [radii].
-MAX_GHOSTS, GHOST_THICKNESS_M, HANDLE_RADII = 8, 0.006, 1.2
+MAX_GHOSTS, GHOST_THICKNESS_PX, HANDLE_RADII = 8, 4.0, 0.6
 #: Sides of a capsule's circle (trimesh's count) and the obstacles' opacity.
 CAPSULE_SIDES, OBSTACLE_OPACITY = 12, 0.55
 
@@ -110,6 +111,17 @@ class ArmScene:
                                                              thickness_units="screen")
 
 
+def ghost_label(k: int, branch) -> str:
+    """A ghost's label: its number, branch name and vendor configuration, and why it is not free (the
+    closest pair and its distance, or the smallest singular value)."""
+    text = f"{k + 1}: {branch.name or 'solution'}" + (f" {branch.vendor_config}" if branch.vendor_config else "")
+    if branch.state == "colliding":
+        return f"{text} · {closest_words(branch.clearance)}"
+    if branch.state == "near_singular":
+        return f"{text} · σmin {branch.sigma_min:.3g}"
+    return text
+
+
 class GhostArms:
     """Up to MAX_GHOSTS ghost arms (stick figures) with a clickable handle and a label each, made once and
     then only moved, recoloured and shown or hidden: a drag update sends no new geometry."""
@@ -119,19 +131,21 @@ class GhostArms:
         scene = server.scene
         path = compute_arm_path(flange_robot, np.zeros(flange_robot.dof))
         empty = np.zeros((len(path) - 1, 2, 3))
-        self.lines = [scene.add_line_segments(f"/ghosts/{k}/arm", empty, STATE_RGB["free"],
-                                              thickness=GHOST_THICKNESS_M, visible=False) for k in range(MAX_GHOSTS)]
+        self.lines = [scene.add_line_segments(f"/ghosts/{k}/arm", empty, STATE_RGB["free"], thickness=GHOST_THICKNESS_PX,
+                                              thickness_units="screen", visible=False) for k in range(MAX_GHOSTS)]
         self.handles = [scene.add_icosphere(f"/ghosts/{k}/handle", radius=HANDLE_RADII * radius,
                                             color=STATE_RGB["free"], visible=False) for k in range(MAX_GHOSTS)]
         self.labels = [scene.add_label(f"/ghosts/{k}/handle/label", "", visible=False) for k in range(MAX_GHOSTS)]
         self.offset = 2.5 * radius
 
     def handle_point(self, q: np.ndarray) -> np.ndarray:
-        """Where branch q's handle sits [m, W]: off the wrist along axis 5, so that branches that differ
-        only by the wrist flip (same stick figure up to the wrist) have handles apart."""
+        """Where branch q's handle sits [m, W]: half way from the elbow (frame 3) to the wrist (frame 5), moved
+        off along axis 5. Every branch of a target shares the wrist centre; the elbow tells the shoulder and
+        elbow branches apart, the side of axis 5 the two wrist branches (axis 5 turns over with the flip)."""
         X_WD = self.X_WB @ self.robot.fk_all(q)
-        wrist = min(4, self.robot.dof - 1)
-        return X_WD[wrist + 1, :3, 3] + self.offset * X_WD[wrist, :3, 2]
+        elbow, wrist = min(3, self.robot.dof), min(5, self.robot.dof)
+        middle = (X_WD[elbow, :3, 3] + X_WD[wrist, :3, 3]) / 2.0
+        return middle + self.offset * X_WD[min(4, self.robot.dof), :3, 2]
 
     def show(self, branches) -> None:
         """Draw each branch (``pipeline.ui.branches.Branch``: q, state, name, vendor_config); hide the rest."""
@@ -145,8 +159,7 @@ class GhostArms:
                 self.lines[k].colors = np.broadcast_to(np.array(colour, dtype=np.uint8), (len(path) - 1, 2, 3))
                 self.handles[k].position = self.handle_point(branch.q)
                 self.handles[k].color = colour
-                text = branch.name or f"solution {k + 1}"
-                self.labels[k].text = f"{k + 1}: {text}" + (f" {branch.vendor_config}" if branch.vendor_config else "")
+                self.labels[k].text = ghost_label(k, branch)
             for node in (self.lines[k], self.handles[k], self.labels[k]):
                 if node.visible != visible:
                     node.visible = visible
