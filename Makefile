@@ -54,6 +54,7 @@ bench: $(STAMP)
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cycle
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench scale
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench job
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench ui
 
 clean:
 	rm -rf $(VENV) $(OUT)

@@ -219,12 +219,15 @@ class Page:
             self._busy.release()
 
     def show_for_screenshot(self) -> None:
-        """What a picture of the page shows: a program with moves planned and timed and the arm half way
-        through it, and the branches of the TCP's pose."""
+        """What a picture of the page shows: a program with moves planned and timed, the arm half way
+        through it, and the branches of its last waypoint's TCP pose (else of the arm's own)."""
+        X_WT = self.X_WB @ self.robot.fk(self.q)
         if len(self.program.waypoints) > 1:
             self.plan_and_time(wait=True)
             self.replay.value = round(self.replay.max / 2.0, 2)
-        self._snap_target()
+            X_WT = self.X_WB @ self.robot.fk(self.program.waypoints[-1].q)
+        self.place_target(X_WT)
+        self.drag_target(X_WT)
 
     def save_job(self, path) -> Path:
         """The program as a job file that ``python -m pipeline run`` reproduces sample for sample."""

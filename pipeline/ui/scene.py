@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from ..geometry import compute_arm_path, link_capsules, visual_radius
+from ..geometry import body_polylines, link_capsules, visual_radius
 from ..poses import pose_to_quaternion_position
 from ..tool import Tool
 from .branches import closest_words
@@ -124,42 +124,51 @@ def ghost_label(k: int, branch) -> str:
 
 class GhostArms:
     """Up to MAX_GHOSTS ghost arms (stick figures) with a clickable handle and a label each, made once and
-    then only moved, recoloured and shown or hidden: a drag update sends no new geometry."""
+    then only moved, recoloured and shown or hidden: a drag update sends no new geometry, and of the rest
+    only what changed (each property set is a message to the browser)."""
 
     def __init__(self, server, flange_robot, X_WB: np.ndarray, radius: float):
         self.robot, self.X_WB = flange_robot, X_WB
+        self.polylines = body_polylines(flange_robot)          # each body's stick figure in its own frame
+        segments = sum(len(points) for points in self.polylines) - 1
         scene = server.scene
-        path = compute_arm_path(flange_robot, np.zeros(flange_robot.dof))
-        empty = np.zeros((len(path) - 1, 2, 3))
-        self.lines = [scene.add_line_segments(f"/ghosts/{k}/arm", empty, STATE_RGB["free"], thickness=GHOST_THICKNESS_PX,
-                                              thickness_units="screen", visible=False) for k in range(MAX_GHOSTS)]
+        self.lines = [scene.add_line_segments(f"/ghosts/{k}/arm", np.zeros((segments, 2, 3)), STATE_RGB["free"],
+                                              thickness=GHOST_THICKNESS_PX, thickness_units="screen", visible=False)
+                      for k in range(MAX_GHOSTS)]
         self.handles = [scene.add_icosphere(f"/ghosts/{k}/handle", radius=HANDLE_RADII * radius,
                                             color=STATE_RGB["free"], visible=False) for k in range(MAX_GHOSTS)]
         self.labels = [scene.add_label(f"/ghosts/{k}/handle/label", "", visible=False) for k in range(MAX_GHOSTS)]
         self.offset = 2.5 * radius
+        self.shown: list[tuple] = [(None, None, False)] * MAX_GHOSTS          # (state, label, visible) sent
 
-    def handle_point(self, q: np.ndarray) -> np.ndarray:
-        """Where branch q's handle sits [m, W]: half way from the elbow (frame 3) to the wrist (frame 5), moved
-        off along axis 5. Every branch of a target shares the wrist centre; the elbow tells the shoulder and
-        elbow branches apart, the side of axis 5 the two wrist branches (axis 5 turns over with the flip)."""
-        X_WD = self.X_WB @ self.robot.fk_all(q)
-        elbow, wrist = min(3, self.robot.dof), min(5, self.robot.dof)
-        middle = (X_WD[elbow, :3, 3] + X_WD[wrist, :3, 3]) / 2.0
-        return middle + self.offset * X_WD[min(4, self.robot.dof), :3, 2]
+    def points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(the stick figure (k, 3), the handle (3,)) [m, W] of configuration q. The handle sits half way
+        from the elbow (frame 3) to the wrist (frame 5), moved off along axis 5: every branch of a target
+        shares the wrist centre; the elbow tells the shoulder and elbow branches apart, the side of axis 5
+        the two wrist branches (axis 5 turns over with the flip)."""
+        X_WD = self.X_WB @ self.robot.fk_all(q)                 # DH frames 0..dof, then the flange
+        owners = [self.X_WB, *X_WD[1:-1]]
+        path = np.vstack([points @ X[:3, :3].T + X[:3, 3] for X, points in zip(owners, self.polylines)])
+        dof = self.robot.dof
+        middle = (X_WD[min(3, dof), :3, 3] + X_WD[min(5, dof), :3, 3]) / 2.0
+        return path, middle + self.offset * X_WD[min(4, dof), :3, 2]
 
     def show(self, branches) -> None:
         """Draw each branch (``pipeline.ui.branches.Branch``: q, state, name, vendor_config); hide the rest."""
         for k in range(MAX_GHOSTS):
             visible = k < len(branches)
+            state, label = (branches[k].state, ghost_label(k, branches[k])) if visible else self.shown[k][:2]
             if visible:
-                branch = branches[k]
-                path = compute_arm_path(self.robot, branch.q) @ self.X_WB[:3, :3].T + self.X_WB[:3, 3]
-                colour = STATE_RGB[branch.state]
+                path, handle = self.points(branches[k].q)
                 self.lines[k].points = np.stack([path[:-1], path[1:]], axis=1)
-                self.lines[k].colors = np.broadcast_to(np.array(colour, dtype=np.uint8), (len(path) - 1, 2, 3))
-                self.handles[k].position = self.handle_point(branch.q)
+                self.handles[k].position = handle
+            if state != self.shown[k][0]:
+                colour = STATE_RGB[state]
+                self.lines[k].colors = np.broadcast_to(np.array(colour, dtype=np.uint8), self.lines[k].points.shape)
                 self.handles[k].color = colour
-                self.labels[k].text = ghost_label(k, branch)
-            for node in (self.lines[k], self.handles[k], self.labels[k]):
-                if node.visible != visible:
+            if label != self.shown[k][1]:
+                self.labels[k].text = label
+            if visible != self.shown[k][2]:
+                for node in (self.lines[k], self.handles[k], self.labels[k]):
                     node.visible = visible
+            self.shown[k] = (state, label, visible)
