@@ -463,7 +463,7 @@ def cmd_bench(args) -> int:
     elif args.suite == "ui":
         from .bench.ui import run_ui_benchmark
 
-        report = run_ui_benchmark(seed=args.seed)
+        report = run_ui_benchmark(seed=args.seed, browser=args.browser)
     elif args.suite == "cartesian":
         from .bench.cartesian import ROBOTS, run_cartesian_benchmark
 
@@ -750,6 +750,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                        help="scale only: poses of the timed map (default 1,000,000)")
     bench.add_argument("--batch", type=POSITIVE, default=100_000, help="kinematics: configurations in the batch timing")
     bench.add_argument("--calls", type=POSITIVE, default=2000, help="kinematics: single calls timed per implementation")
+    bench.add_argument("--browser", action="store_true", help="ui: drag again with headless Chromium connected")
     bench.add_argument("--seed", type=NON_NEGATIVE, default=0)
     bench.add_argument("--out", help="JSON file for the results")
     bench.set_defaults(func=cmd_bench)

@@ -8,6 +8,8 @@ nothing; and one headless Chromium screenshot of the page (skipped where Debian'
 from __future__ import annotations
 
 import socket
+import threading
+import urllib.request
 
 import numpy as np
 import pytest
@@ -19,7 +21,9 @@ from pipeline.ui.page import LOCALHOST, Page, load_source
 from pipeline.ui.screenshot import chromium, take_screenshot
 
 #: Joint values [deg] of the GP7 in gp7_shelf_cell that are collision-free, off every singular set.
-FREE_DEG = (10.0, 20.0, -10.0, 15.0, -60.0, 20.0)
+FREE_DEG = (-20.0, 10.0, -20.0, 10.0, -70.0, 0.0)
+#: ... and ones whose tool is in the middle board.
+COLLIDING_DEG = (10.0, 20.0, -10.0, 15.0, -60.0, 20.0)
 
 
 @pytest.fixture(scope="module")
@@ -37,9 +41,12 @@ def robot_page():
 
 
 def connects(host: str, port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
-        probe.settimeout(1.0)
-        return probe.connect_ex((host, port)) == 0
+    """Whether the page answers an HTTP request at host:port."""
+    try:
+        with urllib.request.urlopen(f"http://{host}:{port}/", timeout=2.0) as answer:
+            return answer.status == 200
+    except OSError:                                    # refused, unreachable, timed out (URLError is one)
+        return False
 
 
 def other_addresses() -> list[str]:
@@ -79,6 +86,16 @@ def test_dragging_the_target_to_a_known_pose_yields_its_branches(shelf_page):
     assert [line.visible for line in ghosts.lines] == [k < len(view.branches) for k in range(len(ghosts.lines))]
     assert all(b.name in shelf_page.branch_table.content for b in view.branches)
     assert len(shelf_page.branch_choice.options) == len(view.branches)
+
+
+def test_a_target_in_a_shelf_board_is_colliding_with_its_closest_pair(shelf_page):
+    q = np.radians(COLLIDING_DEG)
+    view = shelf_page.drag_target(shelf_page.X_WB @ shelf_page.robot.fk(q))
+    ours = next(b for b in view.branches if np.abs(b.q - q).max() < 1e-9)
+    assert ours.state == "colliding" and ours.clearance.obstacle_pair == ("tool", "board_middle")
+    assert ours.clearance.obstacle < 0.0 and "board_middle" in shelf_page.branch_table.content
+    k = view.branches.index(ours)
+    assert shelf_page.scene.ghosts.handles[k].color == (215, 40, 40)
 
 
 def test_adopting_a_branch_jogs_the_arm_and_the_sliders(shelf_page):
@@ -136,3 +153,23 @@ def test_a_headless_chromium_screenshot_of_the_page(shelf_page, tmp_path):
     pixels = np.asarray(Image.open(picture).convert("RGB"), dtype=float)
     middle = pixels[200:700, 200:900]                  # the 3-D view, left of the control panel
     assert middle.std() > 10.0                         # drawn: not a blank or single-colour view
+
+
+def test_drag_events_are_drawn_one_at_a_time_and_the_newest_wins(robot_page, monkeypatch):
+    """Events that arrive while a target is drawn are merged: the newest one is drawn next, none in parallel."""
+    page, drawn, events = robot_page, [], []
+    poses = [page.robot.fk(np.radians([a, 10, -10, 0, -60, 0])) for a in (0, 10, 20, 30)]
+
+    def slow_draw(X_WT):
+        drawn.append(X_WT[:3, 3].copy())
+        if len(drawn) == 1:                  # while the first is drawn, three more events arrive
+            for X in poses[1:]:
+                page.place_target(X)
+                events.append(threading.Thread(target=page._gizmo_moved))
+                events[-1].start()
+                events[-1].join()
+
+    monkeypatch.setattr(page, "drag_target", slow_draw)
+    page.place_target(poses[0])
+    page._gizmo_moved()
+    np.testing.assert_allclose(drawn, [poses[0][:3, 3], poses[3][:3, 3]], atol=1e-9)

@@ -118,6 +118,7 @@ class Page:
         self._busy = threading.Lock()
         self._worker: threading.Thread | None = None
         self._syncing = False
+        self._drag_lock, self._dragging, self._pending = threading.Lock(), False, None
         self._build_gui()
         self.set_joints(self.q)
         self.place_target(self.X_WB @ self.robot.fk(self.q))
@@ -386,7 +387,20 @@ class Page:
         self.set_joints(np.clip(q, self.robot.limits.q_min, self.robot.limits.q_max))
 
     def _gizmo_moved(self) -> None:
-        self.drag_target(quaternion_position_to_pose(np.asarray(self.gizmo.wxyz), np.asarray(self.gizmo.position)))
+        """A drag event: the newest target is drawn; events that arrive while one is drawn are merged into
+        the newest (the browser sends them faster than a slow machine may draw them), one drawer at a time."""
+        with self._drag_lock:
+            self._pending = quaternion_position_to_pose(np.asarray(self.gizmo.wxyz), np.asarray(self.gizmo.position))
+            if self._dragging:
+                return
+            self._dragging = True
+        while True:
+            with self._drag_lock:
+                X_WT, self._pending = self._pending, None
+                if X_WT is None:
+                    self._dragging = False
+                    return
+            self.drag_target(X_WT)
 
     def _snap_target(self) -> None:
         X_WT = self.X_WB @ self.robot.fk(self.q)
