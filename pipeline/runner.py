@@ -154,8 +154,7 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     take more than ``max_duration_s`` [s] or ``max_samples`` samples at their speed limits before any
     timing (``check_duration``)."""
     with staged_output(out_dir) as staging:
-        program, bound, profile = timed_program(job, max_samples, max_duration_s)
-        report = build_report(job, program, profile, cycle_report(program, profile, bound))
+        program, profile, report = reported_program(job, max_samples, max_duration_s)
         writers = _writers(job, profile, report, program)
         for kind in job.outputs:
             writers[kind](staging / output_names(kind)[0])
@@ -175,6 +174,14 @@ def timed_program(job: Job, max_samples: int = DEFAULT_MAX_SAMPLES,
     """The job's program, its lower bound and its certified profile, in the job's cell if it has one
     (``_compiled_and_timed``: errors name the job file)."""
     return _compiled_and_timed(job, collision_model(job), max_samples, max_duration_s)
+
+
+def reported_program(job: Job, max_samples: int = DEFAULT_MAX_SAMPLES,
+                     max_duration_s: float = DEFAULT_MAX_DURATION_S) -> tuple[Program, Profile, dict]:
+    """The job's program, its certified profile and its JSON report (with the cycle-time report): what
+    ``run_job`` writes, without writing it."""
+    program, bound, profile = timed_program(job, max_samples, max_duration_s)
+    return program, profile, build_report(job, program, profile, cycle_report(program, profile, bound))
 
 
 def program_name(language: str, job_name: str) -> str:

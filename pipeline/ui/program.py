@@ -29,9 +29,9 @@ from ..ik.branches import choose_solution, configuration_labels
 from ..io import write_text_atomic
 from ..jobs import Job, JointWaypoint, load_job, parse_job
 from ..poses import make_pose, rotation_to_rpy
-from ..program import cycle_report, solve_waypoints
+from ..program import solve_waypoints
 from ..robot import Robot, load_robot, robot_with_tool
-from ..runner import JobOutcome, build_report, collision_model, run_job, timed_program
+from ..runner import JobOutcome, collision_model, reported_program, run_job
 from ..units import ANGLE_UNITS, LENGTH_UNITS
 
 #: The file's units: every document the page writes is in mm and deg.
@@ -230,8 +230,8 @@ class PageProgram:
         job = self.job()
         if out_dir is not None:
             return run_job(job, out_dir)
-        program, bound, profile = timed_program(job)
-        return JobOutcome(job, profile, (), build_report(job, program, profile, cycle_report(program, profile, bound)))
+        _, profile, report = reported_program(job)
+        return JobOutcome(job, profile, (), report)
 
     def job(self) -> Job:
         """The validated Job of ``to_document()``."""
