@@ -58,13 +58,14 @@ VERSIONED_PACKAGES = ("dh-pipeline", "drake", "toppra", "ruckig", "copp-py", "nu
 
 @dataclass(frozen=True, eq=False)
 class JobOutcome:
-    """What a job produced: the certified ``profile``, the ``files`` written and the ``report`` (the
-    JSON report's content)."""
+    """What a job produced: the certified ``profile``, the ``files`` written, the ``report`` (the JSON
+    report's content) and the compiled ``program`` it timed."""
 
     job: Job
     profile: Profile
     files: tuple[Path, ...]
     report: dict
+    program: Program | None = None
 
     @property
     def limit_report(self) -> LimitReport:
@@ -161,7 +162,7 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     files = tuple(Path(out_dir) / name for kind in job.outputs for name in output_names(kind))
     log.info("job %s: %s, %.4f s; wrote %d file(s) to %s", job.name, profile.method, profile.duration,
              len(files), out_dir)
-    return JobOutcome(job, profile, files, report)
+    return JobOutcome(job, profile, files, report, program)
 
 
 def output_names(kind: str) -> tuple[str, ...]:

@@ -161,3 +161,20 @@ def test_a_configuration_of_the_wrong_size_is_refused(programs):
     with pytest.raises(ControllerLintError) as error:
         lint(program, KRL, "GP7", configs=np.zeros((3, 2), int))
     assert error.value.field == "configuration"
+
+
+def test_an_axis_on_a_quadrant_boundary_may_be_written_on_either_side(programs):
+    """Axis 4 at -1e-12 rad (round-off of a track that ends at 0): confdata cf4 = -1 by floor, 0 as its
+    written pose selects; both pass, cf4 = 1 does not."""
+    program = programs["gp7_pick_place"]
+    target = program.moves[2].target.copy()
+    target[3] = -1e-12
+    moved = with_move(program, 2, target=target)
+    written = configurations(moved.robot, moved.targets, "abb")
+    assert written[3, 1] == -1
+    lint(moved, RAPID, "GP7", configs=written)
+    written[3, 1] = 0
+    lint(moved, RAPID, "GP7", configs=written)
+    written[3, 1] = 1
+    with pytest.raises(ControllerLintError):
+        lint(moved, RAPID, "GP7", configs=written)

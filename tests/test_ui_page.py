@@ -139,6 +139,8 @@ def test_a_program_built_on_the_page_runs_the_same_from_its_saved_job(robot_page
     assert np.array_equal(again.profile.t, outcome.profile.t) and np.array_equal(again.profile.q, outcome.profile.q)
     assert page.plots["q"].data[0][-1] == pytest.approx(outcome.profile.t[-1] - outcome.profile.t[0])
     assert page.scene.trace is not None
+    exported = page.export("rapid", tmp_path)
+    assert [p.name for p in exported] == [f"{page.program.name}.mod"] and exported[0].read_text().startswith("MODULE")
 
 
 @pytest.mark.slow

@@ -15,7 +15,8 @@ The rules, each with one table row per language (``LIMITS``, every limit with it
   the language's unit within the language's range and within the robot's TCP speed limit;
 * configuration consistent with the joint values: the configuration a writer writes for each target
   equals ``pipeline.controllers.configurations`` of its joint values (a target written as joint values,
-  which carries none, is passed as None).
+  which carries none, is passed as None), or, for an axis within round-off (BOUNDARY_RAD) of a field's
+  boundary, the value on its other side.
 
 ``ControllerLintError`` lives in ``pipeline.errors`` (an OutputError: the program cannot be written).
 """
@@ -32,6 +33,8 @@ from .configuration import FIELDS, configurations
 
 #: A zone may exceed half a move by this much [m]: the floating-point rounding of the move's length.
 ZONE_SLACK = 1e-9
+#: An axis this close to a configuration field's boundary [rad] may be written on either side of it.
+BOUNDARY_RAD = 1e-9
 RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
 LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
 
@@ -244,7 +247,15 @@ def check_configurations(language: str, program, configs, vendor: str) -> None:
     for k, (written, wanted) in enumerate(zip(rows, expected)):
         if written is None:
             continue
-        for field, w, e in zip(FIELDS[vendor], written, wanted):
-            if int(w) != int(e):
+        for f, (field, w, e) in enumerate(zip(FIELDS[vendor], written, wanted)):
+            if int(w) != int(e) and int(w) not in _boundary_values(program.robot, program.targets[k], vendor, f):
                 raise ControllerLintError(language, k, field, int(w), f"the {vendor} configuration of the joint "
                                                                       f"values there is {field} = {int(e)}")
+
+
+def _boundary_values(robot, q: np.ndarray, vendor: str, field: int) -> set[int]:
+    """The values configuration field ``field`` takes with one axis of q moved by +-BOUNDARY_RAD: on a
+    field's boundary (an axis at 0 or a multiple of 90 deg to within round-off) both sides describe q, and
+    a writer may write the one its rounded target selects (``rapid.written_configuration``)."""
+    moved = q + BOUNDARY_RAD * np.vstack([np.eye(q.size), -np.eye(q.size)])
+    return set(configurations(robot, moved, vendor)[:, field].tolist())

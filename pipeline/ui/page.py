@@ -25,6 +25,8 @@ import yaml
 
 from ..cell import cell_names, load_cell, resolve_cell_path
 from ..errors import ConfigurationError, PipelineError
+from ..io import write_text_atomic
+from ..runner import LANGUAGE_TITLES, program_name
 from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..robot import load_robot
 from ..tool import Tool, rigid_inverse
@@ -234,6 +236,19 @@ class Page:
         """The program as a job file that ``python -m pipeline run`` reproduces sample for sample."""
         return self.program.save(path)
 
+    def export(self, language: str, folder) -> list[Path]:
+        """The planned and timed program in a controller's language (rapid, ls, jbi, krl, urscript) as files
+        NAME.<suffix> in ``folder`` (``pipeline.runner.program_texts``: the files ``python -m pipeline
+        program`` writes); ConfigurationError before the program is planned and timed."""
+        from ..runner import program_texts
+
+        if self.outcome is None:
+            raise ConfigurationError("plan and time the program first: the export is of the certified program")
+        outcome = self.outcome
+        texts = program_texts(outcome.job, language, outcome.program, outcome.profile)
+        name = program_name(language, outcome.job.name)
+        return [write_text_atomic(Path(folder) / f"{name}{suffix}", text) for suffix, text in texts.items()]
+
     def load_job(self, path) -> None:
         """Edit the program of a job file (same robot and cell as the page)."""
         self.program = PageProgram.from_job_file(path)
@@ -355,6 +370,10 @@ class Page:
             self.path_text = gui.add_text("Job file", f"{self.program.name}.yaml")
             files = gui.add_button_group("File", ("Save", "Load"))
             files.on_click(lambda event: self._guarded(self.program_error, lambda: self._file(event.target.value)))
+            self.language = gui.add_dropdown("Controller", tuple(LANGUAGE_TITLES), initial_value="rapid",
+                                             hint=", ".join(f"{k}: {v}" for k, v in LANGUAGE_TITLES.items()))
+            self.export_button = gui.add_button("Export the program (beside the job file)")
+            self.export_button.on_click(lambda _event: self._guarded(self.program_error, self._export))
         with gui.add_folder("Result"):
             self.status = gui.add_markdown("")
             self.replay = gui.add_slider("Replay [s]", min=0.0, max=1.0, step=1.0 / REPLAY_FPS, initial_value=0.0)
@@ -415,6 +434,10 @@ class Page:
             self.program.move_to(k, k - 1 if action == "Up" else k + 1)
             self.index.value = k - 1 if action == "Up" else k + 1
         self._show_program()
+
+    def _export(self) -> None:
+        files = self.export(self.language.value, Path(self.path_text.value).parent)
+        self.status.content = "wrote " + ", ".join(str(path) for path in files)
 
     def _file(self, action: str) -> None:
         if action == "Save":

@@ -230,8 +230,8 @@ class PageProgram:
         job = self.job()
         if out_dir is not None:
             return run_job(job, out_dir)
-        _, profile, report = reported_program(job)
-        return JobOutcome(job, profile, (), report)
+        program, profile, report = reported_program(job)
+        return JobOutcome(job, profile, (), report, program)
 
     def job(self) -> Job:
         """The validated Job of ``to_document()``."""
