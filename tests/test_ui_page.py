@@ -10,16 +10,19 @@ from __future__ import annotations
 import socket
 import threading
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pipeline.errors import ConfigurationError
 from pipeline.ik.branches import configuration_labels
 from pipeline.runner import run_job_file
 from pipeline.tool import rigid_inverse
 from pipeline.ui.page import LOCALHOST, Page, load_source
 from pipeline.ui.screenshot import chromium, take_screenshot
 
+JOBS = Path(__file__).resolve().parents[1] / "trajectories" / "jobs"
 #: Joint values [deg] of the GP7 in gp7_shelf_cell that are collision-free, off every singular set.
 FREE_DEG = (-20.0, 10.0, -20.0, 10.0, -70.0, 0.0)
 #: ... and ones whose tool is in the middle board.
@@ -175,3 +178,12 @@ def test_drag_events_are_drawn_one_at_a_time_and_the_newest_wins(robot_page, mon
     page.place_target(poses[0])
     page._gizmo_moved()
     np.testing.assert_allclose(drawn, [poses[0][:3, 3], poses[3][:3, 3]], atol=1e-9)
+
+
+def test_loading_a_job_of_another_robot_is_refused_with_the_command_that_opens_it(robot_page):
+    before = robot_page.program
+    with pytest.raises(ConfigurationError, match="python -m pipeline ui .*irb1600_tool_moves.yaml"):
+        robot_page.load_job(JOBS / "irb1600_tool_moves.yaml")
+    assert robot_page.program is before
+    robot_page.load_job(JOBS / "gp7_pick_place.yaml")
+    assert robot_page.program is not before and len(robot_page.program.waypoints) > 2

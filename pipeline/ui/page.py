@@ -250,8 +250,16 @@ class Page:
         return [write_text_atomic(Path(folder) / f"{name}{suffix}", text) for suffix, text in texts.items()]
 
     def load_job(self, path) -> None:
-        """Edit the program of a job file (same robot and cell as the page)."""
-        self.program = PageProgram.from_job_file(path)
+        """Edit the program of a job file of the page's robot (and cell); another is refused, naming the
+        command that opens it."""
+        program = PageProgram.from_job_file(path)
+        job_cell = None if program.cell_reference is None else load_cell(resolve_cell_path(program.cell_reference))
+        if program.robot.spec.name != self.robot.spec.name or (job_cell is None) != (self.cell is None) or (
+                job_cell is not None and job_cell.name != self.cell.name):
+            where = "" if job_cell is None else f" in cell {job_cell.name}"
+            raise ConfigurationError(f"{path}: a job of {program.robot.spec.name}{where}; this page shows "
+                                     f"{self.source.title}: open it with python -m pipeline ui {path}")
+        self.program = program
         self._show_program()
 
     def stop(self) -> None:
