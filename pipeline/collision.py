@@ -25,7 +25,7 @@ from pydrake.geometry import Capsule as DrakeCapsule, CollisionFilterDeclaration
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import SpatialInertia
-from pydrake.planning import CollisionCheckerParams, RobotDiagramBuilder, SceneGraphCollisionChecker
+from pydrake.planning import CollisionCheckerParams, RobotCollisionType, RobotDiagramBuilder, SceneGraphCollisionChecker
 
 from .drake_model import add_robot, as_rigid_transform, drake_shape, pose_between, quiet_drake_log
 from .geometry import link_capsules, lever_arms
@@ -40,6 +40,8 @@ INFLUENCE_DISTANCE_M = 1.0
 MOUNT_TOLERANCE_M = 1e-3
 #: Self-collision: link capsules may come this close (they are envelopes already) [m].
 SELF_CLEARANCE_M = 0.0
+#: Drake's code of a link-link row of a clearance result (as an int: comparing the enum per row costs more).
+_SELF_COLLISION = int(RobotCollisionType.kSelfCollision)
 #: Drake's edge checks step at most this far in joint space (Euclidean norm) [rad] (the planner's
 #: padded checker steps finer where its margin needs it: ``padded_checker``).
 EDGE_STEP_RAD = 0.02
@@ -184,8 +186,9 @@ class CollisionModel:
         """The smallest robot-obstacle and link-link distances at q and their pairs [m] (Drake reports
         them less the checker's padding, which is added back here)."""
         result = self.checker.CalcRobotClearance(np.asarray(q, dtype=float), INFLUENCE_DISTANCE_M)
-        kinds = np.array([kind.name == "kSelfCollision" for kind in result.collision_types()], dtype=bool)
+        kinds = np.array([int(kind) for kind in result.collision_types()], dtype=int) == _SELF_COLLISION
         distances = result.distances() + np.where(kinds, SELF_CLEARANCE_M, self.clearance_m)
+        robots, others = result.robot_indices(), result.other_indices()
         best = {}
         for is_self in (False, True):
             rows = np.flatnonzero(kinds == is_self)
@@ -193,8 +196,7 @@ class CollisionModel:
                 best[is_self] = (np.inf, None)
                 continue
             k = rows[np.argmin(distances[rows])]
-            pair = (self.plant.get_body(_index(result.robot_indices()[k])).name(),
-                    self.plant.get_body(_index(result.other_indices()[k])).name())
+            pair = (self.plant.get_body(_index(robots[k])).name(), self.plant.get_body(_index(others[k])).name())
             best[is_self] = (float(distances[k]), pair)
         return Clearance(*best[False], *best[True])
 
