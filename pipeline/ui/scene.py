@@ -124,8 +124,7 @@ def ghost_label(k: int, branch) -> str:
 
 class GhostArms:
     """Up to MAX_GHOSTS ghost arms (stick figures) with a clickable handle and a label each, made once and
-    then only moved, recoloured and shown or hidden: a drag update sends no new geometry, and of the rest
-    only what changed (each property set is a message to the browser)."""
+    then only moved, recoloured and shown or hidden: a drag update sends no new geometry."""
 
     def __init__(self, server, flange_robot, X_WB: np.ndarray, radius: float):
         self.robot, self.X_WB = flange_robot, X_WB
@@ -139,7 +138,8 @@ class GhostArms:
                                             color=STATE_RGB["free"], visible=False) for k in range(MAX_GHOSTS)]
         self.labels = [scene.add_label(f"/ghosts/{k}/handle/label", "", visible=False) for k in range(MAX_GHOSTS)]
         self.offset = 2.5 * radius
-        self.shown: list[tuple] = [(None, None, False)] * MAX_GHOSTS          # (state, label, visible) sent
+        self.colours = {state: np.broadcast_to(np.array(rgb, dtype=np.uint8), (segments, 2, 3))
+                        for state, rgb in STATE_RGB.items()}                 # each segment's two ends
 
     def points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(the stick figure (k, 3), the handle (3,)) [m, W] of configuration q. The handle sits half way
@@ -154,21 +154,17 @@ class GhostArms:
         return path, middle + self.offset * X_WD[min(4, dof), :3, 2]
 
     def show(self, branches) -> None:
-        """Draw each branch (``pipeline.ui.branches.Branch``: q, state, name, vendor_config); hide the rest."""
+        """Draw each branch (``pipeline.ui.branches.Branch``: q, state, name, vendor_config); hide the rest.
+        viser sends a property only when its value changed."""
         for k in range(MAX_GHOSTS):
             visible = k < len(branches)
-            state, label = (branches[k].state, ghost_label(k, branches[k])) if visible else self.shown[k][:2]
             if visible:
-                path, handle = self.points(branches[k].q)
+                branch = branches[k]
+                path, handle = self.points(branch.q)
                 self.lines[k].points = np.stack([path[:-1], path[1:]], axis=1)
+                self.lines[k].colors = self.colours[branch.state]
                 self.handles[k].position = handle
-            if state != self.shown[k][0]:
-                colour = STATE_RGB[state]
-                self.lines[k].colors = np.broadcast_to(np.array(colour, dtype=np.uint8), self.lines[k].points.shape)
-                self.handles[k].color = colour
-            if label != self.shown[k][1]:
-                self.labels[k].text = label
-            if visible != self.shown[k][2]:
-                for node in (self.lines[k], self.handles[k], self.labels[k]):
-                    node.visible = visible
-            self.shown[k] = (state, label, visible)
+                self.handles[k].color = STATE_RGB[branch.state]
+                self.labels[k].text = ghost_label(k, branch)
+            for node in (self.lines[k], self.handles[k], self.labels[k]):
+                node.visible = visible
