@@ -57,7 +57,6 @@ from ..program.model import CIRCULAR, JOINT, Move, Program
 from .axes import FANUC, axis_angles
 from .configuration import configurations, format_configuration
 from .lint import FANUC_LS, lint
-from .rapid import next_to_planned
 from .selection import select_solution
 
 #: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
@@ -118,7 +117,7 @@ def program_points(program: Program, vendor: str) -> list[Motion]:
         motions += [Motion(move, [Point(q, robot.fk(q), True)], 0.0) for q in vertices]
         end = Point(move.target, move.X_BT, program.waypoints[move.end].method is None)
         points = [via_point(program, move, vendor), end] if move.kind == CIRCULAR else [end]
-        motions.append(Motion(move, points, 0.0 if next_to_planned(program, move) else move.zone))
+        motions.append(Motion(move, points, 0.0 if program.exact_stop_at(move) else move.zone))
     return motions
 
 

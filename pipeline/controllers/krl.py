@@ -48,7 +48,6 @@ from ..poses import rotation_to_rpy, rpy_to_rotation
 from .axes import KUKA, axis_angles, axis_map
 from .configuration import configurations
 from .lint import KRL, lint, written_speed
-from .rapid import next_to_planned
 from .selection import select_solution
 
 #: Axis speed [% of the axes' maximum] of the first motion (the BCO run to the start).
@@ -235,7 +234,7 @@ def write_krl(program, name: str) -> tuple[str, str]:
     for move in program.moves:
         body += _speed_lines(move, program.speed_scale, speeds)
         body += [f"PTP {name}" for name, _ in _vertices(move)]
-        zone = 0.0 if next_to_planned(program, move) else move.zone
+        zone = 0.0 if program.exact_stop_at(move) else move.zone
         body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone)
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
     dat = [f"DEFDAT {name}"] + _declarations(program, status_turn, angles) + ["ENDDAT"]

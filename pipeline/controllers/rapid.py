@@ -31,7 +31,7 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   axis needs at that speed without accelerating. The controller adds its own acceleration and keeps its
   own axis limits, so the move takes at least that long.
 * ``zonedata`` [finep, pzone_tcp, pzone_ori, pzone_eax, zone_ori, zone_leax, zone_reax]: ``fine`` at the
-  program's stops and at both ends of a planned joint move (``next_to_planned``); a zone of R mm as pzone_tcp = R with the other fields in the ratios of the predefined
+  program's stops and at both ends of a planned joint move (``Program.exact_stop_at``); a zone of R mm as pzone_tcp = R with the other fields in the ratios of the predefined
   z10..z200 (1.5 R mm for pzone_ori, pzone_eax, zone_leax; 0.15 R deg for zone_ori, zone_reax); ``z0`` (the
   smallest fly-by zone, 0.3 mm) at a waypoint the program passes through without a zone.
 * ``ConfJ \\On`` and ``ConfL \\On``: the controller keeps the written configurations (its default after
@@ -170,7 +170,7 @@ def written_configurations(program: Program) -> list[np.ndarray | None]:
 
 def zone_name(program: Program, move: Move) -> tuple[str, str | None]:
     """(the zonedata name, its value or None for a predefined one) at the end of ``move``."""
-    if move.end in program.stops or next_to_planned(program, move):
+    if program.exact_stop_at(move):
         return "fine", None
     if move.zone <= 0.0:
         return "z0", None
@@ -179,13 +179,6 @@ def zone_name(program: Program, move: Move) -> tuple[str, str | None]:
     fields = [number(mm, MM), *[number(mm * ZONE_MM_RATIO, MM)] * 2, number(mm * ZONE_DEG_PER_MM, MM),
               number(mm * ZONE_MM_RATIO, MM), number(mm * ZONE_DEG_PER_MM, MM)]
     return name, f"[FALSE,{','.join(fields)}]"
-
-
-def next_to_planned(program: Program, move: Move) -> bool:
-    """Whether ``move`` is a planned joint move or leads into one: its end is then an exact stop, since a
-    controller's corner path there is not a path the planner or the clearance certificate checked."""
-    following = program.moves[move.end] if move.end < len(program.moves) else None
-    return move.planned is not None or (following is not None and following.planned is not None)
 
 
 def tcp_speed(program: Program, move: Move) -> float:

@@ -45,7 +45,6 @@ from ..errors import OutputError
 from ..profile import Profile
 from ..program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .lint import URSCRIPT, lint
-from .rapid import next_to_planned
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 #: URScript's keywords and the names this module defines: no program name may be one of them.
@@ -146,7 +145,7 @@ def tool_speed(program: Program, move: Move) -> tuple[float, float]:
 def blend(program: Program, move: Move) -> float:
     """The blend radius r [m] at the end of ``move``: its zone; 0 at a stop and at both ends of a planned joint
     move (a controller's blend there is not a path the planner or the clearance certificate checked)."""
-    return 0.0 if move.end in program.stops or next_to_planned(program, move) else move.zone
+    return 0.0 if program.exact_stop_at(move) else move.zone
 
 
 def _native_moves(program: Program) -> list[str]:

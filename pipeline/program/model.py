@@ -153,6 +153,14 @@ class Program:
         """(K, dof) the joint values of the K waypoints [rad or m]."""
         return np.array([self.waypoints[0].q] + [move.target for move in self.moves])
 
+    def exact_stop_at(self, move: Move) -> bool:
+        """Whether a controller program stops exactly at the end of ``move``: a stop of the program, or a
+        planned joint move or one leading into it (a controller's corner path there is not a path the
+        planner or the clearance certificate checked)."""
+        following = self.moves[move.end] if move.end < len(self.moves) else None
+        return move.end in self.stops or move.planned is not None or (following is not None and
+                                                                       following.planned is not None)
+
     def stretches(self) -> list[tuple[int, int]]:
         """(first, last) waypoint indices of each stretch between two stops."""
         return list(zip(self.stops[:-1], self.stops[1:]))
