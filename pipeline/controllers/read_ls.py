@@ -70,6 +70,16 @@ def grammar_parser(name: str) -> Lark:
     return Lark(text, parser="lalr", propagate_positions=True)
 
 
+def parse_subset(grammar: str, language: str, text: str, error_type, source: str) -> Tree:
+    """The parse tree of ``text`` by ``grammars/<grammar>.lark``, or ``error_type`` (a FileFormatError) naming
+    ``source``, field ``syntax`` and the line where lark stops: "not ``language`` of the subset read here"."""
+    try:
+        return grammar_parser(grammar).parse(text)
+    except UnexpectedInput as exc:
+        raise error_type(source, "syntax", f"not {language} of the subset read here: {exc}".splitlines()[0],
+                         line=exc.line) from None
+
+
 def parse_text(name: str, text: str, source: str) -> Tree:
     """The parse tree of ``text`` by grammar ``name``, or ControllerProgramError at the line lark stops."""
     try:

@@ -51,7 +51,7 @@ from ..ik.branches import configuration_labels
 from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..robot import Robot, load_robot, robot_with_tool
 from .axes import ABB, axis_map
-from .read_ls import grammar_parser
+from .read_ls import parse_subset
 from .selection import select_solution
 
 MOVES = ("moveabsj", "movej", "movel", "movec")
@@ -110,20 +110,11 @@ class _Values(lark.Transformer):
         return list(children)
 
 
-def parse_rapid(text: str) -> lark.Tree:
-    """The parse tree of a module (``grammars/rapid.lark``); RapidReadError at the line that does not parse."""
-    try:
-        return grammar_parser("rapid").parse(text)
-    except lark.exceptions.UnexpectedInput as exc:
-        raise RapidReadError(SOURCE, "syntax", f"not RAPID of the subset read here: {exc}".splitlines()[0],
-                             line=exc.line) from None
-
-
 def read_rapid(text: str, robot: str, base_in_world: np.ndarray | None = None) -> dict:
     """The job document of a RAPID module ``text`` (module docstring) for ``robot`` (a preset name or robot file
     path, written into the document as given); ``base_in_world`` (4, 4) [m]: the robot's base in the
     controller's world frame (None: identity). RapidReadError names what cannot be read."""
-    tree = _Values().transform(parse_rapid(text))
+    tree = _Values().transform(parse_subset("rapid", "RAPID", text, RapidReadError, SOURCE))
     module = tree.children[0]
     data = _declarations(module)
     calls = _main_calls(module)

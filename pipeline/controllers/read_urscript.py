@@ -49,7 +49,7 @@ from ..ik import solve_ik_batch
 from ..ik.branches import configuration_labels
 from ..ik.result import limit_variants
 from ..robot import Robot, load_robot, robot_with_tool
-from .read_ls import grammar_parser
+from .read_ls import parse_subset
 
 #: Each move's parameters in the Script Manual's order.
 PARAMETERS = {"movej": ("q", "a", "v", "t", "r"), "movel": ("pose", "a", "v", "t", "r"),
@@ -103,19 +103,10 @@ class _Variable(str):
     """A variable name used as a value."""
 
 
-def parse_urscript(text: str) -> lark.Tree:
-    """The parse tree of a program (``grammars/urscript.lark``); UrscriptReadError at the line that does not parse."""
-    try:
-        return grammar_parser("urscript").parse(text)
-    except lark.exceptions.UnexpectedInput as exc:
-        raise UrscriptReadError(SOURCE, "syntax", f"not URScript of the subset read here: {exc}".splitlines()[0],
-                                line=exc.line) from None
-
-
 def read_urscript(text: str, robot: str) -> dict:
     """The job document of a URScript program ``text`` (module docstring) for ``robot`` (a preset name or robot
     file path, written into the document as given). UrscriptReadError names what cannot be read."""
-    program = _Values().transform(parse_urscript(text)).children[0]
+    program = _Values().transform(parse_subset("urscript", "URScript", text, UrscriptReadError, SOURCE)).children[0]
     body = program.children[1]
     functions = {str(node.children[0]): node.children[1] for node in body.children
                  if isinstance(node, lark.Tree) and node.data == "function_def"}
