@@ -30,6 +30,7 @@ from ..runner import LANGUAGE_TITLES, program_name
 from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..robot import load_robot
 from ..tool import Tool, rigid_inverse
+from ..units import ANGLE_UNITS, LENGTH_UNITS
 from ..views import camera_pose, scene_spheres
 from .branches import TargetBranches, branch_names, closest_words, pose_words, target_branches
 from .program import PageProgram
@@ -64,12 +65,13 @@ def load_source(name: str | None) -> PageSource:
     """A preset or robot file, a demo cell's name or a cell file, or a job file (its program is loaded)."""
     name = DEFAULT_ROBOT if name is None else str(name)
     path = Path(name)
-    if name in cell_names() or (path.suffix in (".yaml", ".yml") and _yaml_keys(path) >= {"objects"}):
+    keys = _yaml_keys(path) if path.suffix in (".yaml", ".yml") else set()
+    if name in cell_names() or "objects" in keys:
         cell = load_cell(resolve_cell_path(name) if name in cell_names() else path)
         robot = cell.load_robot()
         program = PageProgram(str(cell.robot), name, None, f"{cell.name}_program")     # TCP: the flange
         return PageSource(robot, Tool.from_job_and_cell(None, cell, cell.name), cell, program, f"cell {cell.name}")
-    if path.suffix in (".yaml", ".yml") and "waypoints" in _yaml_keys(path):
+    if "waypoints" in keys:
         from ..jobs import load_job
 
         job = load_job(path)
@@ -274,8 +276,6 @@ class Page:
         return spec.angle_unit if self.robot.revolute_mask[j] else spec.length_unit
 
     def _to_file_unit(self, j: int, value: float) -> float:
-        from ..units import ANGLE_UNITS, LENGTH_UNITS
-
         scale = ANGLE_UNITS[self._unit(j)] if self.robot.revolute_mask[j] else LENGTH_UNITS[self._unit(j)]
         return float(value) / scale
 
