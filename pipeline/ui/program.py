@@ -28,7 +28,7 @@ from ..errors import ConfigurationError
 from ..ik.branches import choose_solution, configuration_labels
 from ..io import write_text_atomic
 from ..jobs import Job, JointWaypoint, load_job, parse_job
-from ..poses import make_pose, rotation_to_rpy
+from ..poses import check_pose, make_pose, rotation_to_rpy
 from ..program import solve_waypoints
 from ..robot import Robot, load_robot, robot_with_tool
 from ..runner import JobOutcome, collision_model, reported_program, run_job
@@ -79,7 +79,7 @@ class PageProgram:
             _absolute_if_file(cell_reference, is_file=Path(str(cell_reference)).is_file())
         if self.cell_reference is not None:
             resolve_cell_path(self.cell_reference)              # a CellFileError names an unknown cell now
-        self.tool = None if tool is None else _pose(tool, "tool")
+        self.tool = None if tool is None else np.array(check_pose(tool, "tool X_FT"))
         self.name = name
         robot = load_robot(self.robot_reference)
         self.robot: Robot = robot if self.tool is None else robot_with_tool(robot, self.tool)
@@ -365,14 +365,6 @@ def _file_number(value, scale: float | None):
         if to_si(shorter) == value:
             return shorter
     return written
-
-
-def _pose(X, what: str) -> np.ndarray:
-    """``X`` as a finite (4, 4) float array (ConfigurationError naming ``what`` otherwise)."""
-    X = np.array(X, dtype=float)
-    if X.shape != (4, 4) or not np.isfinite(X).all():
-        raise ConfigurationError(f"{what} must be a finite (4, 4) pose X_FT [m], got shape {X.shape}")
-    return X
 
 
 def _absolute_if_file(reference, is_file: bool) -> str:
