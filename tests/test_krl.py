@@ -13,6 +13,7 @@ import pytest
 from lark import Lark, Tree
 
 from pipeline.controllers import configurations, select_solution
+from pipeline.controllers.configuration import mismatched_field
 from pipeline.controllers.krl import kuka_abc, write_krl
 from pipeline.controllers.lint import ControllerLintError
 from pipeline.ik import solve_ik_batch
@@ -101,12 +102,12 @@ def test_status_and_turn_are_the_controllers_values(programs, job):
     program = programs[job]
     _, dat = write_krl(program, krl_name(job))
     decl = declarations(dat)
-    expected = configurations(program.robot, program.targets, "kuka")
-    written = [k for k in range(len(expected)) if decl[f"XP{k}"][0] == "E6POS"]
+    targets = program.targets
+    written = [k for k in range(len(targets)) if decl[f"XP{k}"][0] == "E6POS"]
     assert written
     for k in written:
-        values = decl[f"XP{k}"][1]
-        assert (values["S"], values["T"]) == tuple(expected[k])
+        values = decl[f"XP{k}"][1]                  # the joint values' own (an axis at 0 by round-off: either sign)
+        assert mismatched_field(program.robot, targets[k], "kuka", (values["S"], values["T"])) is None
 
 
 @pytest.mark.parametrize("job", POSE_JOBS)

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.controllers import configurations, select_solution
+from pipeline.controllers import select_solution
+from pipeline.controllers.configuration import mismatched_field
 from pipeline.controllers.rapid import check_identifier, joint_move_time, via_target, write_rapid, written_configuration
 from pipeline.errors import OutputError
 from pipeline.jobs import load_job
@@ -82,7 +83,8 @@ def test_confdata_is_that_of_the_move_joint_values(written, name):
     for move in program.moves:
         key = f"p{move.end}"
         if key in targets:
-            assert targets[key][1] == tuple(configurations(program.robot, move.target, "abb"))
+            assert mismatched_field(program.robot, move.target, "abb", targets[key][1]) is None   # its own, or
+            # the other side of a quadrant boundary the axis sits on by round-off (configuration.mismatched_field)
 
 
 @pytest.mark.parametrize("name", DEMOS)

@@ -53,6 +53,8 @@ FIELDS = {
     YASKAWA: ("l", "m", "n", "o", "p", "q"),
     KUKA: ("S", "T"),
 }
+#: An axis this close to a configuration field's boundary [rad] is on it: either side describes it.
+BOUNDARY_RAD = 1e-9
 #: FANUC's letters for fields flip, up, front: (value 1, value 0).
 FANUC_LETTERS = (("F", "N"), ("U", "D"), ("T", "B"))
 
@@ -67,6 +69,23 @@ def configurations(robot, Q, vendor: str) -> np.ndarray:
     sides = arm_sides(robot, Q)
     rows = _COMPUTE[vendor](angles, sides.behind.astype(int), sides.elbow_down.astype(int))
     return rows[0] if single else rows
+
+
+def mismatched_field(robot, q, vendor: str, fields) -> int | None:
+    """The index of the first of ``fields`` (a vendor configuration's integers) that does not describe the
+    joint values q (6,) [rad]: neither q's own value nor, for an axis on the field's boundary to within
+    BOUNDARY_RAD (an axis at 0 or at a multiple of 90 deg by round-off, where both sides describe q and a
+    writer writes the side its rounded target selects), the other side's. None when every field does."""
+    q = np.asarray(q, dtype=float)
+    own, moved = configurations(robot, q, vendor), None
+    for f, (written, wanted) in enumerate(zip(fields, own)):
+        if int(written) == int(wanted):
+            continue
+        if moved is None:
+            moved = configurations(robot, q + BOUNDARY_RAD * np.vstack([np.eye(q.size), -np.eye(q.size)]), vendor)
+        if int(written) not in moved[:, f]:
+            return f
+    return None
 
 
 def _abb(angles, behind, down):

@@ -32,7 +32,8 @@ Programming Instructions for System Integrators; the chapter and section named a
 * E6POS ``{X, Y, Z, A, B, C, S, T, E1..E6}``: the TCP in the base frame, X, Y, Z [mm] rounded to 0.001
   mm, A, B, C [deg] rounded to 0.0001 deg in KUKA's convention R = Rz(A) Ry(B) Rx(C) (A about Z, then B
   about the new Y, then C about the newest X: "Orientation angles A, B, C"); S and T the KUKA Status and
-  Turn of the target's joint values (``pipeline.controllers.configuration``), written in decimal as the
+  Turn of the target's joint values (``pipeline.controllers.configuration``; an axis at 0 gets the sign
+  its written E6POS selects: ``written_status_turn``), written in decimal as the
   pendant writes them; E1..E6 = 0 (no external axes). E6AXIS ``{A1..A6, E1..E6}`` [deg] rounded to 0.0001
   deg: the controller's axis angles (``pipeline.controllers.axes``). KRL REAL is a 32-bit float (about 7
   significant digits), which holds these roundings for coordinates up to 9999.999 mm and angles up to
@@ -48,7 +49,7 @@ from ..poses import rotation_to_rpy, rpy_to_rotation
 from .axes import KUKA, axis_angles, axis_map
 from .configuration import configurations
 from .lint import KRL, lint, written_speed
-from .selection import select_solution
+from .selection import select_solution, written_configuration
 
 #: Axis speed [% of the axes' maximum] of the first motion (the BCO run to the start).
 BCO_PERCENT = 10
@@ -184,6 +185,17 @@ def _motion(move, point: str, aux: str | None, zone_m: float) -> list[str]:
     return zone + [f"{'LIN' if move.is_tool_move else 'PTP'} {point}{approx}"]
 
 
+def written_status_turn(program) -> np.ndarray:
+    """Status and Turn (K, 2) written with each waypoint: of its joint values, except an axis at 0 to within
+    round-off (Turn is its sign), which gets the sign the written E6POS selects (``selection.
+    written_configuration``), so that the file names the joint values its reader will find."""
+    robot, poses = program.robot, [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
+    own = configurations(robot, program.targets, KUKA)
+    return np.array([own[k] if program.waypoints[k].method is None else
+                     written_configuration(robot, written_pose(X), q, KUKA, SELECTED_TOL, "the E6POS")
+                     for k, (X, q) in enumerate(zip(poses, program.targets))])
+
+
 def _as_axes(program, k: int, X: np.ndarray, status_turn) -> bool:
     """Whether waypoint k is written as an E6AXIS: given as joint values, or a PTP target (the start or a
     joint move's end) whose written E6POS with its S and T does not name its joint values alone. LIN and
@@ -226,7 +238,7 @@ def write_krl(program, name: str) -> tuple[str, str]:
     speed out of range, a configuration that does not match its joint values). A planned joint move (a
     cell's collision-free detour) is a PTP to each planner vertex (E6AXIS), exact stops at the vertices and
     at both ends of the move: PTP is straight in joint space, the segments the planner checked."""
-    status_turn = configurations(program.robot, program.targets, KUKA)
+    status_turn = written_status_turn(program)
     comments = header(program, name)
     lint(program, KRL, name, comments, status_turn)
     angles = axis_angles(program.robot, program.targets, KUKA)

@@ -15,8 +15,8 @@ The rules, each with one table row per language (``LIMITS``, every limit with it
   the language's unit within the language's range and within the robot's TCP speed limit;
 * configuration consistent with the joint values: the configuration a writer writes for each target
   equals ``pipeline.controllers.configurations`` of its joint values (a target written as joint values,
-  which carries none, is passed as None), or, for an axis within round-off (BOUNDARY_RAD) of a field's
-  boundary, the value on its other side.
+  which carries none, is passed as None), or, for an axis within round-off of a field's boundary, the
+  value on its other side (``configuration.mismatched_field``).
 
 ``ControllerLintError`` lives in ``pipeline.errors`` (an OutputError: the program cannot be written).
 """
@@ -29,12 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ControllerLintError
-from .configuration import FIELDS, configurations
+from .configuration import FIELDS, configurations, mismatched_field
 
 #: A zone may exceed half a move by this much [m]: the floating-point rounding of the move's length.
 ZONE_SLACK = 1e-9
-#: An axis this close to a configuration field's boundary [rad] may be written on either side of it.
-BOUNDARY_RAD = 1e-9
 RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
 LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
 
@@ -247,15 +245,9 @@ def check_configurations(language: str, program, configs, vendor: str) -> None:
     for k, (written, wanted) in enumerate(zip(rows, expected)):
         if written is None:
             continue
-        for f, (field, w, e) in enumerate(zip(FIELDS[vendor], written, wanted)):
-            if int(w) != int(e) and int(w) not in _boundary_values(program.robot, program.targets[k], vendor, f):
-                raise ControllerLintError(language, k, field, int(w), f"the {vendor} configuration of the joint "
-                                                                      f"values there is {field} = {int(e)}")
-
-
-def _boundary_values(robot, q: np.ndarray, vendor: str, field: int) -> set[int]:
-    """The values configuration field ``field`` takes with one axis of q moved by +-BOUNDARY_RAD: on a
-    field's boundary (an axis at 0 or a multiple of 90 deg to within round-off) both sides describe q, and
-    a writer may write the one its rounded target selects (``rapid.written_configuration``)."""
-    moved = q + BOUNDARY_RAD * np.vstack([np.eye(q.size), -np.eye(q.size)])
-    return set(configurations(robot, moved, vendor)[:, field].tolist())
+        f = mismatched_field(program.robot, program.targets[k], vendor, written)
+        if f is not None:
+            field = FIELDS[vendor][f]
+            raise ControllerLintError(language, k, field, int(written[f]), f"the {vendor} configuration of the "
+                                                                           f"joint values there is {field} = "
+                                                                           f"{int(wanted[f])}")

@@ -48,15 +48,13 @@ import textwrap
 
 import numpy as np
 
-from ..errors import ConfigurationNotFoundError, OutputError
-from ..ik import solve_ik_batch
-from ..ik.result import limit_variants
+from ..errors import OutputError
 from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ..program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .axes import ABB, axis_angles, axis_map
-from .configuration import configurations, format_configuration
+from .configuration import format_configuration
 from .lint import RAPID, lint
-from .selection import select_solution
+from . import selection
 
 #: RAPID's reserved words (RAPID kernel manual, "Reserved words"): no identifier may be one of them.
 RESERVED_WORDS = frozenset(("ALIAS", "AND", "BACKWARD", "CASE", "CONNECT", "CONST", "DEFAULT", "DIV", "DO", "ELSE",
@@ -138,28 +136,12 @@ def written_pose(X: np.ndarray) -> np.ndarray:
 
 def written_configuration(robot, X: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The confdata (4,) written with the robtarget of pose X (4, 4) [m] reached with joint values q (6,)
-    [rad]: q's own, when the written pose (``written_pose``) selects a solution with it within
-    WRITTEN_JOINTS_RAD of q (``pipeline.controllers.selection``, as a reader of the module would). Else
-    (an axis on a quadrant boundary, a multiple of 90 deg, that the rounding moves across) that of the
-    written pose's in-limit solution (2 pi variants included) nearest q. OutputError when none is within
-    WRITTEN_JOINTS_RAD of q (a singular pose that the rounding moves off its branch)."""
-    X_written = written_pose(X)
-    own = configurations(robot, q, ABB)
-    try:
-        if np.abs(select_solution(robot, X_written, own, ABB) - q).max() <= WRITTEN_JOINTS_RAD:
-            return own
-    except ConfigurationNotFoundError:
-        pass
-    result = solve_ik_batch(robot, X_written[None], method="analytic")[0]
-    solutions = np.array([solution.q for solution in result.solutions]).reshape(-1, robot.dof)
-    shifted, valid = limit_variants(solutions, robot.revolute_mask, robot.limits.q_min, robot.limits.q_max)
-    candidates = shifted[valid]
-    gaps = np.abs(candidates - q).max(axis=1) if len(candidates) else np.array([np.inf])
-    if gaps.min() > WRITTEN_JOINTS_RAD:
-        raise OutputError(f"{robot.name}: the robtarget of joint values {np.round(np.degrees(q), 4).tolist()} deg, "
-                          f"rounded to {MM} decimals of mm and {QUATERNION} of the quaternion, has no solution "
-                          f"within {WRITTEN_JOINTS_RAD} rad of them (nearest {gaps.min():.3g} rad): a singular pose?")
-    return configurations(robot, candidates[int(np.argmin(gaps))], ABB)
+    [rad]: ``selection.written_configuration`` of the pose as the module rounds it (``written_pose``), within
+    WRITTEN_JOINTS_RAD of q (an axis on a quadrant boundary, a multiple of 90 deg, may be written on the side
+    its rounded robtarget selects)."""
+    return selection.written_configuration(robot, written_pose(X), q, ABB, WRITTEN_JOINTS_RAD,
+                                             f"the robtarget, rounded to {MM} decimals of mm and {QUATERNION} of "
+                                             "the quaternion,")
 
 
 def written_configurations(program: Program) -> list[np.ndarray | None]:

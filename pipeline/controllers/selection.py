@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigurationNotFoundError, VendorConfigurationError
+from ..errors import ConfigurationNotFoundError, OutputError, VendorConfigurationError
 from ..ik import solve_ik_batch
 from ..ik.result import check_targets, limit_variants
 from .axes import check_vendor
@@ -49,6 +49,30 @@ def select_solutions(robot, X_targets, configs, vendor: str) -> np.ndarray:
             raise _not_found(vendor, X[n], wanted[n], have[rows], found)
         out[n] = found[0]
     return out
+
+
+def written_configuration(robot, X_written: np.ndarray, q: np.ndarray, vendor: str, tolerance: float,
+                          what: str = "the target") -> np.ndarray:
+    """The vendor configuration (fields) to write with a target whose file holds the pose X_written (4, 4)
+    [m] (its pose as the file rounds it) and whose joint values are q (6,) [rad]: q's own when X_written with
+    it selects a solution within ``tolerance`` [rad] of q, as a reader of the file would; else (an axis on a
+    field's boundary, such as KUKA's sign of an axis at 0 or ABB's quadrant at a multiple of 90 deg, that
+    round-off or the file's rounding moves across) that of X_written's in-limit solution (2 pi variants
+    included) nearest q. OutputError naming ``what`` when none lies within ``tolerance`` of q (a singular
+    pose that the rounding moves off its branch)."""
+    own = configurations(robot, q, vendor)
+    try:
+        if np.abs(select_solution(robot, X_written, own, vendor) - q).max() <= tolerance:
+            return own
+    except ConfigurationNotFoundError:
+        pass
+    candidates, _ = _candidates(robot, np.asarray(X_written, dtype=float)[None])
+    gaps = np.abs(candidates - q).max(axis=1) if len(candidates) else np.array([np.inf])
+    if gaps.min() > tolerance:
+        raise OutputError(f"{robot.name}: {what} of joint values {np.round(np.degrees(q), 4).tolist()} deg has no "
+                          f"solution within {tolerance:g} rad of them (nearest {gaps.min():.3g} rad): a singular "
+                          "pose?")
+    return configurations(robot, candidates[int(np.argmin(gaps))], vendor)
 
 
 def _candidates(robot, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
