@@ -40,8 +40,8 @@ test-slow: $(STAMP)
 # CI runs it after `make test-slow`.
 test-kernels: $(STAMP)
 	OPENBLAS_CORETYPE=Prescott $(PY) -m pytest tests/test_runner.py -k golden
-	OPENBLAS_CORETYPE=Prescott $(PY) -m pytest -m "not slow" tests/test_timing.py tests/test_topp3.py \
-		tests/test_ruckig.py tests/test_profile.py
+	OPENBLAS_CORETYPE=Prescott $(PY) -m pytest -m "not slow" tests/timing/test_timing.py tests/timing/test_topp3.py \
+		tests/timing/test_ruckig.py tests/timing/test_profile.py
 
 # Benchmarks beside the peers (installs the optional `bench` extra: Robotics Toolbox, Pinocchio).
 bench: $(STAMP)

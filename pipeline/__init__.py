@@ -27,29 +27,32 @@ from .errors import (
     TimingError,
     UnknownFieldError,
 )
-from .poses import pose_to_quaternion_position, quaternion_position_to_pose, rpy_position_to_pose
-from .robot import Robot, load_robot, robot_with_tool
-from .robot_spec import RobotSpec, load_robot_spec, parse_robot_spec, preset_names
-from .singularity import compute_singularity
+from .files.poses import pose_to_quaternion_position, quaternion_position_to_pose, rpy_position_to_pose
+from .files.robot_spec import RobotSpec, load_robot_spec, parse_robot_spec, preset_names
+from .model.chain.singularity import compute_singularity
+from .model.robot import Robot, load_robot, robot_with_tool
 
 #: Public names loaded on first use: name -> the module (in this package) that defines it.
 _LAZY = {
     "retime": "timing",
-    "Profile": "profile", "certify": "profile", "jerk_reversal_rate": "profile",
-    "Job": "jobs", "load_job": "jobs", "parse_job": "jobs",
+    "Profile": "timing.profile", "certify": "timing.profile", "jerk_reversal_rate": "timing.profile",
+    "Job": "program.job", "load_job": "program.job", "parse_job": "program.job",
     "run_job": "runner", "run_job_file": "runner",
-    "Program": "program", "compile_job": "program", "time_program": "program", "lower_bound": "program",
-    "cycle_report": "program", "cycle_lines": "program",
-    "Tool": "tool",
-    "Cell": "cell", "cell_names": "cell", "load_cell": "cell", "parse_cell": "cell",
-    "CollisionModel": "collision",
-    "plan_joint_path": "planning",
-    "check_robot": "jacobian_check",
-    "build_drake_robot": "drake_model",
-    "standard_to_modified": "dh_convert",
-    "finite_difference_jacobian": "kinematics",
-    "arm_figure": "views", "motion_figure": "views", "profile_html": "views", "show_profile": "views",
-    "profile_figure": "plots", "tcp_figure": "plots",
+    "Program": "program.model", "compile_job": "program.compile", "time_program": "program.timing",
+    "lower_bound": "program.bound",
+    "cycle_report": "program.report", "cycle_lines": "program.report",
+    "Tool": "cell.tool",
+    "Cell": "cell.cell_file", "cell_names": "cell.cell_file", "load_cell": "cell.cell_file",
+    "parse_cell": "cell.cell_file",
+    "CollisionModel": "cell.collision",
+    "plan_joint_path": "cell.planning",
+    "check_robot": "model.jacobian_check",
+    "build_drake_robot": "model.chain.drake_model",
+    "standard_to_modified": "model.chain.dh_convert",
+    "finite_difference_jacobian": "model.chain.kinematics",
+    "arm_figure": "outputs.views", "motion_figure": "outputs.views", "profile_html": "outputs.views",
+    "show_profile": "outputs.views",
+    "profile_figure": "outputs.plots", "tcp_figure": "outputs.plots",
     "dask_client": "scale", "reachability_map": "scale", "run_batch": "scale",
     "slices_figure": "scale.figures",
 }

@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .choices import DEFAULT_MAX_DURATION_S
 from .errors import ConfigurationError, FileFormatError, OutputError, PipelineError
-from .io import prepare_file_target, staged_output, write_text_atomic
-from .robot import load_robot
-from .robot_spec import preset_names
-from .singularity import compute_singularity
+from .files.atomic import prepare_file_target, staged_output, write_text_atomic
+from .files.choices import DEFAULT_MAX_DURATION_S
+from .files.robot_spec import preset_names
+from .model.chain.singularity import compute_singularity
+from .model.robot import load_robot
 from .timing import DEFAULT_MAX_SAMPLES
 
 
@@ -52,7 +52,7 @@ def cmd_show(args) -> int:
 def cmd_fk(args) -> int:
     """Print the TCP pose at joint values (the robot file's angle unit unless --unit; prismatic joints in mm):
     position [mm], rpy [deg], quaternion [w x y z], our branch name and the maker's configuration text."""
-    from .poses import pose_to_quaternion_position, rotation_to_rpy
+    from .files.poses import pose_to_quaternion_position, rotation_to_rpy
     from .ui.branches import branch_names
 
     robot = load_robot(args.robot)
@@ -78,13 +78,13 @@ def cmd_fk(args) -> int:
 def cmd_ik(args) -> int:
     """Print every IK branch of a TCP pose (mm, deg; base frame): its name, the maker's configuration, joint
     values [deg], state, sigma_min and, in a cell, the closest pair. An unreachable pose is a result (exit 0)."""
-    from .poses import rpy_position_to_pose
+    from .files.poses import rpy_position_to_pose
     from .ui.branches import target_branches
 
     robot, scene, where = load_robot(args.robot), None, ""
     if args.cell:
-        from .cell import load_cell
-        from .collision import CollisionModel
+        from .cell.cell_file import load_cell
+        from .cell.collision import CollisionModel
 
         cell = load_cell(args.cell)
         robot_F = cell.load_robot()
@@ -106,7 +106,7 @@ def _joint_values(robot, texts: list[str], unit: str, what: str) -> np.ndarray:
     """Joint values typed on the command line (revolute joints in ``unit``, prismatic ones in mm) -> q [rad or
     m]; ConfigurationError for a wrong count, a non-number or a value outside the joint's limits (naming the
     joint, its limits and, for rad values only degrees would explain, the unit)."""
-    from .units import ANGLE_UNITS, LENGTH_UNITS
+    from .files.units import ANGLE_UNITS, LENGTH_UNITS
 
     names = robot.joint_names
     if len(texts) != robot.dof:
@@ -134,8 +134,8 @@ def _joint_values(robot, texts: list[str], unit: str, what: str) -> np.ndarray:
 def _with_tool(robot, tool: list[float] | None):
     """(the robot whose end frame is the TCP of ``--tool X Y Z R P Y`` [mm, deg] in the flange, words for the
     TCP); without --tool the flange (the robot file's end frame)."""
-    from .poses import check_pose, rpy_position_to_pose
-    from .robot import robot_with_tool
+    from .files.poses import check_pose, rpy_position_to_pose
+    from .model.robot import robot_with_tool
 
     if tool is None:
         return robot, "the flange (no --tool)"
@@ -151,7 +151,7 @@ def _numbers(values, decimals: int = 3) -> str:
 def cmd_check(args) -> int:
     """Jacobian check (analytic vs Drake vs finite differences); non-zero exit above tolerance. With
     ``--out`` the JSON reports of the whole run replace that folder together."""
-    from .jacobian_check import check_robot
+    from .model.jacobian_check import check_robot
 
     passed = True
     with staged_output(args.out) if args.out else nullcontext() as staging:
@@ -195,8 +195,8 @@ def cmd_import_urdf(args) -> int:
 def cmd_check_cell(args) -> int:
     """Print a cell, its collision model, the robot's clearance at its home pose (q = 0) and the pair in
     collision there, if any; exit 1 when q = 0 collides or comes closer than the clearance."""
-    from .cell import load_cell
-    from .collision import CollisionModel
+    from .cell.cell_file import load_cell
+    from .cell.collision import CollisionModel
 
     cell = load_cell(args.cell)
     robot = cell.load_robot()
@@ -240,7 +240,7 @@ def cmd_program(args) -> int:
     """Compile and time a job, then write its program in a controller's language (``runner.program_texts``):
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
-    from .jobs import load_job
+    from .program.job import load_job
     from .runner import LANGUAGE_TITLES, SERVO_PERIOD_S, program_name, program_texts, timed_program
 
     if args.servo_period is not None and args.lang != "urscript":
@@ -283,11 +283,11 @@ READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".s
 
 
 def cmd_read_program(args) -> int:
-    """Read a controller program back into a job document (``pipeline.controllers.read_*``), check it as a
+    """Read a controller program back into a job document (``pipeline.model.vendors.read_*``), check it as a
     job, and write it as YAML to --out (atomically) or print it."""
     import yaml
 
-    from .jobs import parse_job
+    from .program.job import parse_job
     from .runner import LANGUAGE_TITLES
 
     path = Path(args.file)
@@ -320,7 +320,7 @@ def _robot_reference(robot: str, out: Path | None) -> str:
 
 
 def _program_error(path: Path, problem: str, field: str = "file", line: int | None = None) -> FileFormatError:
-    from .controllers.read_ls import ControllerProgramError
+    from .outputs.controllers.read_ls import ControllerProgramError
 
     return ControllerProgramError(str(path), field, problem, line=line)
 
@@ -335,11 +335,11 @@ def _read_text(path: Path) -> str:
 
 def _read_program(language: str, path: Path, robot: str) -> dict:
     """The job document of the program at ``path`` in ``language``; every reader error names ``path``."""
-    from .controllers.read_jbi import read_jbi
-    from .controllers.read_krl import read_krl
-    from .controllers.read_ls import read_ls
-    from .controllers.read_rapid import read_rapid
-    from .controllers.read_urscript import read_urscript
+    from .outputs.controllers.read_jbi import read_jbi
+    from .outputs.controllers.read_krl import read_krl
+    from .outputs.controllers.read_ls import read_ls
+    from .outputs.controllers.read_rapid import read_rapid
+    from .outputs.controllers.read_urscript import read_urscript
 
     text = _read_text(path)
     dat = _dat_file(path) if language == "krl" else None
@@ -424,7 +424,7 @@ def cmd_ui(args) -> int:
 
 def _robot_or_cell(name_or_path: str):
     """A demo cell's name -> its file; anything else (a preset, a robot or cell file) as given."""
-    from .cell import cell_names, resolve_cell_path
+    from .cell.cell_file import cell_names, resolve_cell_path
 
     return resolve_cell_path(name_or_path) if name_or_path in cell_names() else name_or_path
 
@@ -575,7 +575,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
-    from .cell import cell_names
+    from .cell.cell_file import cell_names
 
     parser = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter,
                      description=_DESCRIPTION.format(presets=", ".join(preset_names()), cells=", ".join(cell_names())),

@@ -19,18 +19,21 @@ import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from .controller_formats import write_json_trajectory, write_ros2_yaml
-from .cell_motion import ClearanceError
-from .choices import DEFAULT_MAX_DURATION_S
+from .cell.clear_motion import ClearanceError
 from .errors import CollisionError, ConfigurationError, OutputError, PipelineError, PlanningError, TimingError
-from .io import staged_output, write_json, write_profile_csv, write_profile_npz
-from .jobs import Job, load_job
-from .profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
-from .program import LowerBound, Program, compile_job, cycle_lines, cycle_report, lower_bound, time_program
-from .program.bound import check_duration
-from .program.model import program_arrays
+from .files.atomic import staged_output
+from .files.choices import DEFAULT_MAX_DURATION_S
+from .outputs.formats import write_json, write_profile_csv, write_profile_npz
+from .outputs.ros2 import write_json_trajectory, write_ros2_yaml
+from .outputs.versions import installed_version
+from .program.bound import LowerBound, check_duration, lower_bound
+from .program.compile import compile_job
+from .program.job import Job, load_job
+from .program.model import Program, program_arrays
+from .program.report import cycle_lines, cycle_report
+from .program.timing import time_program
 from .timing import DEFAULT_MAX_SAMPLES
-from .versions import installed_version
+from .timing.profile import QUANTITIES, LimitReport, Profile, certify, limits_summary
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +41,7 @@ log = logging.getLogger(__name__)
 FILE_NAMES = {"csv": "profile.csv", "npz": "profile.npz", "json": "report.json", "png": "profile.png",
               "html": "view.html", "arm_png": "arm.png", "ros2_yaml": "trajectory.ros2.yaml",
               "json_trajectory": "trajectory.json", "tcp_png": "tcp.png"}
-#: Controller program output kind (``pipeline.controllers.lint.LANGUAGES``) -> the files it writes in the
+#: Controller program output kind (``pipeline.outputs.controllers.lint.LANGUAGES``) -> the files it writes in the
 #: output directory (KRL: the .src with its motions and the .dat with its targets).
 PROGRAM_FILES = {"rapid": ("program.mod",), "ls": ("program.ls",), "jbi": ("program.jbi",),
                  "krl": ("program.src", "program.dat"), "urscript": ("program.script",)}
@@ -188,10 +191,10 @@ def reported_program(job: Job, max_samples: int = DEFAULT_MAX_SAMPLES,
 def program_name(language: str, job_name: str) -> str:
     """A valid program name in ``language`` made from ``job_name``: characters other than letters, digits
     and _ become _, FANUC and Yaskawa names upper case, ``P_`` before a name that does not start with a
-    letter or is a reserved word, cut to the language's length (``pipeline.controllers.lint.LIMITS``)."""
-    from .controllers.lint import language_limits
-    from .controllers.rapid import RESERVED_WORDS
-    from .controllers.urscript import RESERVED
+    letter or is a reserved word, cut to the language's length (``pipeline.outputs.controllers.lint.LIMITS``)."""
+    from .outputs.controllers.lint import language_limits
+    from .outputs.controllers.rapid import RESERVED_WORDS
+    from .outputs.controllers.urscript import RESERVED
 
     limits = language_limits(language)
     name = re.sub(r"[^A-Za-z0-9_]+", "_", job_name).strip("_")
@@ -230,11 +233,11 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
 
 def _program_texts(language: str, program: Program, profile: Profile, name: str,
                    servo_period: float) -> dict[str, str]:
-    from .controllers.fanuc_ls import write_ls
-    from .controllers.krl import write_krl
-    from .controllers.rapid import write_rapid
-    from .controllers.urscript import write_urscript
-    from .controllers.yaskawa_jbi import write_jbi
+    from .outputs.controllers.fanuc_ls import write_ls
+    from .outputs.controllers.krl import write_krl
+    from .outputs.controllers.rapid import write_rapid
+    from .outputs.controllers.urscript import write_urscript
+    from .outputs.controllers.yaskawa_jbi import write_jbi
 
     if language == "krl":
         return dict(zip((".src", ".dat"), write_krl(program, name)))
@@ -255,7 +258,7 @@ def collision_model(job: Job):
     for a job without a cell."""
     if job.cell is None:
         return None
-    from .collision import CollisionModel   # Drake's checker only for jobs in a cell
+    from .cell.collision import CollisionModel   # Drake's checker only for jobs in a cell
 
     return CollisionModel(job.cell.load_robot(), job.cell)
 
@@ -274,7 +277,7 @@ def _compiled_and_timed(job: Job, scene, max_samples: int,
 
 def _staged(job: Job, stage):
     """``stage()``, its errors named as ``_compiled_and_timed`` says."""
-    from .tool_moves import ToolMoveError
+    from .program.tool_moves import ToolMoveError
 
     try:
         return stage()
@@ -317,25 +320,25 @@ def _writers(job: Job, profile: Profile, report: dict, program: Program) -> dict
 
 
 def _plot(path: Path, job: Job, profile: Profile, revolute: list[bool]) -> None:
-    from .plots import plot_profile   # matplotlib only when a plot is asked for
+    from .outputs.plots import plot_profile   # matplotlib only when a plot is asked for
 
     plot_profile(path, profile, revolute, _title(job, profile))
 
 
 def _plot_tcp(path: Path, job: Job, profile: Profile) -> None:
-    from .plots import plot_tcp
+    from .outputs.plots import plot_tcp
 
     plot_tcp(path, profile, _title(job, profile))
 
 
 def _view_html(path: Path, job: Job, profile: Profile, tool) -> None:
-    from .views import profile_html   # Drake's Meshcat only when a view is asked for
+    from .outputs.views import profile_html   # Drake's Meshcat only when a view is asked for
 
     Path(path).write_text(profile_html(job.robot, profile, cell=job.cell, tool=tool), encoding="utf-8")
 
 
 def _plot_arm(path: Path, job: Job, profile: Profile, tool) -> None:
-    from .views import plot_arm_motion
+    from .outputs.views import plot_arm_motion
 
     plot_arm_motion(path, job.robot, profile, _title(job, profile), job.cell, tool)
 

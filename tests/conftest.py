@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.robot import load_robot
-from pipeline.robot_spec import preset_names
+from pipeline.files.robot_spec import preset_names
+from pipeline.model.robot import load_robot
 
 DATA_DIR = Path(__file__).parent / "data"
 PRESETS = preset_names()
@@ -38,7 +38,7 @@ def robot(request):
 @pytest.fixture(scope="session")
 def drake_robots():
     """Drake models built once per session, by preset name."""
-    from pipeline.drake_model import build_drake_robot
+    from pipeline.model.chain.drake_model import build_drake_robot
 
     return {name: build_drake_robot(load_robot(name).spec) for name in PRESETS}
 

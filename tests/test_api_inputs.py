@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from pipeline import compute_singularity, load_robot
-from pipeline.dh_convert import standard_to_modified
 from pipeline.errors import ConfigurationError
-from pipeline.jacobian_check import check_robot
-from pipeline.poses import check_pose, quaternion_position_to_pose
+from pipeline.files.poses import check_pose, quaternion_position_to_pose
+from pipeline.model.chain.dh_convert import standard_to_modified
+from pipeline.model.jacobian_check import check_robot
 
 ROBOT = load_robot("gp7")
 NOT_POSES = {"text": "pose", "dict": {"xyz": [0, 0, 0]}, "ragged": [[1, 0, 0, 0], [0, 1, 0]], "none": None,

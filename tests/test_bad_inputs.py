@@ -11,7 +11,7 @@ import yaml
 
 from pipeline.__main__ import main
 
-from .test_schema import TWO_LINK
+from .files.test_schema import TWO_LINK
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -14,7 +14,7 @@ import pipeline.__main__
 import pipeline.runner
 from pipeline.__main__ import build_parser, main
 from pipeline.errors import TimingError
-from pipeline.io import OWNER_MARKER
+from pipeline.files.atomic import OWNER_MARKER
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -144,7 +144,7 @@ def test_the_console_script_is_main_under_its_own_name(capsys):
 
 
 def test_demo_cells_resolve_by_name_and_an_unknown_name_lists_them(capsys):
-    from pipeline.cell import cell_names, load_cell, resolve_cell_path
+    from pipeline.cell.cell_file import cell_names, load_cell, resolve_cell_path
 
     names = sorted(path.stem for path in (ROOT / "models" / "cells").glob("*.yaml"))
     assert cell_names() == names and {"gp7_shelf_cell", "gp7_wall_cell", "irb1600_bookshelf"} <= set(names)
@@ -157,7 +157,7 @@ def test_demo_cells_resolve_by_name_and_an_unknown_name_lists_them(capsys):
 
 def test_a_job_names_a_demo_cell_from_any_directory(tmp_path, monkeypatch):
     from pipeline.errors import JobFileError
-    from pipeline.jobs import parse_job
+    from pipeline.program.job import parse_job
 
     monkeypatch.chdir(tmp_path)
     doc = {"cell": "gp7_wall_cell", "angle_unit": "deg", "waypoints": [[0, 0, 0, 0, -90, 0], [10, 0, 0, 0, -90, 0]]}

@@ -11,11 +11,11 @@ import pytest
 import yaml
 
 from pipeline.__main__ import main
-from pipeline.controllers import configurations, format_configuration
-from pipeline.ik.branches import configuration_labels
-from pipeline.poses import pose_to_quaternion_position, rotation_to_rpy, rpy_position_to_pose
-from pipeline.robot import load_robot, robot_with_tool
-from pipeline.robot_spec import load_robot_spec
+from pipeline.files.poses import pose_to_quaternion_position, rotation_to_rpy, rpy_position_to_pose
+from pipeline.files.robot_spec import load_robot_spec
+from pipeline.model.ik.branches import configuration_labels
+from pipeline.model.robot import load_robot, robot_with_tool
+from pipeline.model.vendors import configurations, format_configuration
 
 Q_DEG = [10.0, 30.0, -20.0, 15.0, -40.0, 25.0]
 TOOL = ["--tool", "0", "0", "120", "0", "0", "0"]

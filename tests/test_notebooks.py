@@ -24,7 +24,8 @@ import pytest
 
 import pipeline
 from pipeline import load_robot
-from tests.test_seed_papers import SEED000_FIGURE15
+
+from .model.test_seed_papers import SEED000_FIGURE15
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOK_DIR = ROOT / "notebooks"

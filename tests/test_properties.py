@@ -22,14 +22,14 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from pipeline import load_robot
-from pipeline.choices import PATH_SHAPES, TIMING_METHODS
 from pipeline.errors import FileFormatError, PipelineError
-from pipeline.jobs import load_job
-from pipeline.poses import check_pose, pose_to_quaternion_position, quaternion_position_to_pose
-from pipeline.robot_spec import load_robot_spec
+from pipeline.files.choices import PATH_SHAPES, TIMING_METHODS
+from pipeline.files.poses import check_pose, pose_to_quaternion_position, quaternion_position_to_pose
+from pipeline.files.robot_spec import load_robot_spec
+from pipeline.files.schema import load_document
+from pipeline.model.chain.singularity import compute_singularity
+from pipeline.program.job import load_job
 from pipeline.runner import run_job
-from pipeline.schema import load_document
-from pipeline.singularity import compute_singularity
 
 #: The longest any single call may take [s].
 CALL_LIMIT_S = 5.0

@@ -11,12 +11,13 @@ import numpy as np
 import pytest
 import yaml
 
-import pipeline.plots
+import pipeline.outputs.plots
 from pipeline.__main__ import main
 from pipeline.errors import JobFileError
-from pipeline.io import OWNER_MARKER, profile_columns
-from pipeline.jobs import load_job, parse_job
-from pipeline.program import solve_waypoints
+from pipeline.files.atomic import OWNER_MARKER
+from pipeline.outputs.formats import profile_columns
+from pipeline.program.compile import solve_waypoints
+from pipeline.program.job import load_job, parse_job
 from pipeline.runner import FILE_NAMES, run_job, run_job_file
 from pipeline.timing.topp3_backend import SOLVER_GAP
 
@@ -223,7 +224,7 @@ def test_a_failing_plot_leaves_no_output_behind(tmp_path, monkeypatch):
     def broken_plot(*args, **kwargs):
         raise RuntimeError("plot failed")
 
-    monkeypatch.setattr(pipeline.plots, "plot_profile", broken_plot)
+    monkeypatch.setattr(pipeline.outputs.plots, "plot_profile", broken_plot)
     job = parse_job({"robot": "arm5", "angle_unit": "deg", "waypoints": [[0, 0, 0, 0, 0], [10, 20, 30, 40, 50]]})
     with pytest.raises(RuntimeError, match="plot failed"):
         run_job(job, tmp_path / "out" / "job")

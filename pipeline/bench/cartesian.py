@@ -63,10 +63,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigurationError, TimingError
+from ..model.robot import Robot, load_robot
+from ..outputs.versions import version_table
 from ..progress import Progress
 from .goals import Goal, GoalReport, fmt, goal_lines
-from ..robot import Robot, load_robot
-from ..versions import version_table
 
 ROBOTS = ("gp7", "irb1600")
 MOVE_LENGTH_M = 0.5
@@ -306,10 +306,10 @@ class Move:
 # -- ours -------------------------------------------------------------------------------------------
 def run_ours(robot: Robot, X0: np.ndarray, X1: np.ndarray, q0: np.ndarray):
     """Our pipeline on one move: (along, profile, IK seconds, timing seconds). Raises what it raises."""
-    from ..tcp import TcpMotion
+    from ..timing.tcp import TcpMotion
     from ..timing import retime
-    from ..tool_moves import joint_path_along
-    from ..tool_path import ToolMove, ToolPath
+    from ..program.tool_moves import joint_path_along
+    from ..program.tool_path import ToolMove, ToolPath
 
     clock = time.perf_counter
     start = clock()
@@ -322,7 +322,7 @@ def run_ours(robot: Robot, X0: np.ndarray, X1: np.ndarray, q0: np.ndarray):
 
 def draw_moves(robot: Robot, count: int, rng: np.random.Generator) -> tuple[list[Move], dict[str, int]]:
     """``count`` moves our pipeline can run (untimed trial runs), and the rejected draws by reason."""
-    from ..tool_moves import ToolMoveError
+    from ..program.tool_moves import ToolMoveError
 
     moves, reasons = [], {}
     with Progress(count, f"bench cartesian {robot.name}: drawing moves") as tick:

@@ -27,7 +27,7 @@ otherwise the whole program is drawn again, at most MAX_DRAWS times per program.
 
 Beside them, the demo cell jobs (DEMO_JOBS, in the cells measured).
 
-Two contestants on every program, both certified by our judge (``pipeline.profile.certify``: the joint
+Two contestants on every program, both certified by our judge (``pipeline.timing.profile.certify``: the joint
 limits on every sample, the columns against each other, the clearance over the whole motion):
 
 * ours: ``compile_job`` then ``time_program`` (zones at the junctions, planned moves without interior
@@ -65,19 +65,21 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cell.planning import path_vertices, seeded
 from ..errors import ConfigurationError, PipelineError
-from ..jobs import load_job, parse_job
-from ..planning import path_vertices, seeded
-from ..poses import rotation_to_rpy, rpy_to_rotation
-from ..profile import Profile, certify, scale_limits
-from ..program import compile_job, lower_bound, time_program
+from ..files.poses import rotation_to_rpy, rpy_to_rotation
+from ..files.robot_spec import Limits
+from ..outputs.versions import version_table
+from ..program.bound import lower_bound
+from ..program.compile import compile_job
+from ..program.timing import time_program
+from ..program.job import load_job, parse_job
 from ..progress import Progress
-from ..robot_spec import Limits
 from ..runner import collision_model
-from ..schedule import LimitSchedule
-from ..tcp import TcpMotion
+from ..timing.profile import Profile, certify, scale_limits
+from ..timing.schedule import LimitSchedule
+from ..timing.tcp import TcpMotion
 from ..timing.toppra_backend import sample_times
-from ..versions import version_table
 from .goals import Goal, GoalReport, fmt, goal_lines
 from .plan import peer_setup
 

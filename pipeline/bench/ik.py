@@ -63,14 +63,14 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigurationError
-from ..poses import make_pose, rpy_to_rotation
+from ..files.branch_names import SPHERICAL_WRIST, THREE_PARALLEL
+from ..files.poses import make_pose, rpy_to_rotation
+from ..model.ik import METHODS as IK_METHODS
+from ..model.ik.analytic import analytic_solver_for
+from ..model.ik.result import TWO_PI, is_strict, make_target, pose_errors, within_limits, wrap_into_limits
+from ..model.robot import Robot, load_robot
+from ..outputs.versions import version_table
 from ..progress import Progress
-from ..ik import METHODS as IK_METHODS
-from ..configurations import SPHERICAL_WRIST, THREE_PARALLEL
-from ..ik.analytic import analytic_solver_for
-from ..ik.result import TWO_PI, is_strict, make_target, pose_errors, within_limits, wrap_into_limits
-from ..versions import version_table
-from ..robot import Robot, load_robot
 from .goals import Goal, GoalReport, goal_lines
 
 METHODS = ("analytic", "jacobian", "drake")
@@ -235,7 +235,7 @@ class Solver:
 
 def ours_solver(robot: Robot, method: str) -> Solve:
     """Our ``solve_ik`` through the dispatcher, full pose targets."""
-    from ..ik import solve_ik, with_drake_model
+    from ..model.ik import solve_ik, with_drake_model
 
     options = with_drake_model(robot, method, {})          # one Drake model, built outside the timing
 
@@ -295,7 +295,7 @@ def drake_raw_solver(robot: Robot) -> Solve:
     from pydrake.multibody.inverse_kinematics import InverseKinematics
     from pydrake.solvers import IpoptSolver, SnoptSolver
 
-    from ..drake_model import build_drake_robot
+    from ..model.chain.drake_model import build_drake_robot
 
     drake = build_drake_robot(robot.spec)
     plant, B, E = drake.plant, drake.base_frame, drake.end_frame
@@ -740,7 +740,7 @@ def run_ik_benchmark(robots=ROBOTS, targets: int = 1000, seed: int = 0, methods=
 
     ``robots``: preset names or robot files; ``targets``: per robot; ``seed``: of the targets and
     seeds (each robot draws from its own generator seeded with it); ``methods``: ours, through
-    ``pipeline.ik.solve_ik`` (one that raises NotImplementedError or ImportError is reported unavailable).
+    ``pipeline.model.ik.solve_ik`` (one that raises NotImplementedError or ImportError is reported unavailable).
     """
     if targets < 1:
         raise ConfigurationError(f"targets must be >= 1, got {targets}")

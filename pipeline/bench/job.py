@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigurationError
-from ..versions import version_table
+from ..outputs.versions import version_table
 from .goals import Goal, GoalReport, goal_lines
 
 JOBS_DIR = Path(__file__).resolve().parents[2] / "trajectories" / "jobs"
@@ -41,7 +41,7 @@ COMPUTED_GOAL_S = 1.0
 _ONE_RUN = """
 import dataclasses, json, sys, tempfile, time
 from pathlib import Path
-from pipeline.jobs import load_job
+from pipeline.program.job import load_job
 from pipeline.runner import run_job
 job = load_job(Path(sys.argv[1]))
 if sys.argv[2] == "data":

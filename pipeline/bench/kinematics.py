@@ -37,16 +37,16 @@ from typing import Callable
 
 import numpy as np
 
-from ..drake_model import (
+from ..errors import ConfigurationError
+from ..model.chain.drake_model import (
     END_FRAME,
     PLACEHOLDER_MASS_KG,
     PLACEHOLDER_RADIUS_M,
     build_drake_robot,
     joint_split,
 )
-from ..errors import ConfigurationError
-from ..versions import version_table
-from ..robot import Robot, load_robot
+from ..model.robot import Robot, load_robot
+from ..outputs.versions import version_table
 from .goals import Goal, GoalReport, goal_lines
 
 OURS = "ours"
@@ -382,7 +382,7 @@ def step(name, call):
     return value
 
 
-load_robot = step("import", lambda: __import__("pipeline.robot", fromlist=["load_robot"]).load_robot)
+load_robot = step("import", lambda: __import__("pipeline.model.robot", fromlist=["load_robot"]).load_robot)
 robot = step("load", lambda: load_robot(sys.argv[1]))
 import numpy as np
 q, q_seed = robot.random_configurations(np.random.default_rng(0), 2)

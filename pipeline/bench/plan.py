@@ -19,7 +19,7 @@ alike), each once on a pair that needs a search before the timing (imports, cach
 
 * ours: ``plan_joint_path(model, q_a, q_b, time_budget=2.0)`` (the straight edge when it keeps the
   planner's margins, else a detour, a route through the cell's roadmap or OMPL RRTConnect: see
-  ``pipeline.planning``): the whole call, and its own search and shortcut times;
+  ``pipeline.cell.planning``): the whole call, and its own search and shortcut times;
 * the peer, what a user writes by hand: OMPL's ``SimpleSetup`` over the same joint box, the state
   validity checker a Python callback on the same Drake checker (``CheckConfigCollisionFree``, the same
   clearance padding), OMPL's default discrete motion validator stepping PEER_STEP_RAD (the validity
@@ -86,27 +86,27 @@ the re-check; over all sets, no program planning other vertices than the timed c
 
 from __future__ import annotations
 
-import importlib.resources
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from ..cell import load_cell
-from ..cell_motion import time_clear
-from ..choices import PLAN_TIME_BUDGET_S
-from ..collision import EDGE_STEP_RAD, SELF_CLEARANCE_M, CollisionModel
+from ..cell.clear_motion import time_clear
+from ..cell.collision import EDGE_STEP_RAD, SELF_CLEARANCE_M, CollisionModel
+from ..cell.planning import joint_space, path_length, path_vertices, plan_joint_path, polyline_time
 from ..errors import ConfigurationError, PipelineError
-from ..jobs import parse_job
-from ..planning import joint_space, path_length, path_vertices, plan_joint_path, polyline_time
-from ..poses import rotation_to_rpy
-from ..profile import Profile, certify
-from ..program import compile_job, time_program
+from ..files.choices import PLAN_TIME_BUDGET_S
+from ..files.poses import rotation_to_rpy
+from ..outputs.versions import version_table
+from ..program.compile import compile_job
+from ..program.timing import time_program
+from ..program.job import parse_job
 from ..progress import Progress
 from ..timing import retime, time_path
-from ..versions import version_table
+from ..timing.profile import Profile, certify
 from .goals import Goal, GoalReport, fmt, goal_lines
+from . import plan_sets
+from .plan_sets import SET_NAMES, cell_model, set_model
 
 CELLS = ("gp7_wall_cell", "gp7_shelf_cell")
 #: Each contestant's planning time budget [s]; the budget of the feasibility run when both failed [s].
@@ -131,11 +131,6 @@ CUBBY_SET = "cubbies"
 CUBBY_MEDIAN_MS, CUBBY_MAX_MS, CUBBY_TCP_GOAL, CUBBY_TIME_GOAL = 50.0, 500.0, 2.2, 2.0
 #: The other sets' goals: solved within SOLVE_TIME_S [s] (fraction), plan time median [ms].
 SOLVE_TIME_S, SOLVED_GOAL, SET_MEDIAN_MS = 1.0, 0.99, 50.0
-
-
-def cell_file(name: str) -> Path:
-    """A demo cell installed with the package (the checkout's models/cells/)."""
-    return Path(str(importlib.resources.files("pipeline.models") / "cells" / f"{name}.yaml"))
 
 
 # -- the independent check --------------------------------------------------------------------------
@@ -383,11 +378,6 @@ def cell_report(name: str, records: list[PairRecord]) -> CellReport:
                       [r.index for r in records if not r.feasible], planner_figures(records, "ours"),
                       planner_figures(records, "peer"), _ratio(records, ("direct", "search")),
                       _ratio(records, ("search",)), records)
-
-
-def cell_model(name: str) -> CollisionModel:
-    cell = load_cell(cell_file(name))
-    return CollisionModel(cell.load_robot(), cell)
 
 
 def measure_cell(name: str, pairs: int, seed: int, budget: float) -> tuple[CellReport, CollisionModel]:
@@ -687,10 +677,9 @@ def set_report(name: str, cell: str, records: list[QueryRecord]) -> SetReport:
 def measure_set(name: str, count: int, seed: int, budget: float = PLAN_TIME_BUDGET_S) -> SetReport:
     """A problem set (``plan_sets.problem_set``), a warm-up of both contestants and the program on its
     first query (imports, caches, compilation), then every query measured."""
-    from .plan_sets import problem_set, set_model
 
     model = set_model(name)
-    problems = problem_set(name, model, count=count, seed=seed)
+    problems = plan_sets.problem_set(name, model, count=count, seed=seed)
     ours_on_query(model, problems, problems.queries[0], budget)
     peer_on_query(model, problems, problems.queries[0], budget)
     records = []
@@ -843,7 +832,6 @@ def set_goals(s: SetReport) -> list[Goal]:
 def set_names(sets: tuple[str, ...] | None) -> tuple[str, ...]:
     """The problem sets asked for (None: every one of ``plan_sets.SET_NAMES``); ConfigurationError naming
     an unknown one and the known."""
-    from .plan_sets import SET_NAMES
 
     if sets is None:
         return SET_NAMES

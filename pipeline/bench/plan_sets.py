@@ -30,18 +30,21 @@ length of an ``irb1600_`` cell but the gripper's is 1.3 times its ``gp7_`` twin'
 
 from __future__ import annotations
 
+import importlib.resources
 import itertools
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..collision import SELF_CLEARANCE_M
-from ..configurations import matches
+from ..cell.cell_file import load_cell
+from ..cell.collision import SELF_CLEARANCE_M, CollisionModel
+from ..cell.tool import rigid_inverse
 from ..errors import ConfigurationError, PipelineError
-from ..poses import make_pose
-from ..tool import rigid_inverse
+from ..files.branch_names import matches
+from ..files.poses import make_pose
 
 #: The arm configuration every target is taken on (the references'; the wrist may flip or not).
 ARM_CONFIGURATION = {"shoulder": "front", "elbow": "up"}
@@ -158,10 +161,19 @@ def set_cell(name: str) -> str:
     return name
 
 
-def set_model(name: str):
-    """The CollisionModel of the set's cell (its robot preset, obstacles, tool shapes and clearance)."""
-    from .plan import cell_model                     # plan imports this module
+def cell_file(name: str) -> Path:
+    """A demo cell installed with the package (the checkout's models/cells/)."""
+    return Path(str(importlib.resources.files("pipeline.models") / "cells" / f"{name}.yaml"))
 
+
+def cell_model(name: str) -> CollisionModel:
+    """The CollisionModel of a demo cell (its robot preset, obstacles, tool shapes and clearance)."""
+    cell = load_cell(cell_file(name))
+    return CollisionModel(cell.load_robot(), cell)
+
+
+def set_model(name: str) -> CollisionModel:
+    """The CollisionModel of the set's cell."""
     return cell_model(set_cell(name))
 
 

@@ -33,7 +33,7 @@ workers' start-up; with chunks of CHUNK_POSES a 1,000,000-pose map has about 50 
 
 The UR family beside it (issue 25): the in-process map of about ``measure_poses`` poses of a UR arm
 (``ur_robot``, default the UR5 of tests/data where the checkout has it: the compiled closed form of
-``pipeline.ik.three_parallel``), timed right after the robot's own, its rate against the robot's.
+``pipeline.model.ik.three_parallel``), timed right after the robot's own, its rate against the robot's.
 
 Goals: speed-up with 2 workers >= ``SPEEDUP_GOAL`` = 1.7; the maps identical whatever ran them; the UR
 arm's in-process rate >= ``UR_RATE_GOAL`` = 0.25x the robot's (the IRB 1600's by default).
@@ -47,12 +47,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..robot import load_robot
-from .ik import UR5_FILE
+from ..model.robot import load_robot
+from ..outputs.versions import version_table
 from ..scale.cluster import local_client, map_chunks
 from ..scale.reach import CHUNK_POSES, map_problem, plan_map, reachability_map
-from ..versions import version_table
 from .goals import Goal, GoalReport, goal_lines
+from .ik import UR5_FILE
 
 ROBOT = "irb1600"
 ORIENTATIONS = 16

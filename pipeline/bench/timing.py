@@ -72,17 +72,17 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigurationError
+from ..files.robot_spec import Limits
+from ..model.robot import Robot, load_robot
+from ..outputs.versions import version_table
 from ..progress import Progress
-from .goals import Goal, GoalReport, fmt, goal_lines
-from ..path import JointPath, PathError, make_path
-from ..profile import CERTIFY_TOLERANCE, jerk_reversal_rate
-from ..versions import version_table
-from ..robot import Robot, load_robot
-from ..robot_spec import Limits
 from ..timing import retime
 from ..timing import toppra_backend
-from ..timing.toppra_backend import GRIDPOINTS, toppra_instance
+from ..timing.joint_path import JointPath, PathError, make_path
+from ..timing.profile import CERTIFY_TOLERANCE, jerk_reversal_rate
 from ..timing.topp3_backend import MAX_STATIONS, MIN_STATIONS
+from ..timing.toppra_backend import GRIDPOINTS, toppra_instance
+from .goals import Goal, GoalReport, fmt, goal_lines
 
 ROBOTS = ("gp7", "lrmate200id", "irb1600", "arm6")
 WAYPOINTS = 10
@@ -539,7 +539,7 @@ def _row(name: str, runs: list[MethodRun], toppra_runs: list[MethodRun] | None =
 def benchmark_robot(robot: Robot, paths: int, seed: int, methods: tuple[str, ...] = METHOD_KEYS) -> TimingRobotReport:
     """The chosen ``methods`` (METHOD_KEYS) and the reference on ``paths`` seeded random paths of one
     robot, interleaved."""
-    from ..drake_model import build_drake_robot
+    from ..model.chain.drake_model import build_drake_robot
 
     limits = robot.limits
     if limits.qdd_max is None:

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from ..errors import ConfigurationError
-from ..versions import version_table
+from ..outputs.versions import version_table
 from .goals import Goal, GoalReport, goal_lines
 
 CELL = "gp7_shelf_cell"

@@ -1,11 +1,4 @@
-"""Motion programs: a job compiled into typed moves (``compile_job``), timed and certified once
-(``time_program``), with its lower bound (``lower_bound``) and cycle-time report (``cycle_report``)."""
-
-from .bound import LowerBound, lower_bound
-from .compile import compile_job, solve_waypoints
-from .model import Move, Program, ToolTrack, WaypointSolution
-from .report import cycle_lines, cycle_report
-from .timing import time_program
-
-__all__ = ["LowerBound", "Move", "Program", "ToolTrack", "WaypointSolution", "compile_job", "cycle_lines",
-           "cycle_report", "lower_bound", "solve_waypoints", "time_program"]
+"""Stage 5, program: a job file read against its robot (``job``), compiled into one frozen value of typed moves
+(``model``: the Program; ``compile``: ``compile_job``), tool paths (``tool_path``: lines, arcs, zones) and the
+joint paths that keep the TCP on them (``tool_moves``), timed and certified once (``timing``: ``time_program``,
+each stretch of ``stretch`` as one path), with its lower bound (``bound``) and cycle-time report (``report``)."""

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ProfileSizeError
-from ..jobs import Job
 from .compile import move_speed
+from .job import Job
 from .model import Program
 
 

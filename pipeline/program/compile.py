@@ -2,12 +2,12 @@
 and its joint moves planned, before any timing.
 
 Steps: IK for pose waypoints (``solve_waypoints``: each seeded with the previous solution, one branch
-kept by the rule of ``pipeline.ik.branches``, or exactly the solution a waypoint's controller
-configuration names, ``pipeline.controllers.selection``; in a cell, answers that collide are skipped),
+kept by the rule of ``pipeline.model.ik.branches``, or exactly the solution a waypoint's controller
+configuration names, ``pipeline.model.vendors.selection``; in a cell, answers that collide are skipped),
 then the
 joint path along each run of tool moves (the moves the TCP follows without stopping: tool moves joined
-by zones; ``pipeline.tool_moves``; in a cell its IK samples are checked), then, in a cell with
-``plan: collision_free``, each joint move planned around the obstacles (``pipeline.planning``). A
+by zones; ``pipeline.program.tool_moves``; in a cell its IK samples are checked), then, in a cell with
+``plan: collision_free``, each joint move planned around the obstacles (``pipeline.cell.planning``). A
 waypoint is a stop when it has no zone, except between two joint moves of a job that does not plan
 them: a joint path passes through those (the job's path shape), as it always did.
 """
@@ -19,21 +19,21 @@ import logging
 
 import numpy as np
 
-from ..cell_motion import check_samples, collision_free_ik
-from ..configurations import matches
-from ..controllers.configuration import format_configuration
-from ..controllers.selection import select_solution
+from ..cell.clear_motion import check_samples, collision_free_ik
+from ..cell.planning import plan_joint_path
+from ..cell.tilt import TiltLimit
+from ..cell.tool import Tool
 from ..errors import VendorConfigurationError
-from ..ik import with_drake_model
-from ..ik.branches import BranchChoice, branch_change_reason, choose_solution, configuration_labels
-from ..ik.result import MATCHED_COMPONENTS, make_target, pose_errors
-from ..jobs import Job, JointWaypoint
-from ..planning import plan_joint_path
-from ..tilt import TiltLimit
-from ..tool import Tool
-from ..tool_moves import ToolMoveError, joint_path_along
-from ..tool_path import ToolMove, ToolPath
+from ..files.branch_names import matches
+from ..model.ik import with_drake_model
+from ..model.ik.branches import BranchChoice, branch_change_reason, choose_solution, configuration_labels
+from ..model.ik.result import MATCHED_COMPONENTS, make_target, pose_errors
+from ..model.vendors.configuration import format_configuration
+from ..model.vendors.selection import select_solution
+from .job import Job, JointWaypoint
 from .model import JOINT, Move, Program, ToolTrack, WaypointSolution
+from .tool_moves import ToolMoveError, joint_path_along
+from .tool_path import ToolMove, ToolPath
 
 log = logging.getLogger(__name__)
 
@@ -87,7 +87,7 @@ def _stops(job: Job, moves: list[Move]) -> tuple[int, ...]:
 def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
     """Joint values for every waypoint, in order. A pose is solved by ``robot.ik`` seeded with the
     previous waypoint's joint values (the first: ``job.start`` or the middle of the limits, 0 for a
-    continuous joint), and of its in-limit solutions one is kept by the rule of ``pipeline.ik.branches``
+    continuous joint), and of its in-limit solutions one is kept by the rule of ``pipeline.model.ik.branches``
     (of the configuration the waypoint names, the one nearest the previous joint values; a joint
     waypoint's own configuration counts as the previous branch). A JobFileError names the waypoint when
     a pose is unreachable, has no solution of the configuration asked for, or changes branch from the
@@ -142,7 +142,7 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
 
 def controller_solution(job: Job, k: int, previous_branch: str, scene=None) -> WaypointSolution:
     """Pose waypoint k solved as its controller configuration names it: the one in-limit closed-form
-    solution and 2 pi representative ``pipeline.controllers.selection`` selects (whatever the job's IK
+    solution and 2 pi representative ``pipeline.model.vendors.selection`` selects (whatever the job's IK
     method). A JobFileError names the waypoint's controller_config (its line and value) when no solution
     or several have it, listing the configurations the pose's solutions have; names its config when our
     configuration asked for beside it is not that solution's branch; and names the waypoint when the

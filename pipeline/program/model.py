@@ -18,13 +18,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cell import Cell
-from ..planning import PlannedPath
-from ..robot import Robot
-from ..robot_spec import Limits
-from ..tilt import TiltLimit
-from ..tool import Tool
-from ..tool_moves import ToolJointPath
+from ..cell.cell_file import Cell
+from ..cell.planning import PlannedPath
+from ..cell.tilt import TiltLimit
+from ..cell.tool import Tool
+from ..files.robot_spec import Limits
+from ..model.robot import Robot
+from .tool_moves import ToolJointPath
 
 JOINT, LINEAR, CIRCULAR = "joint", "linear", "circular"
 
@@ -119,11 +119,11 @@ class Move:
 @dataclass(frozen=True, eq=False)
 class Program:
     """A job compiled into moves (see the module docstring): ``name``, ``robot``, ``tool`` (its X_FT
-    (4, 4) [m], identity without one, and its shapes on the flange: ``pipeline.tool.Tool``), ``cell`` (None: none), ``limits`` (the robot's, with the job's safety
+    (4, 4) [m], identity without one, and its shapes on the flange: ``pipeline.cell.tool.Tool``), ``cell`` (None: none), ``limits`` (the robot's, with the job's safety
     TCP speed limit), ``tcp_accel_max`` [m/s^2] on tool moves (None: not limited), ``speed_scale``,
     ``timing`` method, ``path`` shape, ``dt`` [s], ``waypoints`` (how each was solved), ``moves``,
     ``stops`` (waypoint indices where the motion rests, first and last included), ``plan`` (the job's),
-    ``tilt``: the TiltLimit its planned moves keep (``pipeline.tilt``; None: none)."""
+    ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none)."""
 
     name: str
     robot: Robot

@@ -15,7 +15,7 @@ from collections import Counter
 
 import numpy as np
 
-from ..profile import Profile, limits_at
+from ..timing.profile import Profile, limits_at
 from .bound import LowerBound, lower_bound
 from .model import Program
 

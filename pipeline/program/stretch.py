@@ -16,7 +16,7 @@ an obstacle than the clearance (checked at configurations CHECK_STEP_RAD apart),
 
 Each segment is parameterised by its joint-space length u (so |dq/du| is about 1 everywhere and the
 blends, whose parameter width is the length they replace, neither loop nor stall); the stretch's s in
-[0, 1] is u over the total. The ``schedule`` (``pipeline.schedule``) gives each part its limits: a
+[0, 1] is u over the total. The ``schedule`` (``pipeline.timing.schedule``) gives each part its limits: a
 tool move's line or arc outside its zones its TCP speed and the job's TCP acceleration; a joint move
 and a blend the joint speed fraction of its move (a blend between two moves, or a run of joint moves
 the path passes through, the smallest).
@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..path import JointPath, PathError, hermite_matrix, make_path
-from ..schedule import LimitSchedule
+from ..timing.joint_path import JointPath, PathError, hermite_matrix, make_path
+from ..timing.schedule import LimitSchedule
 from .model import JOINT, Move, Program
 
 #: The highest derivative a blend matches at its ends, per timing method: toppra limits velocity and

@@ -4,7 +4,7 @@ certified once.
 Each stretch (``StretchPath``) is timed by the program's method (``pipeline.timing.time_path``) with
 the robot's limits, the job's safety TCP limit everywhere and the moves' own speeds on their parts
 (``LimitSchedule``), and starts and ends at rest; the stretches are joined one after the other and the
-whole profile is certified once (``pipeline.profile.certify``: joint limits, the schedule, and in a
+whole profile is certified once (``pipeline.timing.profile.certify``: joint limits, the schedule, and in a
 cell the clearance). When the clearance fails inside a blend, that blend is narrowed and its stretch
 timed again (at most MAX_REFINEMENTS times); a failure elsewhere is a ClearanceError with the job time.
 ``ruckig`` (waypoint to waypoint, off the path) times each stretch through its targets and planned
@@ -18,14 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cell_motion import ClearanceError
-from ..choices import DEFAULT_MAX_SAMPLES
+from ..cell.clear_motion import ClearanceError
+from ..cell.tilt import certify_tilt
 from ..errors import TimingError
-from ..profile import Profile, TcpSamples, TimingDetails, certify
-from ..schedule import LimitSchedule, joined_schedules
-from ..tcp import TcpMotion
-from ..tilt import certify_tilt
+from ..files.choices import DEFAULT_MAX_SAMPLES
 from ..timing import time_path
+from ..timing.profile import Profile, TcpSamples, TimingDetails, certify
+from ..timing.schedule import LimitSchedule, joined_schedules
+from ..timing.tcp import TcpMotion
 from .model import Program
 from .stretch import StretchPath
 
@@ -40,7 +40,7 @@ class ProgramDetails(TimingDetails):
     """What timing a program did: per stretch its waypoints ``first``..``last``, ``duration_s``, its
     back end's ``timing`` details and the blends narrowed for the limits or the clearance; ``passages_s``:
     the time [s] at which the motion passes (or stops at) each waypoint; ``tilt``: the tilt certificate of
-    the planned moves (``pipeline.tilt.TiltReport.to_dict``; None without a tilt limit)."""
+    the planned moves (``pipeline.cell.tilt.TiltReport.to_dict``; None without a tilt limit)."""
 
     stretches: tuple[dict, ...]
     passages_s: tuple[float, ...]
@@ -75,7 +75,7 @@ def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SA
 
 
 def _tilt_certified(program: Program, profile: Profile) -> Profile:
-    """``profile`` with its planned moves' tilt certificate in its details (``pipeline.tilt``), as it is
+    """``profile`` with its planned moves' tilt certificate in its details (``pipeline.cell.tilt``), as it is
     without a tilt limit; TimingError when the tool leaves the limit."""
     if program.tilt is None:
         return profile

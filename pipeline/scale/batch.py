@@ -23,11 +23,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import PipelineError, ScaleInputError
-from ..io import staged_output, write_json
-from ..jobs import load_job
-from ..profile import QUANTITIES
+from ..files.atomic import staged_output
+from ..outputs.formats import write_json
+from ..program.job import load_job
 from ..runner import run_job
 from ..timing import DEFAULT_MAX_SAMPLES
+from ..timing.profile import QUANTITIES
 from .cluster import map_chunks, worker_count
 
 log = logging.getLogger(__name__)
@@ -90,7 +91,7 @@ def _row(name: str, source: str, status: str, error: BaseException | None = None
 
 def run_one(job, max_samples: int = DEFAULT_MAX_SAMPLES) -> JobRun:
     """Run one validated job and return its row and files (a Dask task), in this process: its plans are
-    the same as its own ``python -m pipeline run`` gives (``pipeline.planning`` seeds OMPL per plan, and
+    the same as its own ``python -m pipeline run`` gives (``pipeline.cell.planning`` seeds OMPL per plan, and
     a cell's roadmap answers a query alike whatever ran before)."""
     return run_here(job, max_samples)
 

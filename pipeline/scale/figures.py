@@ -89,8 +89,8 @@ def map_html(reach_map) -> str:
     from matplotlib import colormaps
     from pydrake.perception import BaseField, Fields, PointCloud
 
-    from ..drake_model import build_visual_diagram
-    from ..views import static_meshcat_html
+    from ..model.chain.drake_model import build_visual_diagram
+    from ..outputs.views import static_meshcat_html
 
     points, fraction = cloud_points(reach_map)
 

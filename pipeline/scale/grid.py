@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..arrays import is_whole_number
 from ..errors import ConfigurationError, ScaleInputError
-from ..robot import robot_with_tool
+from ..files.arrays import is_whole_number
+from ..model.robot import robot_with_tool
 
 #: Most voxels in a grid (each is a few bytes in every map array): a finer step is refused.
 MAX_VOXELS = 50_000_000

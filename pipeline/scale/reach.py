@@ -34,12 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..arrays import is_whole_number
-from ..cell import Cell, load_cell
-from ..choices import FULL_POSE, POSITION_AND_AXIS
+from ..cell.cell_file import Cell, load_cell
 from ..errors import RobotFileError, ScaleInputError
-from ..robot import Robot, load_robot
-from ..schema import load_document
+from ..files.arrays import is_whole_number
+from ..files.choices import FULL_POSE, POSITION_AND_AXIS
+from ..files.schema import load_document
+from ..model.robot import Robot, load_robot
 from .cluster import map_chunks, worker_count
 from .grid import (POINTS, ROLLS, VoxelGrid, check_orientations, check_poses, check_step, reach_grid,
                    tool_orientations, wrist_centre_robot)
@@ -93,7 +93,7 @@ def _models(problem: MapProblem):
         _MODELS.clear()                     # one problem at a time: a collision model is large
         model = None
         if problem.cell is not None:
-            from ..collision import CollisionModel
+            from ..cell.collision import CollisionModel
 
             model = CollisionModel(problem.robot, problem.cell)
         _MODELS[problem.token] = (problem.mapped, model)
@@ -164,7 +164,7 @@ def _solve_targets(problem: MapProblem, X: np.ndarray, voxels: np.ndarray, model
         if model is None:
             result = robot.ik(X_target, method="jacobian", target_kind=problem.kind, rng=rng, **options)
         else:
-            from ..cell_motion import collision_free_ik
+            from ..cell.clear_motion import collision_free_ik
 
             result, _ = collision_free_ik(robot, model, X_target, None, "jacobian", problem.kind, options, rng)
         found.append(result.solutions if result is not None and result.success else ())
@@ -213,7 +213,7 @@ def _token(*parts) -> str:
 def map_problem(robot: Robot, cell: Cell | None, orientations: int | None, tool_axis_cone: float | None, seed: int,
                 point: str) -> MapProblem:
     """The problem of a map (see the module docstring for the IK method and target kind)."""
-    from ..ik import has_closed_form
+    from ..model.ik import has_closed_form
 
     orientations = DEFAULT_ORIENTATIONS if orientations is None else orientations
     check_orientations(orientations, tool_axis_cone)

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import staged_output, write_json
+from ..files.atomic import staged_output
+from ..outputs.formats import write_json
 from .grid import POINTS
 
 #: The files ``write_into`` makes.

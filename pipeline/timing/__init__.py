@@ -4,7 +4,7 @@
 Methods: ``toppra`` (time-optimal along the path, velocity and acceleration limits), ``ruckig``
 (jerk-limited, waypoint to waypoint, exact), ``topp3`` (jerk-limited path following: a third-order
 time parameterisation of the path itself, so every sample is on the path; ``toppra+ruckig`` is its
-older name). Every profile ``retime`` returns is certified by ``pipeline.profile.certify`` before it is
+older name). Every profile ``retime`` returns is certified by ``pipeline.timing.profile.certify`` before it is
 returned, with the verdict attached (``profile.certificate``): a profile that fails is an error,
 never a result. A profile that would have more than ``max_samples`` samples is refused before they
 are made (ProfileSizeError).
@@ -16,13 +16,13 @@ import dataclasses
 
 import numpy as np
 
-from ..arrays import is_whole_number
-from ..choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, DEFAULT_PATH_SHAPE, TIMING_ALIASES, TIMING_METHODS
 from ..errors import ConfigurationError, TimingError
-from ..path import JointPath, make_path
-from ..profile import Profile, certify, scale_limits, scale_schedule
-from ..robot_spec import Limits
-from ..schedule import LimitSchedule
+from ..files.arrays import is_whole_number
+from ..files.choices import DEFAULT_DT, DEFAULT_MAX_SAMPLES, DEFAULT_PATH_SHAPE, TIMING_ALIASES, TIMING_METHODS
+from ..files.robot_spec import Limits
+from .joint_path import JointPath, make_path
+from .profile import Profile, certify, scale_limits, scale_schedule
+from .schedule import LimitSchedule
 
 METHODS = TIMING_METHODS
 
@@ -64,7 +64,7 @@ def time_path(robot, path_or_waypoints, method: str = "toppra", speed_scale: flo
     names = tuple(robot.joint_names)
     inverse_dynamics = None
     if limits.tau_max is not None:
-        from ..drake_model import build_drake_robot
+        from ..model.chain.drake_model import build_drake_robot
 
         inverse_dynamics = (drake if drake is not None else build_drake_robot(robot.spec)).inverse_dynamics
     if method == "ruckig":

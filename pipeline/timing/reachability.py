@@ -13,7 +13,7 @@ acceleration limits, 1001 grid points). Here u is eliminated exactly (Fourier-Mo
 bounding u from above and one bounding it from below gives a row in x alone), so a stage costs a few
 hundred multiply-adds, compiled: 0.41-0.50 us per grid point on the same grids, about 40x less. The rows
 come from toppra's own constraint objects (``canonical_rows``) or are built directly (``toppra_backend``);
-the answer on the same grid and constraints is toppra's (tests/test_timing.py compares the two).
+the answer on the same grid and constraints is toppra's (tests/timing/test_timing.py compares the two).
 """
 
 from __future__ import annotations

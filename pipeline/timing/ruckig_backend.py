@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..choices import DEFAULT_MAX_SAMPLES, TIMING_LIMITS
 from ..errors import TimingError
-from ..path import NO_MOTION_DISTANCE, check_waypoints
-from ..profile import CERTIFY_TOLERANCE, Profile, TimingDetails
-from ..robot_spec import Limits
+from ..files.choices import DEFAULT_MAX_SAMPLES, TIMING_LIMITS
+from ..files.robot_spec import Limits
+from .joint_path import NO_MOTION_DISTANCE, check_waypoints
+from .profile import CERTIFY_TOLERANCE, Profile, TimingDetails
 from .toppra_backend import check_sample_count, sample_times
 
 #: Velocities and accelerations below this count as rest [rad/s, rad/s^2].

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..path import JointPath
-from ..tcp import PathLimits, TcpMotion
+from .joint_path import JointPath
+from .tcp import PathLimits, TcpMotion
 
 ACCEL_DIRECTIONS = 64
 #: The bound on sd^2 where the TCP stands still (a turn in place) or is not limited: no bound, but a finite number.

@@ -32,15 +32,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..choices import DEFAULT_MAX_SAMPLES
 from ..errors import TimingError
-from ..path import JointPath
-from ..profile import Profile, TimingDetails
-from ..robot_spec import Limits
-from ..schedule import LimitSchedule
-from ..tcp import PathLimits
+from ..files.choices import DEFAULT_MAX_SAMPLES
+from ..files.robot_spec import Limits
 from .hermite import joint_peaks_between
+from .joint_path import JointPath
+from .profile import Profile, TimingDetails
 from .ruckig_backend import require_jerk_limits
+from .schedule import LimitSchedule
+from .tcp import PathLimits
 from .toppra_backend import (ScaledPath, sample_times, scaled_inverse_dynamics, stretch_for, time_unit,
                              torque_stretch, with_points)
 

@@ -33,15 +33,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..choices import DEFAULT_MAX_SAMPLES
 from ..errors import ProfileSizeError, TimingError
-from ..path import JointPath
-from ..profile import Profile, TimingDetails
-from ..robot_spec import Limits
-from ..schedule import LimitSchedule
-from ..tcp import PathLimits
+from ..files.choices import DEFAULT_MAX_SAMPLES
+from ..files.robot_spec import Limits
 from .hermite import joint_peaks_between
+from .joint_path import JointPath
+from .profile import Profile, TimingDetails
 from .reachability import canonical_rows, solve_rows
+from .schedule import LimitSchedule
+from .tcp import PathLimits
 
 #: Grid points of the first solve where the path is straight (more where it bends: on the benchmark paths
 #: 2,300-3,600 in all, the duration within 0.14 % of toppra's 10,000-point optimum; see

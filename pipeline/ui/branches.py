@@ -3,12 +3,12 @@
 the maker's controller configuration, and its state in the cell (free, colliding, near a singularity).
 
 Near a singularity means a smallest singular value of the Jacobian below ``NEAR_SINGULAR`` [m/rad or 1,
-the Jacobian's mixed units], the package's one threshold (``pipeline.ik.velocity``: below it the damped
+the Jacobian's mixed units], the package's one threshold (``pipeline.model.ik.velocity``: below it the damped
 inverse starts damping): some 7 % of random GP7 configurations, a wrist within about half a degree of
-q5 = 0. ``pipeline.singularity`` counts rank as lost only far below it (1e-9 of the largest singular
+q5 = 0. ``pipeline.model.chain.singularity`` counts rank as lost only far below it (1e-9 of the largest singular
 value), so a singular branch is always near singular.
 
-Arms with a closed form (``pipeline.ik.has_closed_form``) give every in-limit branch; each keeps the 2 pi
+Arms with a closed form (``pipeline.model.ik.has_closed_form``) give every in-limit branch; each keeps the 2 pi
 variant nearest the reference configuration and counts the others. Arms without one get the numeric IK's
 answer from the reference (one branch), within NUMERIC_TIME_BUDGET_S. A target no branch reaches is a
 result with a reason, never an error. Built for a drag: about 0.6 ms per target, plus in a cell 0.1 ms
@@ -24,18 +24,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..configurations import SPHERICAL_WRIST
-from ..controllers import configurations, format_configuration
-from ..controllers.axes import PRESET_MAPS
-from ..ik import has_closed_form, solve_ik
-from ..ik.analytic import analytic_solver_for
-from ..ik.branches import configuration_labels
-from ..ik.result import MAX_TARGET_COORDINATE_M, Solutions, limit_variants
-from ..ik.velocity import NEAR_SINGULAR
-from ..poses import check_pose, rotation_to_rpy
+from ..files.branch_names import SPHERICAL_WRIST
+from ..files.poses import check_pose, rotation_to_rpy
+from ..model.ik import has_closed_form, solve_ik
+from ..model.ik.analytic import analytic_solver_for
+from ..model.ik.branches import configuration_labels
+from ..model.ik.result import MAX_TARGET_COORDINATE_M, Solutions, limit_variants
+from ..model.ik.velocity import NEAR_SINGULAR
+from ..model.vendors import configurations, format_configuration
+from ..model.vendors.axes import PRESET_MAPS
 
 if TYPE_CHECKING:                     # Drake's collision module is imported only where a scene is used
-    from ..collision import Clearance
+    from ..cell.collision import Clearance
 
 #: States of a branch; colliding wins over near_singular.
 FREE, COLLIDING, NEAR_SINGULAR_STATE = "free", "colliding", "near_singular"
@@ -51,7 +51,7 @@ SAME_BRANCH_TOLERANCE = 1e-6
 @dataclass(frozen=True, eq=False)
 class Branch:
     """One IK branch of a target: ``q`` (dof,) [rad or m] its 2 pi variant nearest the reference; ``name``
-    our branch label (``pipeline.ik.branches``, "" for arms without named branches); ``variants`` how many
+    our branch label (``pipeline.model.ik.branches``, "" for arms without named branches); ``variants`` how many
     in-limit 2 pi variants it has (>= 1; math.inf with a continuous joint); ``vendor_config`` the maker's
     controller configuration text of ``q`` (None without one); ``state`` free | colliding | near_singular
     (colliding wins); ``sigma_min`` the smallest singular value of the Jacobian at q [m/rad or 1];
@@ -111,7 +111,7 @@ def closest_words(clearance: Clearance | None) -> str:
     obstacle; "-" without one."""
     if clearance is None:
         return "-"
-    from ..collision import SELF_CLEARANCE_M
+    from ..cell.collision import SELF_CLEARANCE_M
 
     if clearance.self_pair is not None and clearance.self <= SELF_CLEARANCE_M:
         return f"links {clearance.self_pair[0]} - {clearance.self_pair[1]} {clearance.self * 1e3:.1f} mm"
@@ -146,7 +146,7 @@ def shown_vendor(robot) -> str | None:
 
 def target_branches(robot, X_BT, q_reference=None, scene=None) -> TargetBranches:
     """Every IK branch of the TCP target X_BT (4, 4) [m, base frame] of ``robot`` (its end frame the TCP:
-    ``pipeline.robot.robot_with_tool``), each at its 2 pi variant nearest ``q_reference`` (dof,) [rad or m]
+    ``pipeline.model.robot.robot_with_tool``), each at its 2 pi variant nearest ``q_reference`` (dof,) [rad or m]
     (default: the middle of the joint ranges), checked against ``scene`` (a ``CollisionModel`` of the robot
     in its cell, or None). ConfigurationError for a target that is no pose or a bad reference."""
     X_BT = check_pose(X_BT, "TCP target X_BT", MAX_TARGET_COORDINATE_M)
@@ -177,7 +177,7 @@ def _clearance(scene, q: np.ndarray, colliding: bool) -> Clearance | None:
     0.6 ms, a drag's budget for some 10 branches."""
     if scene is None:
         return None
-    from ..collision import SELF_CLEARANCE_M
+    from ..cell.collision import SELF_CLEARANCE_M
 
     if colliding or not scene.padded_checker(CLEARANCE_SHOWN_WITHIN_M, SELF_CLEARANCE_M).CheckConfigCollisionFree(q):
         return scene.clearance(q)

@@ -23,15 +23,15 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..cell import cell_names, load_cell, resolve_cell_path
+from ..cell.cell_file import cell_names, load_cell, resolve_cell_path
+from ..cell.tool import Tool, rigid_inverse
 from ..errors import ConfigurationError, PipelineError
-from ..io import write_text_atomic
+from ..files.atomic import write_text_atomic
+from ..files.poses import pose_to_quaternion_position, quaternion_position_to_pose
+from ..files.units import ANGLE_UNITS, LENGTH_UNITS
+from ..model.robot import load_robot
+from ..outputs.views import camera_pose, scene_spheres
 from ..runner import LANGUAGE_TITLES, program_name
-from ..poses import pose_to_quaternion_position, quaternion_position_to_pose
-from ..robot import load_robot
-from ..tool import Tool, rigid_inverse
-from ..units import ANGLE_UNITS, LENGTH_UNITS
-from ..views import camera_pose, scene_spheres
 from .branches import TargetBranches, branch_names, closest_words, pose_words, target_branches
 from .program import PageProgram
 from .scene import ArmScene
@@ -72,7 +72,7 @@ def load_source(name: str | None) -> PageSource:
         program = PageProgram(str(cell.robot), name, None, f"{cell.name}_program")     # TCP: the flange
         return PageSource(robot, Tool.from_job_and_cell(None, cell, cell.name), cell, program, f"cell {cell.name}")
     if "waypoints" in keys:
-        from ..jobs import load_job
+        from ..program.job import load_job
 
         job = load_job(path)
         return PageSource(job.robot, Tool.of_job(job), job.cell, PageProgram.from_job_file(path), f"job {job.name}")
@@ -106,7 +106,7 @@ class Page:
         self.X_WB = np.eye(4) if self.cell is None else self.cell.X_WB
         self.collision = None
         if self.cell is not None:
-            from ..collision import CollisionModel
+            from ..cell.collision import CollisionModel
 
             self.collision = CollisionModel(self.cell.load_robot(), self.cell)
         self.server = viser.ViserServer(host=host, port=port, verbose=False)

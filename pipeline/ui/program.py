@@ -21,18 +21,18 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation, Slerp
 
-from ..cell import resolve_cell_path
-from ..choices import MOVES
-from ..configurations import label_parts
+from ..cell.cell_file import resolve_cell_path
 from ..errors import ConfigurationError
-from ..ik.branches import choose_solution, configuration_labels
-from ..io import write_text_atomic
-from ..jobs import Job, JointWaypoint, load_job, parse_job
-from ..poses import check_pose, make_pose, rotation_to_rpy
-from ..program import solve_waypoints
-from ..robot import Robot, load_robot, robot_with_tool
+from ..files.atomic import write_text_atomic
+from ..files.branch_names import label_parts
+from ..files.choices import MOVES
+from ..files.poses import check_pose, make_pose, rotation_to_rpy
+from ..files.units import ANGLE_UNITS, LENGTH_UNITS
+from ..model.ik.branches import choose_solution, configuration_labels
+from ..model.robot import Robot, load_robot, robot_with_tool
+from ..program.compile import solve_waypoints
+from ..program.job import Job, JointWaypoint, load_job, parse_job
 from ..runner import JobOutcome, collision_model, reported_program, run_job
-from ..units import ANGLE_UNITS, LENGTH_UNITS
 
 #: The file's units: every document the page writes is in mm and deg.
 MM, DEG = LENGTH_UNITS["mm"], ANGLE_UNITS["deg"]

@@ -1,5 +1,5 @@
 """The page's 3-D scene on a viser server, in the cell frame W [m]: the arm as its collision capsules
-(``pipeline.geometry.link_capsules``, the geometry the clearance is computed on), the tool (its shapes and
+(``pipeline.model.chain.geometry.link_capsules``, the geometry the clearance is computed on), the tool (its shapes and
 the TCP's axes), the cell's obstacles, the IK branches of a target as ghost arms coloured by state, and
 the TCP's trace of a profile. Nothing here computes kinematics beyond placing what it is given.
 """
@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from ..geometry import body_polylines, link_capsules, visual_radius
-from ..poses import pose_to_quaternion_position
-from ..tool import Tool
+from ..cell.tool import Tool
+from ..files.poses import pose_to_quaternion_position
+from ..model.chain.geometry import body_polylines, link_capsules, visual_radius
 from .branches import closest_words
 
 #: Colours (RGB 0-255): the arm, the tool, obstacles, the TCP's trace, and a ghost arm per branch state.

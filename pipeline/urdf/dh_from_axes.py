@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import dh_standard
+from ..model.chain.kinematics import dh_standard
 
 #: |z_a x z_b| below this: the two axes are parallel [1].
 PARALLEL_SIN = 1e-9

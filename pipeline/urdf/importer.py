@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..dh_convert import standard_to_modified
 from ..errors import ConfigurationError, UrdfChainError
-from ..kinematics import DhKinematics, rotation_log
-from ..poses import make_pose
-from ..robot import Robot
-from ..robot_file import robot_document, write_robot_file
-from ..robot_spec import CONVENTIONS, DhJoint, LinkInertia, RobotSpec, parse_robot_spec
+from ..files.poses import make_pose
+from ..files.robot_spec import CONVENTIONS, DhJoint, LinkInertia, RobotSpec, parse_robot_spec
+from ..files.robot_writer import robot_document, write_robot_file
+from ..model.chain.dh_convert import standard_to_modified
+from ..model.chain.kinematics import DhKinematics, rotation_log
+from ..model.robot import Robot
 from .chain import SerialChain, serial_chain
 from .dh_from_axes import dh_from_axes
 from .reader import read_urdf

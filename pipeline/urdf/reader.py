@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UrdfFileError
-from ..paths import special_kind
-from ..poses import rpy_position_to_pose
-from ..robot_spec import MAX_LENGTH_M, MAX_MASS_KG, MAX_RATE, MAX_TURNS
+from ..files.poses import rpy_position_to_pose
+from ..files.robot_spec import MAX_LENGTH_M, MAX_MASS_KG, MAX_RATE, MAX_TURNS
+from ..files.special import special_kind
 
 #: Largest URDF read [bytes]: robot descriptions are tens of kB; this leaves room for comments.
 MAX_URDF_BYTES = 16 * 1024 * 1024

@@ -7,7 +7,7 @@ standard frame i moved back along the common normal). The joints keep the robot 
 and positive direction (axis ``0 0 sign``), position and velocity limits, and ``tau_max`` as effort
 (0, as ROS-Industrial packages write it, where the file gives none); a continuous joint is
 ``type="continuous"``, its ``<limit>`` without lower and upper. Visual and collision shapes are
-the cylinders and spheres of the stick figure (``pipeline.geometry``); inertias are written where the
+the cylinders and spheres of the stick figure (``pipeline.model.chain.geometry``); inertias are written where the
 robot file has them. Acceleration and jerk limits have no place in URDF: a comment lists them.
 """
 
@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dh_convert import standard_to_modified
-from ..geometry import compute_link_polylines, visual_radius
-from ..io import write_text_atomic
-from ..kinematics import DhKinematics
-from ..poses import rotation_to_rpy
-from ..robot_spec import DhJoint, RobotSpec
+from ..files.atomic import write_text_atomic
+from ..files.poses import rotation_to_rpy
+from ..files.robot_spec import DhJoint, RobotSpec
+from ..model.chain.dh_convert import standard_to_modified
+from ..model.chain.geometry import compute_link_polylines, visual_radius
+from ..model.chain.kinematics import DhKinematics
 from .chain import ROS_BASE_LINK, ROS_TIP_LINK
 
 #: Segments shorter than this get no cylinder [m].

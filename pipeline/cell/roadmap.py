@@ -1,0 +1,129 @@
+"""A lazy roadmap per cell, reused across the planned moves of every job in it (LazyPRM: Bohlin and Kavraki,
+"Path planning using lazy PRM", ICRA 2000).
+
+``Roadmap(model)``: ROADMAP_NODES configurations drawn once from a fixed seed (ROADMAP_SEED) in the robot's
+joint limits, kept when they keep the planning margins, each joined to its ROADMAP_NEIGHBOURS nearest in
+time (the slowest joint's step over its top speed). No edge is checked when the roadmap is made: an edge is
+checked when a query's shortest path takes it (a coarse check of every edge of the path first, then the
+full checks), its verdict is kept for every later query, and the shortest path is searched again without
+the edges found blocked (SciPy's Dijkstra), until a path is free or none is left. The answer is the
+shortest free path of the roadmap, whatever earlier queries found out, so the same query gives the same path
+in any process. ``roadmap_of(model)`` makes a cell's roadmap once per process (the first query pays for
+its nodes: ~1,000 collision checks).
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+
+import numpy as np
+
+#: Nodes, neighbours per node, the neighbours a query's start and goal are joined to, the seed.
+ROADMAP_NODES = 1000
+ROADMAP_NEIGHBOURS = 10
+END_NEIGHBOURS = 30
+ROADMAP_SEED = 0
+#: Most draws per node kept (a cell where fewer than 1 in 20 configurations is free has no roadmap).
+MAX_DRAWS_PER_NODE = 20
+#: A route is given up when it would take longer (at top speed) than this many times the straight
+#: edge plus ROUTE_SLACK_S [s]: no detour a programmer would keep.
+ROUTE_FACTOR = 6.0
+ROUTE_SLACK_S = 1.0
+
+_roadmaps: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def roadmap_of(model, state) -> Roadmap | None:
+    """The roadmap of ``model`` (a CollisionModel), made on first use with ``state(q) -> bool`` (the
+    planning margins); None for an arm with a continuous joint (no box to draw in) or a cell too crowded
+    to fill one."""
+    if model not in _roadmaps:
+        _roadmaps[model] = None if model.robot.limits.continuous.any() else Roadmap.made(model.robot, state)
+    return _roadmaps[model]
+
+
+class Roadmap:
+    """Nodes ``Q`` (n, dof) [rad or m] and undirected edges ``pairs`` (m, 2) (node indices, lower first)
+    with their ``weights`` (m,) [s at top speed]; ``verdicts`` (m,): 1 free, -1 blocked, 0 not checked."""
+
+    def __init__(self, Q: np.ndarray, qd_max: np.ndarray):
+        from scipy.spatial import cKDTree
+
+        self.Q, self.qd_max = Q, qd_max
+        self.tree = cKDTree(Q / qd_max)
+        _, near = self.tree.query(Q / qd_max, ROADMAP_NEIGHBOURS + 1, p=np.inf)
+        pairs = np.sort(np.stack([np.repeat(np.arange(len(Q)), ROADMAP_NEIGHBOURS), near[:, 1:].ravel()], axis=1),
+                        axis=1)
+        self.pairs = np.unique(pairs[pairs[:, 0] != pairs[:, 1]], axis=0)
+        self.weights = self._weights(Q[self.pairs[:, 0]], Q[self.pairs[:, 1]])
+        self.verdicts = np.zeros(len(self.pairs), dtype=np.int8)
+        self.index = {(int(a), int(b)): k for k, (a, b) in enumerate(self.pairs)}
+
+    @classmethod
+    def made(cls, robot, state) -> Roadmap | None:
+        rng = np.random.default_rng(ROADMAP_SEED)
+        nodes: list[np.ndarray] = []
+        for _ in range(MAX_DRAWS_PER_NODE):
+            nodes += [q for q in robot.random_configurations(rng, ROADMAP_NODES) if state(q)]
+            if len(nodes) >= ROADMAP_NODES:
+                return cls(np.array(nodes[:ROADMAP_NODES]), robot.limits.qd_max)
+        return None
+
+    def _weights(self, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        return np.abs((B - A) / self.qd_max).max(axis=1) + 1e-12
+
+    def path(self, q_start: np.ndarray, q_goal: np.ndarray, checks, deadline: float) -> np.ndarray | None:
+        """The shortest free path from ``q_start`` to ``q_goal`` through the roadmap (k, dof), ends
+        included, or None: none shorter than ROUTE_FACTOR times the straight edge plus ROUTE_SLACK_S, or
+        none found by ``deadline`` (``time.perf_counter``). ``checks``: the query's
+        ``pipeline.cell.planning._Checks`` (its coarse and full edge checks). Whether a free route exists
+        within the limit does not depend on what earlier queries found out: the answer is the same in any
+        process, unless the deadline cuts it short."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        n = len(self.Q)
+        ends = np.array([q_start, q_goal])
+        _, near = self.tree.query(ends / self.qd_max, END_NEIGHBOURS, p=np.inf)
+        pairs = np.vstack([self.pairs, np.stack([np.repeat([n, n + 1], END_NEIGHBOURS), near.ravel()], axis=1)])
+        weights = np.concatenate([self.weights,
+                                  self._weights(ends.repeat(END_NEIGHBOURS, axis=0), self.Q[near.ravel()])])
+        verdicts = np.concatenate([self.verdicts, np.zeros(2 * END_NEIGHBOURS, dtype=np.int8)])
+        index = self.index | {(int(a), int(b)): len(self.pairs) + k
+                              for k, (a, b) in enumerate(pairs[len(self.pairs):])}
+        Q = np.vstack([self.Q, ends])
+        longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
+        try:
+            while time.perf_counter() < deadline:
+                open_ = verdicts >= 0
+                graph = coo_matrix((weights[open_], (pairs[open_, 0], pairs[open_, 1])), shape=(n + 2, n + 2))
+                distance, previous = dijkstra(graph.tocsr(), directed=False, indices=n, return_predecessors=True)
+                if not distance[n + 1] <= longest:
+                    return None
+                route = [n + 1]
+                while route[-1] != n:
+                    route.append(int(previous[route[-1]]))
+                route.reverse()
+                edges = [index.get((a, b), index.get((b, a))) for a, b in zip(route[:-1], route[1:])]
+                unknown = sorted((k for k in edges if verdicts[k] == 0),
+                                 key=lambda k: (k < len(self.pairs), -weights[k]))
+                if _checked(Q, pairs, verdicts, unknown, checks):
+                    return Q[route]
+            return None
+        finally:
+            self.verdicts = verdicts[:len(self.verdicts)]
+
+
+def _checked(Q: np.ndarray, pairs: np.ndarray, verdicts: np.ndarray, unknown: list[int], checks) -> bool:
+    """Whether the ``unknown`` edges (indices into ``pairs``; those joining the query's ends first, then
+    the longest: the likeliest to be blocked) are free: the coarse checks of all first, then the full
+    ones, each verdict kept in ``verdicts``."""
+    for stage in (checks.coarse, checks.full):
+        for k in unknown:
+            if verdicts[k] == 0 and not stage(Q[pairs[k, 0]], Q[pairs[k, 1]]):
+                verdicts[k] = -1
+        if any(verdicts[k] < 0 for k in unknown):
+            return False
+    verdicts[unknown] = 1
+    return True

@@ -1,0 +1,259 @@
+"""Compiled (Numba) kinematics of a DH chain: FK, the Jacobian and their batches.
+
+The chain is ``X_BE(q) = K_0 M_1(v_1) K_1 ... M_n(v_n) K_n`` with constant transforms ``K_i`` and
+``M_i`` a rotation about z (revolute) or a translation along z (prismatic) by ``v_i = sign_i q_i``; the
+same constants as ``pipeline.model.chain.kinematics.DhKinematics`` (the NumPy oracle these are checked against),
+which evaluates them another way. Applying ``M_i`` mixes two columns (or adds one into the
+translation), so each joint costs a column update and one dense compose.
+
+A chain is one float array ``chain`` (dof + 1, CHAIN_COLUMNS): row i holds the 12 entries of K_i's top
+three rows, row by row, then (rows 1 to dof) joint i's sign and kind (1.0 revolute, 0.0 prismatic).
+
+Poses travel between kernels as ``Pose`` tuples: the 12 entries of the top three rows of a 4x4
+transform, row by row (the last row is always 0 0 0 1), so no kernel allocates on the way.
+
+The kernels Python calls write into arrays the caller allocates (returning a new array from a kernel
+costs more than the FK itself) and have explicit signatures: C-contiguous float64 arrays only, compiled
+once on a machine and cached on disk beside this file. Any other input raises TypeError, a bad
+length or value ValueError; ``pipeline.model.robot.Robot`` then checks it for the typed error that names it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ...files.arrays import MAX_MAGNITUDE
+
+#: Types of the kernels Python calls: 1-, 2- and 3-d C-contiguous float64 arrays.
+_V, _M, _T = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
+#: Kernels whose products and sums may fuse into FMA instructions (as exact or more; never reordered).
+FUSED = {"contract"}
+#: Columns of a chain row: K_i (12), then joint i's sign and kind.
+SIGN, REVOLUTE = 12, 13
+CHAIN_COLUMNS = 14
+
+
+def pack_chain(K: np.ndarray, sign: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """The chain of constant factors K (dof + 1, 4, 4) and each joint's sign and kind (dof,)."""
+    chain = np.zeros((len(K), CHAIN_COLUMNS))
+    chain[:, :12] = K[:, :3, :].reshape(len(K), 12)
+    chain[1:, SIGN], chain[1:, REVOLUTE] = sign, revolute
+    return chain
+
+
+# -- sin and cos together: the joint angles' trigonometry is most of FK's time --------------------
+# Polynomials and the two-step reduction by pi/2 are those of fdlibm (k_sin.c, k_cos.c, e_rem_pio2.c),
+# in musl's arrangement; fdlibm's notice: "Copyright (C) 1993 by Sun Microsystems, Inc. All rights
+# reserved. Developed at SunSoft, a Sun Microsystems, Inc. business. Permission to use, copy, modify,
+# and distribute this software is freely granted, provided that this notice is preserved."
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+_TO_INTEGER = 1.5 / np.finfo(float).eps              # x + this - this rounds x to an integer
+_TWO_OVER_PI = 6.36619772367581382433e-01
+_PI_2_HIGH, _PI_2_MIDDLE, _PI_2_LOW = 1.57079632673412561417e+00, 6.07710050630396597660e-11, 2.02226624879595063154e-21
+#: Beyond this |angle| [rad], ``sincos`` leaves the reduction to the C library's sin and cos.
+SINCOS_RANGE = 1.0e6
+
+
+@njit(cache=True, inline="always")
+def sincos(angle):
+    """(sin, cos) of an angle [rad], within 1 ulp of ``math.sin`` / ``math.cos`` and about twice as fast
+    (no call, no branch on the quadrant)."""
+    if not abs(angle) <= SINCOS_RANGE:                 # also NaN and inf
+        return math.sin(angle), math.cos(angle)
+    turns = angle * _TWO_OVER_PI + _TO_INTEGER - _TO_INTEGER  # the nearest multiple of pi/2
+    quadrant = int(turns)
+    high = angle - turns * _PI_2_HIGH                  # exact: _PI_2_HIGH has 33 bits
+    w = turns * _PI_2_MIDDLE
+    r = high - w
+    w = turns * _PI_2_LOW - ((high - r) - w)
+    y = r - w                                          # angle - quadrant pi/2 = y + tail, |y| <= pi/4
+    tail = (r - y) - w
+    z = y * y
+    zz = z * z
+    v = z * y
+    rs = _S2 + z * (_S3 + z * _S4) + z * zz * (_S5 + z * _S6)
+    sin = y - ((z * (0.5 * tail - v * rs) - tail) - v * _S1)
+    rc = z * (_C1 + z * (_C2 + z * _C3)) + zz * zz * (_C4 + z * (_C5 + z * _C6))
+    half = 0.5 * z
+    one = 1.0 - half
+    cos = one + (((1.0 - one) - half) + (z * rc - y * tail))
+    odd = quadrant & 1
+    return (1.0 - (quadrant & 2)) * (cos if odd else sin), (1.0 - ((quadrant + 1) & 2)) * (sin if odd else cos)
+
+
+@njit(cache=True)
+def cross(a, b):
+    """a x b of two 3-vectors (tuples or arrays) -> tuple."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(cache=True)
+def unit(v):
+    """The 3-vector v (tuple or array) divided by its length -> tuple."""
+    norm = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return (v[0] / norm, v[1] / norm, v[2] / norm)
+
+
+@njit(cache=True)
+def check_configuration(q, dof):
+    """ValueError unless q has dof values, each finite and at most MAX_MAGNITUDE."""
+    if q.shape[0] != dof:
+        raise ValueError("wrong number of joint values")
+    for value in q:
+        if not abs(value) <= MAX_MAGNITUDE:          # also False for NaN
+            raise ValueError("joint value not finite or too large")
+
+
+@njit(cache=True)
+def _constant(chain, i):
+    """The Pose of K_i."""
+    return (chain[i, 0], chain[i, 1], chain[i, 2], chain[i, 3], chain[i, 4], chain[i, 5], chain[i, 6], chain[i, 7],
+            chain[i, 8], chain[i, 9], chain[i, 10], chain[i, 11])
+
+
+@njit(cache=True, fastmath=FUSED)
+def _moved(chain, i, x, value):
+    """The Pose x M_i K_i (i from 1) at joint i's value [rad or m]."""
+    v = chain[i, SIGN] * value
+    if chain[i, REVOLUTE] > 0.5:                                  # x Rz(v): columns 0 and 1 turn
+        s, c = sincos(v)
+        x = (c * x[0] + s * x[1], c * x[1] - s * x[0], x[2], x[3], c * x[4] + s * x[5], c * x[5] - s * x[4], x[6], x[7],
+             c * x[8] + s * x[9], c * x[9] - s * x[8], x[10], x[11])
+    else:                                                         # x Tz(v): along column 2
+        x = (x[0], x[1], x[2], x[3] + v * x[2], x[4], x[5], x[6], x[7] + v * x[6], x[8], x[9], x[10], x[11] + v * x[10])
+    return compose(x, _constant(chain, i))
+
+
+@njit(cache=True, fastmath=FUSED)
+def compose(x, a):
+    """The Pose x a."""
+    return (x[0] * a[0] + x[1] * a[4] + x[2] * a[8], x[0] * a[1] + x[1] * a[5] + x[2] * a[9],
+            x[0] * a[2] + x[1] * a[6] + x[2] * a[10], x[0] * a[3] + x[1] * a[7] + x[2] * a[11] + x[3],
+            x[4] * a[0] + x[5] * a[4] + x[6] * a[8], x[4] * a[1] + x[5] * a[5] + x[6] * a[9],
+            x[4] * a[2] + x[5] * a[6] + x[6] * a[10], x[4] * a[3] + x[5] * a[7] + x[6] * a[11] + x[7],
+            x[8] * a[0] + x[9] * a[4] + x[10] * a[8], x[8] * a[1] + x[9] * a[5] + x[10] * a[9],
+            x[8] * a[2] + x[9] * a[6] + x[10] * a[10], x[8] * a[3] + x[9] * a[7] + x[10] * a[11] + x[11])
+
+
+@njit(cache=True)
+def end_pose(chain, q):
+    """The Pose X_BE(q) [m]; q already checked."""
+    return moved_pose(chain, base_pose(chain), q, 0, q.shape[0])
+
+
+@njit(cache=True)
+def base_pose(chain):
+    """The Pose K_0: where the chain starts."""
+    return _constant(chain, 0)
+
+
+@njit(cache=True)
+def moved_pose(chain, x, q, first, stop):
+    """The Pose x carried through joints first to stop - 1 (counted from 0) at their values in q (an
+    array or tuple): the end pose from a pose part way along the chain."""
+    for i in range(first, stop):
+        x = _moved(chain, i + 1, x, q[i])
+    return x
+
+
+@njit(cache=True)
+def _write_pose(x, X):
+    """X (4, 4) = the Pose x."""
+    for k in range(12):
+        X[k // 4, k % 4] = x[k]
+    X[3, 0], X[3, 1], X[3, 2], X[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@njit(cache=True, fastmath=FUSED)
+def pose_and_jacobian(chain, q, J):
+    """The Pose X_BE(q) [m], with J (6, dof) set to its geometric Jacobian, rows [v; w], base frame, at
+    E's origin; q already checked."""
+    x = base_pose(chain)
+    for i in range(q.shape[0]):                        # J[:3] holds joint origins until the end is known
+        sign = chain[i + 1, SIGN]
+        J[3, i], J[4, i], J[5, i] = x[2] * sign, x[6] * sign, x[10] * sign
+        J[0, i], J[1, i], J[2, i] = x[3], x[7], x[11]
+        x = _moved(chain, i + 1, x, q[i])
+    for i in range(q.shape[0]):
+        ax, ay, az = J[3, i], J[4, i], J[5, i]
+        if chain[i + 1, REVOLUTE] > 0.5:
+            lx, ly, lz = x[3] - J[0, i], x[7] - J[1, i], x[11] - J[2, i]
+            J[0, i], J[1, i], J[2, i] = ay * lz - az * ly, az * lx - ax * lz, ax * ly - ay * lx
+        else:
+            J[0, i], J[1, i], J[2, i] = ax, ay, az
+            J[3, i], J[4, i], J[5, i] = 0.0, 0.0, 0.0
+    return x
+
+
+#: Target kinds as the kernels take them: full pose, position and the z axis, position only.
+POSE, POSITION_AND_AXIS, POSITION = 0, 1, 2
+
+
+@njit(cache=True)
+def _relative(x, X_target, i, j):
+    """Entry (i, j) of R^T R_target, R the rotation of the Pose x and R_target that of X_target (4, 4)."""
+    return x[i] * X_target[0, j] + x[4 + i] * X_target[1, j] + x[8 + i] * X_target[2, j]
+
+
+@njit(cache=True)
+def pose_errors(x, X_target, kind):
+    """(position error [m], rotation error [rad]) of the Pose x against X_target (4, 4) for the target
+    kind: the rotation angle between them (POSE), the angle between their z axes (POSITION_AND_AXIS),
+    0 (POSITION). As ``pipeline.model.ik.result.pose_errors``."""
+    dx, dy, dz = x[3] - X_target[0, 3], x[7] - X_target[1, 3], x[11] - X_target[2, 3]
+    position_error = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if kind == POSE:                                   # E = R^T R_target: its angle, accurate near 0
+        sx = _relative(x, X_target, 2, 1) - _relative(x, X_target, 1, 2)
+        sy = _relative(x, X_target, 0, 2) - _relative(x, X_target, 2, 0)
+        sz = _relative(x, X_target, 1, 0) - _relative(x, X_target, 0, 1)
+        trace = _relative(x, X_target, 0, 0) + _relative(x, X_target, 1, 1) + _relative(x, X_target, 2, 2)
+        return position_error, math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (trace - 1.0))
+    if kind == POSITION_AND_AXIS:
+        z, z_target = (x[2], x[6], x[10]), (X_target[0, 2], X_target[1, 2], X_target[2, 2])
+        n = cross(z, z_target)
+        return position_error, math.atan2(math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]),
+                                          z[0] * z_target[0] + z[1] * z_target[1] + z[2] * z_target[2])
+    return position_error, 0.0
+
+
+@njit(f"void({_M}, {_V}, {_M})", cache=True)
+def fk_into(chain, q, X):
+    """X (4, 4) = X_BE [m] at one configuration q (dof,)."""
+    check_configuration(q, chain.shape[0] - 1)
+    _write_pose(end_pose(chain, q), X)
+
+
+@njit(f"void({_M}, {_M}, {_T})", cache=True)
+def fk_batch_into(chain, Q, out):
+    """out (N, 4, 4) = X_BE [m] for configurations Q (N, dof)."""
+    for n in range(Q.shape[0]):
+        check_configuration(Q[n], chain.shape[0] - 1)
+        _write_pose(end_pose(chain, Q[n]), out[n])
+
+
+@njit(f"void({_M}, {_V}, {_M})", cache=True)
+def jacobian_into(chain, q, J):
+    """J (6, dof) = the geometric Jacobian at one configuration q (dof,)."""
+    check_configuration(q, chain.shape[0] - 1)
+    pose_and_jacobian(chain, q, J)
+
+
+@njit(f"void({_M}, {_V}, {_M}, {_M})", cache=True)
+def fk_and_jacobian_into(chain, q, X, J):
+    """X (4, 4) = X_BE [m] and J (6, dof) its Jacobian, from one pass along the chain."""
+    check_configuration(q, chain.shape[0] - 1)
+    _write_pose(pose_and_jacobian(chain, q, J), X)
+
+
+@njit(f"void({_M}, {_M}, {_T})", cache=True)
+def jacobian_batch_into(chain, Q, out):
+    """out (N, 6, dof) = the geometric Jacobians at configurations Q (N, dof)."""
+    for n in range(Q.shape[0]):
+        check_configuration(Q[n], chain.shape[0] - 1)
+        pose_and_jacobian(chain, Q[n], out[n])

@@ -1,0 +1,322 @@
+"""``write_ls(program, name) -> str``: a program as a FANUC teach pendant program in ASCII (``.ls``).
+
+The file (FANUC R-30iA/R-30iB operator's manuals: "program header information", "motion instructions",
+"position data"; the ASCII layout is the one the ASCII Program Loader reads and ROBOGUIDE/``PrintTP``
+writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/POS`` (the points) and
+``/END``. What this writer emits, and why:
+
+* Name: 1 to 8 characters, an upper-case letter then letters, digits or ``_``. Controllers from the
+  R-30iA on accept longer names (up to 36 characters, not checked against a manual here); 8 is the limit
+  every controller generation that reads ``.ls`` accepts, so a program loads anywhere unchanged.
+* Moves: the robot first goes to the program's first waypoint with a joint move (where it starts is not
+  known), then one line per move: ``J`` (joint), ``L`` (linear), ``C`` (circular: via point, then end point
+  on a continuation line). Joint moves run at ``%`` of the joints' maximum speed (the move's fraction of the
+  speed limits x the job's ``speed_scale``, 1 to 100), tool moves at ``mm/sec`` (the move's TCP speed x
+  ``speed_scale``, whole mm/sec as the pendant takes them).
+* Planned joint moves (a cell's collision-free detour): a ``J`` to each planner vertex, given in joints,
+  each ``FINE``: joint interpolation is straight in joint space, the segments the planner checked.
+* Termination: ``FINE`` where the move's zone is 0 (every stop, and the waypoints a joint path passes through:
+  the controller stops there) and at both ends of a planned move, else ``CNTn``. CNT is not a distance: it is how far the controller lets the
+  next move start during this one's deceleration (a percentage), so the corner it cuts grows with speed.
+  We pick n = ceil(100 zone / reach), 1..100, where reach is the distance over which the controller can round
+  at all: for a tool move with a TCP acceleration limit, its deceleration distance v^2 / (2 a) at the
+  programmed speed (CNT100 rounds over about that distance, so the corner is not cut by more than the zone
+  at the programmed speed); otherwise half the shorter of the two neighbouring TCP moves (the largest zone
+  the program may have). The zone in mm and the reach are stated in a comment line before each CNT move.
+* Points: ``P[i]{ GP1: UF : 0, UT : 1, CONFIG : 'F/N U/D T/B, t1, t4, t6', X Y Z W P R }`` for poses, the
+  TCP in user frame 0 (FANUC's world frame) in mm, W P R in deg as FANUC defines them: rotations about the
+  fixed x, y, z axes of the frame, R = Rz(R) Ry(P) Rx(W); CONFIG from ``pipeline.model.vendors.configuration``.
+  A waypoint the job gives in joints is written in joints, J1..J6 in deg as the pendant shows them
+  (J3 = q3 - q2 on FANUC arms, ``pipeline.model.vendors.axes``). Values are rounded to 0.001 mm and 0.001 deg.
+* Checked before writing: each Cartesian point, as written (rounded) and with its written CONFIG, is solved
+  again (``selection.select_solution``) and must land on the program's joint values within what the rounding
+  allows (``rounding_bound``); a point on or near a configuration boundary (an axis at exactly +-180 deg, a
+  singular set), where the rounding alone could send the controller to another branch or turn, is refused.
+* Frames: FANUC's world frame on the LR Mate 200iD is 330 mm above the mounting face (ROS-Industrial
+  ``fanuc_lrmate200id_support``: the ``base_link-base`` transform "to Fanuc World Coordinates"); any other
+  robot has no published world frame on this controller and is written in our base frame (the mounting
+  face). UT 1 must hold the job's tool (stated in the header comment; the identity when the job has none).
+
+``program_points`` (the motions in the order they are written, with their points' joint values) and
+``controller_frame`` are shared with the Yaskawa writer.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import re
+import textwrap
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import ConfigurationError, ConfigurationNotFoundError
+from ...files.poses import rotation_to_rpy, rpy_position_to_pose
+from ...model.vendors.axes import FANUC, axis_angles
+from ...model.vendors.configuration import configurations, format_configuration
+from ...model.vendors.selection import select_solution
+from ...program.model import CIRCULAR, JOINT, Move, Program
+from .lint import FANUC_LS, lint
+
+#: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
+#: with its source (ROS-Industrial descriptions: the ``base_link-base`` transform to the maker's frame).
+CONTROLLER_FRAMES = {
+    ("lrmate200id", "fanuc"): (0.330, ("FANUC world frame: 330 mm above the mounting face (ROS-Industrial "
+                                       "fanuc_lrmate200id_support, base_link-base)")),
+    ("gp7", "yaskawa"): (0.330, ("Yaskawa robot frame: 330 mm above the mounting face (ROS-Industrial "
+                                 "motoman_gp7_support, base_link-base)")),
+}
+#: Comment lines of a pendant program: at most this many characters each.
+COMMENT_CHARS = 32
+NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
+FANUC_SPEED_MM_S = (1, 2000)
+MM, DEG = 1000.0, 180.0 / math.pi
+_SEPARATOR = ",\t"
+
+
+@dataclass(frozen=True, eq=False)
+class Point:
+    """A point a program goes to: ``q`` (6,) [rad] its joint values, ``X_BT`` (4, 4) [m] the TCP in our
+    base frame, ``in_joints`` (the job gave it as joint values), ``via`` (a circular move's via point)."""
+
+    q: np.ndarray
+    X_BT: np.ndarray
+    in_joints: bool
+    via: bool = False
+
+
+def check_six_joints(program: Program) -> None:
+    """ConfigurationError unless the program's robot has 6 revolute joints (the controllers' arms)."""
+    robot = program.robot
+    if robot.dof != 6 or not np.all(robot.revolute_mask):
+        raise ConfigurationError(f"{robot.name}: a controller program needs a 6-axis arm of revolute joints")
+
+
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """One written motion: ``move`` (None: the joint move to the first waypoint; each vertex of a planned
+    move is a motion of that move), the ``points`` it goes to (a circular move: via, end) and the ``zone``
+    [m] at its end (0: an exact stop, as at the start, at a planned move's vertices and at both its ends)."""
+
+    move: Move | None
+    points: list[Point]
+    zone: float
+
+
+def program_points(program: Program, vendor: str) -> list[Motion]:
+    """The motions in the order they are written: the joint move to the first waypoint, then per move its
+    planner vertices (a planned joint move: joint points, exact stops, the straight joint segments the
+    planner checked) and its end, a circular move's via point before its end. A via point takes its
+    orientation from the move's nearest IK sample and its joint values from ``select_solution`` with that
+    sample's ``vendor`` configuration."""
+    robot, start = program.robot, program.waypoints[0]
+    motions = [Motion(None, [Point(start.q, robot.fk(start.q), start.method is None)], 0.0)]
+    for move in program.moves:
+        vertices = [] if move.planned is None else move.planned.waypoints[1:-1]
+        motions += [Motion(move, [Point(q, robot.fk(q), True)], 0.0) for q in vertices]
+        end = Point(move.target, move.X_BT, program.waypoints[move.end].method is None)
+        points = [via_point(program, move, vendor), end] if move.kind == CIRCULAR else [end]
+        motions.append(Motion(move, points, 0.0 if program.exact_stop_at(move) else move.zone))
+    return motions
+
+
+def via_point(program: Program, move: Move, vendor: str) -> Point:
+    """The via point of a circular move (see ``program_points``)."""
+    robot, samples = program.robot, move.samples
+    X = robot.fk_batch(samples)
+    nearest = int(np.argmin(np.linalg.norm(X[:, :3, 3] - move.via, axis=1)))
+    X_via = X[nearest].copy()
+    X_via[:3, 3] = move.via
+    config = configurations(robot, samples[nearest], vendor)
+    return Point(select_solution(robot, X_via, config, vendor), X_via, False, True)
+
+
+def controller_frame(robot, vendor: str) -> tuple[float, str]:
+    """(height [m] of the controller's robot frame above our base frame, what it rests on)."""
+    known = CONTROLLER_FRAMES.get((robot.name, vendor))
+    if known is not None:
+        return known
+    return 0.0, f"{robot.name} has no published {vendor} robot frame: positions are in our base frame (mounting face)"
+
+
+def xyz_rpy(X_BT: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y, z [mm] in the controller frame ``height`` [m] above the base, rotations about the fixed x, y, z
+    axes [deg] with R = Rz Ry Rx) of a TCP pose X_BT (4, 4) [m]."""
+    p = (X_BT[:3, 3] - [0.0, 0.0, height]) * MM
+    return p, rotation_to_rpy(X_BT[:3, :3]) * DEG
+
+
+def rounding_bound(robot, q, mm_step: float, deg_step: float) -> np.ndarray:
+    """How far (6,) [rad] re-solving a pose written to ``mm_step`` [mm] and ``deg_step`` [deg] may land
+    from q (6,) [rad]: each written number is off by at most half a step, so the TCP position by at most
+    sqrt(3) mm_step / 2 and its rotation (three rotations about fixed axes, each off by deg_step / 2) by
+    at most 3 deg_step / 2; to first order joint i moves by |J^-1 row i, v part| |dp| + |J^-1 row i, w
+    part| |dtheta| (J the TCP Jacobian at q); twice that, plus 1e-9 rad, covers the second order and the
+    closed-form IK's own error."""
+    J_inv = np.linalg.inv(robot.jacobian(q))
+    dp = math.sqrt(3.0) * mm_step / 2.0 / MM
+    dtheta = 3.0 * math.radians(deg_step) / 2.0
+    return 2.0 * (np.linalg.norm(J_inv[:, :3], axis=1) * dp + np.linalg.norm(J_inv[:, 3:], axis=1) * dtheta) + 1e-9
+
+
+def check_written_point(robot, vendor: str, label: str, q, xyz_mm, angles_deg, height: float, config,
+                        steps: tuple[float, float]) -> None:
+    """ConfigurationError naming the point unless the pose as written (``xyz_mm`` [mm] in the controller
+    frame ``height`` [m] above the base, ``angles_deg`` [deg]) with its written ``config`` selects joint values
+    within ``rounding_bound`` (``steps``: the file's mm and deg steps) of q (6,) [rad]: a point on or near a
+    configuration boundary (a turn window's edge at +-180 deg, a singular set), where the rounding alone can
+    make the controller take another branch or 2 pi variant, is refused rather than written."""
+    X = rpy_position_to_pose(np.radians(angles_deg), np.asarray(xyz_mm) / MM + [0.0, 0.0, height])
+    try:
+        landed = select_solution(robot, X, config, vendor)
+        why = f"it selects {np.round(np.degrees(landed), 4).tolist()} deg"
+    except ConfigurationNotFoundError as error:
+        landed, why = None, str(error)
+    if landed is None or np.any(np.abs(landed - q) > rounding_bound(robot, q, *steps)):
+        written = format_configuration(vendor, config)
+        raise ConfigurationError(f"{label}: joint values {np.round(np.degrees(q), 4).tolist()} deg lie on or near a "
+                                 f"{vendor} configuration boundary: the pose as written with {written} does not bring "
+                                 f"them back within the file's rounding ({why}); move the waypoint off the boundary "
+                                 "(e.g. an axis at exactly +-180 deg)")
+
+
+def rounded(values, decimals: int) -> np.ndarray:
+    """``values`` rounded to ``decimals``, without negative zeros (a file shows 0.000, not -0.000)."""
+    return np.round(np.asarray(values, dtype=float), decimals) + 0.0
+
+
+def comment_lines(text: str) -> list[str]:
+    """``text`` in lines of at most COMMENT_CHARS characters, without the characters pendants refuse."""
+    return textwrap.wrap(re.sub(r"[;'\"!]", "", text), COMMENT_CHARS)
+
+
+def tool_text(program: Program) -> str:
+    """The tool as x, y, z [mm] and rotations about the fixed x, y, z axes [deg] (R = Rz Ry Rx)."""
+    return "tool " + " ".join(f"{v:.3f}" for v in rounded(np.concatenate(xyz_rpy(program.tool.X_FT, 0.0)), 3))
+
+
+def check_name(name: str, pattern: re.Pattern, what: str) -> str:
+    if not isinstance(name, str) or not pattern.match(name):
+        raise ConfigurationError(f"{what} name {name!r}: 1 to 8 characters, an upper-case letter first, then "
+                                 "upper-case letters, digits or _")
+    return name
+
+
+def zone_reach(program: Program, k: int) -> tuple[float, str]:
+    """(the distance [m] over which the controller rounds at all at move k's end, what it is): move k's
+    deceleration distance at its programmed TCP speed when it is a tool move and the TCP acceleration is
+    limited, else half the shorter of moves k and k + 1 (TCP chords)."""
+    move = program.moves[k]
+    if move.kind != JOINT and program.tcp_accel_max:
+        v = move.speed * program.speed_scale
+        return v * v / (2.0 * program.tcp_accel_max), "decel"
+    before = program.robot.fk(program.targets[k])[:3, 3]
+    lengths = [np.linalg.norm(move.X_BT[:3, 3] - before)]
+    if k + 1 < len(program.moves):
+        lengths.append(np.linalg.norm(program.moves[k + 1].X_BT[:3, 3] - move.X_BT[:3, 3]))
+    return min(lengths) / 2.0, "half move"
+
+
+def cnt_value(zone: float, reach: float) -> int:
+    """CNT n, 1..100, for a zone [m] over a reach [m] (module docstring)."""
+    if reach <= 0.0:
+        return 100
+    return int(min(100, max(1, math.ceil(100.0 * zone / reach - 1e-9))))
+
+
+def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -> str:
+    """The program as a FANUC ``.ls`` file (module docstring); ``name`` its /PROG name, ``created`` the
+    header's date (None: now, UTC). ConfigurationError for a bad name, a non-6R robot or a speed the
+    controller cannot take; ``lint`` runs first on the name, the comment lines and the CONFIG of every Cartesian
+    waypoint (ControllerLintError)."""
+    check_name(name, NAME_PATTERN, "FANUC program")
+    check_six_joints(program)
+    height, frame = controller_frame(program.robot, FANUC)
+    comments = comment_lines(_header_text(program, frame))
+    motions = program_points(program, FANUC)
+    zones = [line for motion in motions if motion.zone > 0.0 for line in comment_lines(_zone_comment(program, motion))]
+    configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
+    lint(program, FANUC_LS, name, comments + zones, configs)
+    lines = [f"!{line}" for line in comments]
+    positions, index = [], 0
+    for motion in motions:
+        labels = []
+        for point in motion.points:
+            index += 1
+            labels.append(f"P[{index}]")
+            positions.append(_position(program, index, point, height))
+        if motion.zone > 0.0:
+            lines.extend(f"!{line}" for line in comment_lines(_zone_comment(program, motion)))
+        lines.append(_motion(program, motion, labels))
+    return "\n".join([f"/PROG  {name}", *_attributes(program, len(lines), created), "/MN",
+                      *(f"{n:4d}:  {line} ;" for n, line in enumerate(lines, start=1)), "/POS", *positions, "/END",
+                      ""])
+
+
+def _header_text(program: Program, frame: str) -> str:
+    return (f"{program.name} on {program.robot.name}. The controller plans its own speed profile for each move, "
+            "not the certified one: timing and the path in zones differ. It stops (FINE) at every waypoint "
+            f"without a zone. UT 1 = {tool_text(program)} (x y z w p r, mm deg). {frame}. Loading .ls needs the "
+            "ASCII Program Loader option (or MakeTP offline).")
+
+
+def _zone_comment(program: Program, motion: Motion) -> str:
+    reach, how = zone_reach(program, motion.move.end - 1)
+    return f"zone {motion.zone * MM:.1f}mm CNT{cnt_value(motion.zone, reach)} {how} {reach * MM:.1f}mm"
+
+
+def _termination(program: Program, motion: Motion) -> str:
+    if motion.zone <= 0.0:
+        return "FINE"
+    return f"CNT{cnt_value(motion.zone, zone_reach(program, motion.move.end - 1)[0])}"
+
+
+def _speed(program: Program, move: Move | None) -> str:
+    """A joint move's % (1..100), a tool move's mm/sec; ConfigurationError where the controller cannot."""
+    if move is None or move.kind == JOINT:
+        fraction = program.speed_scale if move is None else move.speed * program.speed_scale
+        return f"{int(min(100, max(1, round(fraction * 100.0))))}%"
+    mm_s = round(move.speed * program.speed_scale * MM)
+    low, high = FANUC_SPEED_MM_S
+    if not low <= mm_s <= high:
+        raise ConfigurationError(f"move {move.end}: TCP speed {mm_s} mm/sec is outside FANUC's {low}..{high} mm/sec")
+    return f"{mm_s}mm/sec"
+
+
+def _motion(program: Program, motion: Motion, labels: list[str]) -> str:
+    """One numbered /MN line: J or L to a point, or C through the via point with the end point on a
+    continuation line (":"), then speed and termination."""
+    move = motion.move
+    tail = f"{_speed(program, move)} {_termination(program, motion)}"
+    if move is None or move.kind == JOINT:
+        return f"J {labels[0]} {tail}"
+    if move.kind == CIRCULAR:
+        return f"C {labels[0]}\n       :  {labels[1]} {tail}"
+    return f"L {labels[0]} {tail}"
+
+
+def _position(program: Program, index: int, point: Point, height: float) -> str:
+    """One /POS entry: joints as the pendant shows them, or CONFIG and X Y Z W P R."""
+    head = f"P[{index}]{{\n   GP1:\n\tUF : 0, UT : 1,"
+    if point.in_joints:
+        J = rounded(axis_angles(program.robot, point.q, FANUC), 3)
+        values = [f"J{i + 1}= {v:10.3f} deg" for i, v in enumerate(J)]
+        return f"{head}\n\t{_SEPARATOR.join(values[:3])},\n\t{_SEPARATOR.join(values[3:])}\n}};"
+    config = format_configuration(FANUC, configurations(program.robot, point.q, FANUC))
+    p, wpr = (rounded(v, 3) for v in xyz_rpy(point.X_BT, height))
+    check_written_point(program.robot, FANUC, f"P[{index}]", point.q, p, wpr, height, config, (0.001, 0.001))
+    xyz = _SEPARATOR.join(f"{axis} = {v:10.3f}  mm" for axis, v in zip("XYZ", p))
+    angles = _SEPARATOR.join(f"{axis} = {v:10.3f} deg" for axis, v in zip("WPR", wpr))
+    return f"{head}\t\tCONFIG : '{config}',\n\t{xyz},\n\t{angles}\n}};"
+
+
+def _attributes(program: Program, line_count: int, created: _dt.datetime | None) -> list[str]:
+    when = created or _dt.datetime.now(_dt.timezone.utc)
+    stamp = f"DATE {when:%y-%m-%d}  TIME {when:%H:%M:%S}"
+    return ["/ATTR", "OWNER\t\t= MNEDITOR;", 'COMMENT\t\t= "";', "PROG_SIZE\t= 0;", f"CREATE\t\t= {stamp};",
+            f"MODIFIED\t= {stamp};", "FILE_NAME\t= ;", "VERSION\t\t= 0;", f"LINE_COUNT\t= {line_count};",
+            "MEMORY_SIZE\t= 0;", "PROTECT\t\t= READ_WRITE;",
+            "TCD:  STACK_SIZE\t= 0,", "      TASK_PRIORITY\t= 50,", "      TIME_SLICE\t= 0,",
+            "      BUSY_LAMP_OFF\t= 0,", "      ABORT_REQUEST\t= 0,", "      PAUSE_REQUEST\t= 0;",
+            "DEFAULT_GROUP\t= 1,*,*,*,*;", "CONTROL_CODE\t= 00000000 00000000;"]

@@ -1,0 +1,253 @@
+"""KUKA KRL: a program as the ``.src`` (its motions) and ``.dat`` (its targets) a KUKA KR C4 controller
+(KUKA System Software 8.x) runs, ``write_krl(program, name) -> (src, dat)``.
+
+What it writes, and the facts it follows (KUKA System Software, Expert Programming / Operating and
+Programming Instructions for System Integrators; the chapter and section named at each):
+
+* ``DEF name( )`` ... ``END`` in the .src and ``DEFDAT name`` ... ``ENDDAT`` in the .dat ("Structure
+  of a KRL program", "Data lists"); names at most 24 characters ("Names"), checked by ``lint``.
+* No call of BAS: the .src sets what BAS(#INITMOV) would, and says what it assumes: ``$BASE =
+  $ROBROOT`` (targets in the robot's own base frame, which is our model's base frame), ``$TOOL`` the
+  job's tool in the flange frame ($FLANGE taken to be our model's end frame without the tool),
+  ``$IPO_MODE = #BASE``, ``$ORI_TYPE = #VAR`` (the orientation turns from start to end, as in our tool
+  moves), ``$CIRC_TYPE = #BASE``, ``$ADVANCE = 3`` (approximation needs an advance run), accelerations
+  ``$ACC_AXIS[i] = 100`` % and ``$ACC.CP`` the job's tcp_accel_max [m/s^2] (else the machine data's
+  ``$ACC_MA.CP``), orientation speeds and accelerations the machine data's ("System variables").
+* Speeds from each move's speed times the job's speed_scale: a PTP's ``$VEL_AXIS[1..6]`` [INT %] of the
+  axes' maximum speeds, a LIN's or CIRC's ``$VEL.CP`` [m/s] ("Motion programming: PTP, LIN, CIRC";
+  "$VEL_AXIS", "$VEL").
+* Moves: ``PTP`` to an E6AXIS (a waypoint given as joint values) or E6POS (a pose waypoint), ``LIN`` to an
+  E6POS, a PTP's pose target as an E6AXIS when its written E6POS with S and T would not name its joint
+  values alone (Turn is a sign per axis: an axis of more than +-180 deg, such as the IRB 1600's axis 6 of
+  +-400 deg, has two 2 pi variants of one sign; an axis at 0 can cross the sign by the rounding),
+  ``CIRC aux, end`` with the via point as a FRAME (KRL ignores the auxiliary point's orientation
+  and Status/Turn; we write the end's orientation). The first motion is a PTP to the start (the BCO run)
+  at 10 % of the axes' speeds.
+* Zones: a move with a zone gets ``$APO.CDIS`` = the zone [mm] and ``C_DIS`` ("Approximate positioning":
+  approximation starts at the earliest when the TCP is closer than $APO.CDIS to the end point; KSS 8.x
+  accepts C_DIS on PTP as well, as its inline forms write it; a KR C2 / KSS 5.x controller needs
+  ``C_PTP C_DIS`` on a PTP instead); a zone of 0 is an exact stop (no approximation parameter), as are
+  both ends of a planned joint move and its planner vertices (``PTP XPk_i`` to E6AXIS targets: PTP is
+  straight in joint space, the segments the planner checked).
+* E6POS ``{X, Y, Z, A, B, C, S, T, E1..E6}``: the TCP in the base frame, X, Y, Z [mm] rounded to 0.001
+  mm, A, B, C [deg] rounded to 0.0001 deg in KUKA's convention R = Rz(A) Ry(B) Rx(C) (A about Z, then B
+  about the new Y, then C about the newest X: "Orientation angles A, B, C"); S and T the KUKA Status and
+  Turn of the target's joint values (``pipeline.model.vendors.configuration``; an axis at 0 gets the sign
+  its written E6POS selects: ``written_status_turn``), written in decimal as the
+  pendant writes them; E1..E6 = 0 (no external axes). E6AXIS ``{A1..A6, E1..E6}`` [deg] rounded to 0.0001
+  deg: the controller's axis angles (``pipeline.model.vendors.axes``). KRL REAL is a 32-bit float (about 7
+  significant digits), which holds these roundings for coordinates up to 9999.999 mm and angles up to
+  999.9999 deg.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import ConfigurationNotFoundError
+from ...files.poses import rotation_to_rpy, rpy_to_rotation
+from ...model.vendors.axes import KUKA, axis_angles, axis_map
+from ...model.vendors.configuration import configurations
+from ...model.vendors.selection import select_solution, written_configuration
+from .lint import KRL, lint, written_speed
+
+#: Axis speed [% of the axes' maximum] of the first motion (the BCO run to the start).
+BCO_PERCENT = 10
+#: Decimal places written: positions [mm], angles [deg].
+MM_DECIMALS, DEG_DECIMALS = 3, 4
+#: A PTP target re-solved from its written E6POS with its S and T must land this close to its joints [rad]
+#: (0.002 deg: the written rounding moves the joints by a few 1e-4 deg away from singular poses).
+SELECTED_TOL = np.radians(0.002)
+_NO_EXTERNAL = ",".join(f"E{i} 0.0" for i in range(1, 7))
+
+
+def kuka_abc(R: np.ndarray) -> tuple[float, float, float]:
+    """KUKA's A, B, C [deg] of a rotation (3, 3): R = Rz(A) Ry(B) Rx(C), our yaw, pitch, roll
+    (``pipeline.files.poses``; at B = +-90 deg, where only A -+ C is defined, A = 0)."""
+    roll, pitch, yaw = np.degrees(rotation_to_rpy(R))
+    return float(yaw), float(pitch), float(roll)
+
+
+def abc_rotation(a: float, b: float, c: float) -> np.ndarray:
+    """The rotation matrix (3, 3) Rz(A) Ry(B) Rx(C) of KUKA's A, B, C [deg]."""
+    return rpy_to_rotation(*np.radians([c, b, a]))
+
+
+def written_pose(X: np.ndarray) -> np.ndarray:
+    """The pose (4, 4) [m] the controller reads back from X (4, 4) [m] as ``frame_text`` writes it (rounded)."""
+    a, b, c = (round(v, DEG_DECIMALS) for v in kuka_abc(X[:3, :3]))
+    out = np.eye(4)
+    out[:3, :3] = abc_rotation(a, b, c)
+    out[:3, 3] = np.round(X[:3, 3] * 1000.0, MM_DECIMALS) / 1000.0
+    return out
+
+
+def names_its_joints(robot, X: np.ndarray, status_turn, q: np.ndarray) -> bool:
+    """Whether the written pose X (4, 4) [m] with its Status and Turn selects the joint values q (6,) [rad]
+    and no other in-limit solution (within SELECTED_TOL): Turn is a sign per axis, so on an axis of more
+    than +-180 deg two 2 pi variants can share it, and rounding can move an axis near 0 across the sign."""
+    try:
+        found = select_solution(robot, written_pose(X), tuple(int(v) for v in status_turn), KUKA)
+    except ConfigurationNotFoundError:
+        return False
+    return bool(np.abs(found - q).max() <= SELECTED_TOL)
+
+
+def _num(value: float, decimals: int) -> str:
+    """A REAL as KRL writes it, at ``decimals`` places, without a negative zero."""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def frame_text(X: np.ndarray) -> str:
+    """``X 1.000,Y 2.000,Z 3.000,A 0.0000,B 0.0000,C 180.0000`` of a pose X (4, 4) [m]."""
+    xyz = [_num(v * 1000.0, MM_DECIMALS) for v in X[:3, 3]]
+    abc = [_num(v, DEG_DECIMALS) for v in kuka_abc(X[:3, :3])]
+    return ",".join(f"{k} {v}" for k, v in zip("XYZABC", xyz + abc))
+
+
+def e6pos(name: str, X: np.ndarray, status: int, turn: int) -> str:
+    """The .dat declaration of an E6POS ``name`` at pose X (4, 4) [m] with Status and Turn."""
+    return f"DECL E6POS {name}={{{frame_text(X)},S {int(status)},T {int(turn)},{_NO_EXTERNAL}}}"
+
+
+def e6axis(name: str, angles_deg) -> str:
+    """The .dat declaration of an E6AXIS ``name`` at the axis angles (6,) [deg]."""
+    axes = ",".join(f"A{i} {_num(v, DEG_DECIMALS)}" for i, v in enumerate(angles_deg, start=1))
+    return f"DECL E6AXIS {name}={{{axes},{_NO_EXTERNAL}}}"
+
+
+def frame(name: str, X: np.ndarray) -> str:
+    """The .dat declaration of a FRAME ``name`` (a CIRC auxiliary point) at pose X (4, 4) [m]."""
+    return f"DECL FRAME {name}={{{frame_text(X)}}}"
+
+
+def header(program, name: str) -> list[str]:
+    """The comment lines at the top of the .src: what the controller does differently from the certified
+    profile, and what the program assumes."""
+    mapping = axis_map(program.robot, KUKA)
+    return [
+        f"{name}: {len(program.moves)} moves of job {program.name} on {program.robot.name}, written by "
+        "pipeline.outputs.controllers.krl",
+        "What the controller does differently from the certified profile:",
+        "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "
+        "jerk): the timing differs",
+        "- a PTP moves all axes synchronously straight in axis space from its start; our joint path may be a "
+        "spline through the waypoints",
+        "- C_DIS corners are the controller's own approximation contour within $APO.CDIS of the point, not our "
+        "blend",
+        "- LIN and CIRC keep the start's configuration and ignore a target's S and T; only PTP uses them",
+        "- PTP targets whose E6POS with S and T would name more than one joint solution are written as E6AXIS",
+        "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
+        "Assumed (no BAS call): $ROBROOT = our base frame, $FLANGE = our end frame without the tool, no "
+        "external axes",
+        f"Axis angles: {mapping.source}",
+    ]
+
+
+def _init(program) -> list[str]:
+    """The BAS-free initialisation of the .src (module docstring)."""
+    tool = frame_text(program.tool.X_FT)
+    acc_cp = f"{program.tcp_accel_max:.3f}" if program.tcp_accel_max is not None else "$ACC_MA.CP"
+    lines = ["$ADVANCE = 3", "$BASE = $ROBROOT", f"$TOOL = {{{tool}}}", "$IPO_MODE = #BASE",
+             "$ORI_TYPE = #VAR", "$CIRC_TYPE = #BASE", f"$ACC.CP = {acc_cp}", "$ACC.ORI1 = $ACC_MA.ORI1",
+             "$ACC.ORI2 = $ACC_MA.ORI2", "$VEL.ORI1 = $VEL_MA.ORI1", "$VEL.ORI2 = $VEL_MA.ORI2"]
+    lines += [f"$ACC_AXIS[{i}] = 100" for i in range(1, 7)]
+    lines += [f"$VEL_AXIS[{i}] = {BCO_PERCENT}" for i in range(1, 7)]
+    return lines
+
+
+def _speed_lines(move, speed_scale: float, current: dict) -> list[str]:
+    """The speed assignments before ``move`` that differ from ``current`` (updated in place)."""
+    value, _ = written_speed(KRL, move, speed_scale)
+    if move.is_tool_move:
+        text = f"{value:.3f}"
+        if current.get("cp") == text:
+            return []
+        current["cp"] = text
+        return [f"$VEL.CP = {text}"]
+    percent = int(round(value))
+    if current.get("axis") == percent:
+        return []
+    current["axis"] = percent
+    return [f"$VEL_AXIS[{i}] = {percent}" for i in range(1, 7)]
+
+
+def _motion(move, point: str, aux: str | None, zone_m: float) -> list[str]:
+    """The approximation distance and the motion line of ``move`` to ``point`` (via ``aux`` if circular)
+    with a zone of ``zone_m`` [m] (0: an exact stop)."""
+    zone = []
+    approx = ""
+    if zone_m > 0.0:
+        zone, approx = [f"$APO.CDIS = {zone_m * 1000.0:.3f}"], " C_DIS"
+    if aux is not None:
+        return zone + [f"CIRC {aux}, {point}{approx}"]
+    return zone + [f"{'LIN' if move.is_tool_move else 'PTP'} {point}{approx}"]
+
+
+def written_status_turn(program) -> np.ndarray:
+    """Status and Turn (K, 2) written with each waypoint: of its joint values, except an axis at 0 to within
+    round-off (Turn is its sign), which gets the sign the written E6POS selects (``selection.
+    written_configuration``), so that the file names the joint values its reader will find."""
+    robot, poses = program.robot, [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
+    own = configurations(robot, program.targets, KUKA)
+    return np.array([own[k] if program.waypoints[k].method is None else
+                     written_configuration(robot, written_pose(X), q, KUKA, SELECTED_TOL, "the E6POS")
+                     for k, (X, q) in enumerate(zip(poses, program.targets))])
+
+
+def _as_axes(program, k: int, X: np.ndarray, status_turn) -> bool:
+    """Whether waypoint k is written as an E6AXIS: given as joint values, or a PTP target (the start or a
+    joint move's end) whose written E6POS with its S and T does not name its joint values alone. LIN and
+    CIRC targets stay E6POS: the controller ignores their S and T and follows the path from where it is."""
+    if program.waypoints[k].method is None:
+        return True
+    ptp = k == 0 or not program.moves[k - 1].is_tool_move
+    return ptp and not names_its_joints(program.robot, X, status_turn, program.targets[k])
+
+
+def _declarations(program, status_turn: np.ndarray, angles: np.ndarray) -> list[str]:
+    """The .dat declarations: waypoint k as XPk (E6AXIS or E6POS: ``_as_axes``), the via point of a
+    circular move to waypoint k as XAk and vertex i of a planned move to waypoint k as XPk_i (E6AXIS)."""
+    poses = [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
+    lines = []
+    for k, X in enumerate(poses):
+        if _as_axes(program, k, X, status_turn[k]):
+            lines.append(e6axis(f"XP{k}", angles[k]))
+        else:
+            lines.append(e6pos(f"XP{k}", X, *status_turn[k]))
+    for move in program.moves:
+        if move.via is not None:
+            X = move.X_BT.copy()
+            X[:3, 3] = move.via
+            lines.append(frame(f"XA{move.end}", X))
+        lines += [e6axis(name, axis_angles(program.robot, q, KUKA)) for name, q in _vertices(move)]
+    return lines
+
+
+def _vertices(move) -> list[tuple[str, np.ndarray]]:
+    """(name, joint values (6,) [rad]) of each planner vertex of a planned move between its ends."""
+    if move.planned is None:
+        return []
+    return [(f"XP{move.end}_{i}", q) for i, q in enumerate(move.planned.waypoints[1:-1], start=1)]
+
+
+def write_krl(program, name: str) -> tuple[str, str]:
+    """The program's .src and .dat texts (module docstring) as program ``name``. ``lint`` runs first: a
+    ControllerLintError names what KRL cannot hold (a name over 24 characters, a zone over half a move, a
+    speed out of range, a configuration that does not match its joint values). A planned joint move (a
+    cell's collision-free detour) is a PTP to each planner vertex (E6AXIS), exact stops at the vertices and
+    at both ends of the move: PTP is straight in joint space, the segments the planner checked."""
+    status_turn = written_status_turn(program)
+    comments = header(program, name)
+    lint(program, KRL, name, comments, status_turn)
+    angles = axis_angles(program.robot, program.targets, KUKA)
+    body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
+    for move in program.moves:
+        body += _speed_lines(move, program.speed_scale, speeds)
+        body += [f"PTP {name}" for name, _ in _vertices(move)]
+        zone = 0.0 if program.exact_stop_at(move) else move.zone
+        body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone)
+    src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
+    dat = [f"DEFDAT {name}"] + _declarations(program, status_turn, angles) + ["ENDDAT"]
+    return "\n".join(src) + "\n", "\n".join(dat) + "\n"

@@ -1,0 +1,308 @@
+"""``write_rapid(program, module_name) -> str``: a compiled Program as an ABB RAPID module (``.mod``).
+
+What it writes, and the RAPID facts it follows (ABB, "Technical reference manual - RAPID Instructions,
+Functions and Data types", the entries named; "Technical reference manual - RAPID kernel" for names):
+
+* ``tooldata`` (robhold, tframe, tload): tframe is the job's tool X_FT [mm, quaternion]; the load (mass 1 kg,
+  centre of gravity at the flange, no inertia) is a PLACEHOLDER the header says to replace: the program has
+  no tool mass.
+* ``wobjdata``: without a cell, or with the robot's base at the cell's origin, ``wobj0`` (targets in the
+  robot's base frame). Otherwise a work object whose user frame is the robot's base in the cell (X_WB), so
+  that the targets stay in the robot's base frame: the controller's base frame (system parameters) must then
+  be X_WB in its world frame, as in the cell.
+* ``robtarget`` [trans, rot, robconf, extax]: the TCP in the work object, position [mm] rounded to 0.001 mm,
+  orientation as the unit quaternion [q1 (scalar), q2, q3, q4] with q1 >= 0 rounded to 1e-6, ``confdata``
+  [cf1, cf4, cf6, cfx] (``pipeline.model.vendors.configuration``; the axis map of ``pipeline.model.vendors.axes``
+  named in the header) of the move's target joint values, unless an axis sits on a quadrant boundary that
+  the rounding moves it across (``written_configuration``); external axes 9E9 (none).
+* ``jointtarget`` [robax, extax]: axis angles [deg] rounded to 0.0001 deg, for ``MoveAbsJ``.
+* Moves: the start is reached by ``MoveAbsJ`` at ``v100``, an approach that is not part of the program.
+  A joint move to joint values is ``MoveAbsJ`` (the joint values themselves, no configuration needed); a
+  joint move to a pose is ``MoveJ`` to a robtarget; ``MoveL``; ``MoveC`` with the program's via point as
+  CirPoint (its orientation and confdata where the program's track passes it; RAPID uses the CirPoint's
+  orientation only to choose the way of reorientation). A planned joint move passes its planner vertices
+  by ``MoveAbsJ ... fine`` each: axis interpolation is straight in joint space, the segments the planner
+  checked.
+* ``speeddata`` [v_tcp, v_ori, v_leax, v_reax]: a tool move's TCP speed (x the job's speed scale, capped by
+  its safety TCP limit) [mm/s] as v_tcp, the rest (500 deg/s, 5000 mm/s, 1000 deg/s) as in every predefined
+  speeddata v5..v7000. A joint move runs at a fraction s of the joint speed limits; RAPID has no such
+  speed, so it is written as ``vmax \\T:=T`` (\\T: the total time of the move, which replaces the
+  speeddata): T = max_i |dq_i| / (s x speed scale x qd_max_i) [s], rounded up to 1 ms, the time the leading
+  axis needs at that speed without accelerating. The controller adds its own acceleration and keeps its
+  own axis limits, so the move takes at least that long.
+* ``zonedata`` [finep, pzone_tcp, pzone_ori, pzone_eax, zone_ori, zone_leax, zone_reax]: ``fine`` at the
+  program's stops and at both ends of a planned joint move (``Program.exact_stop_at``); a zone of R mm as pzone_tcp = R with the other fields in the ratios of the predefined
+  z10..z200 (1.5 R mm for pzone_ori, pzone_eax, zone_leax; 0.15 R deg for zone_ori, zone_reax); ``z0`` (the
+  smallest fly-by zone, 0.3 mm) at a waypoint the program passes through without a zone.
+* ``ConfJ \\On`` and ``ConfL \\On``: the controller keeps the written configurations (its default after
+  loading, written out so that a changed default cannot pick another branch).
+* Names: identifiers of at most 32 characters, letters, digits and underscores, starting with a letter,
+  not a reserved word.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import textwrap
+
+import numpy as np
+
+from ...errors import OutputError
+from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
+from ...model.vendors import selection
+from ...model.vendors.axes import ABB, axis_angles, axis_map
+from ...model.vendors.configuration import format_configuration
+from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from .lint import RAPID, lint
+
+#: RAPID's reserved words (RAPID kernel manual, "Reserved words"): no identifier may be one of them.
+RESERVED_WORDS = frozenset(("ALIAS", "AND", "BACKWARD", "CASE", "CONNECT", "CONST", "DEFAULT", "DIV", "DO", "ELSE",
+                            "ELSEIF", "ENDFOR", "ENDFUNC", "ENDIF", "ENDMODULE", "ENDPROC", "ENDRECORD", "ENDTEST",
+                            "ENDTRAP", "ENDWHILE", "ERROR", "EXIT", "FALSE", "FOR", "FROM", "FUNC", "GOTO", "IF",
+                            "INOUT", "LOCAL", "MOD", "MODULE", "NOSTEPIN", "NOT", "NOVIEW", "OR", "PERS", "PROC",
+                            "RAISE", "READONLY", "RECORD", "RETRY", "RETURN", "STEP", "SYSMODULE", "TASK", "TEST",
+                            "THEN", "TO", "TRUE", "TRYNEXT", "UNDO", "VAR", "VIEWONLY", "WHILE", "WITH", "XOR"))
+IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
+#: v_ori [deg/s], v_leax [mm/s], v_reax [deg/s] of every predefined speeddata v5..v7000.
+SPEED_REST = (500.0, 5000.0, 1000.0)
+#: The predefined z10..z200 zones' pzone_ori, pzone_eax, zone_leax [mm] and zone_ori, zone_reax [deg] per mm.
+ZONE_MM_RATIO, ZONE_DEG_PER_MM = 1.5, 0.15
+EXTERNAL_AXES = "[9E9,9E9,9E9,9E9,9E9,9E9]"
+TOOL, WOBJ = "tool_job", "wobj_base"
+APPROACH_SPEED = "v100"
+#: Decimals written: positions [mm], quaternions, joint angles [deg], speeds [mm/s], times [s].
+MM, QUATERNION, DEG, SPEED = 3, 6, 4, 3
+TIME_STEP_S = 1e-3
+#: The written pose's joint values must lie this close to the program's [rad] (``written_configuration``).
+WRITTEN_JOINTS_RAD = 1e-3
+#: Header comment lines are wrapped to this many characters; the declarations are written in this order.
+COMMENT_WIDTH = 96
+DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", "speeddata", "zonedata", "jointtarget",
+                                                        "robtarget"))}
+#: How each data type is declared: tool and work object data persistent (as RobotStudio declares them), the rest
+#: constants.
+STORAGE = {"tooldata": "PERS", "wobjdata": "TASK PERS", "speeddata": "CONST", "zonedata": "CONST",
+           "jointtarget": "CONST", "robtarget": "CONST"}
+
+
+def write_rapid(program: Program, module_name: str) -> str:
+    """The RAPID module text of ``program`` (see the module docstring), named ``module_name`` (a RAPID
+    identifier). OutputError names what cannot be written (a bad name, a robot without 6 joints); ``lint``
+    runs first on the name, the header comments and the confdata of the robtargets (ControllerLintError)."""
+    check_identifier(module_name, "module name")
+    if program.robot.dof != 6:
+        raise OutputError(f"{program.robot.name}: a RAPID robtarget needs a 6-joint arm, it has {program.robot.dof}")
+    module = _Module(program)
+    lint(program, RAPID, module_name, module.header(module_name), written_configurations(program))
+    module.add_moves()
+    return module.text(module_name)
+
+
+def check_identifier(name: str, what: str) -> str:
+    """``name`` if it is a RAPID identifier, else OutputError naming ``what`` and the rule it breaks."""
+    if not isinstance(name, str) or not IDENTIFIER.match(name):
+        raise OutputError(f"RAPID {what} {name!r}: an identifier is 1 to 32 letters, digits or underscores "
+                          "starting with a letter")
+    if name.upper() in RESERVED_WORDS:
+        raise OutputError(f"RAPID {what} {name!r} is a reserved word")
+    return name
+
+
+def number(value: float, decimals: int) -> str:
+    """``value`` with at most ``decimals`` decimals, without trailing zeros or a negative zero."""
+    text = f"{value:.{decimals}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def numbers(values, decimals: int) -> str:
+    """``[a,b,...]`` of the values, each as ``number`` writes it."""
+    return "[" + ",".join(number(float(v), decimals) for v in values) + "]"
+
+
+def pose_text(X: np.ndarray) -> str:
+    """``[[x,y,z],[q1,q2,q3,q4]]`` of a pose (4, 4) [m]: position [mm], unit quaternion, scalar first, q1 >= 0."""
+    quaternion, position = pose_to_quaternion_position(X)
+    return f"[{numbers(position * 1e3, MM)},{numbers(quaternion, QUATERNION)}]"
+
+
+def written_pose(X: np.ndarray) -> np.ndarray:
+    """The pose (4, 4) [m] a controller reads from ``pose_text(X)``: the rounded position and the rounded
+    quaternion normalised."""
+    quaternion, position = pose_to_quaternion_position(X)
+    quaternion = np.round(quaternion, QUATERNION)
+    return quaternion_position_to_pose(quaternion / np.linalg.norm(quaternion), np.round(position * 1e3, MM) / 1e3)
+
+
+def written_configuration(robot, X: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The confdata (4,) written with the robtarget of pose X (4, 4) [m] reached with joint values q (6,)
+    [rad]: ``selection.written_configuration`` of the pose as the module rounds it (``written_pose``), within
+    WRITTEN_JOINTS_RAD of q (an axis on a quadrant boundary, a multiple of 90 deg, may be written on the side
+    its rounded robtarget selects)."""
+    return selection.written_configuration(robot, written_pose(X), q, ABB, WRITTEN_JOINTS_RAD,
+                                             f"the robtarget, rounded to {MM} decimals of mm and {QUATERNION} of "
+                                             "the quaternion,")
+
+
+def written_configurations(program: Program) -> list[np.ndarray | None]:
+    """The confdata (4,) written for each waypoint: None for the start and joint waypoints (jointtargets)."""
+    return [None] + [None if program.waypoints[m.end].method is None else
+                     written_configuration(program.robot, m.X_BT, m.target) for m in program.moves]
+
+
+def zone_name(program: Program, move: Move) -> tuple[str, str | None]:
+    """(the zonedata name, its value or None for a predefined one) at the end of ``move``."""
+    if program.exact_stop_at(move):
+        return "fine", None
+    if move.zone <= 0.0:
+        return "z0", None
+    mm = move.zone * 1e3
+    name = "zone_" + number(mm, MM).replace(".", "_")
+    fields = [number(mm, MM), *[number(mm * ZONE_MM_RATIO, MM)] * 2, number(mm * ZONE_DEG_PER_MM, MM),
+              number(mm * ZONE_MM_RATIO, MM), number(mm * ZONE_DEG_PER_MM, MM)]
+    return name, f"[FALSE,{','.join(fields)}]"
+
+
+def tcp_speed(program: Program, move: Move) -> float:
+    """The TCP speed [m/s] a tool move is written with: its own x the speed scale, capped by the job's safety
+    TCP limit x the speed scale (as the timing applies them)."""
+    speed = move.speed
+    if program.limits.tcp_speed_max is not None:
+        speed = min(speed, program.limits.tcp_speed_max)
+    return speed * program.speed_scale
+
+
+def joint_move_time(program: Program, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> float:
+    """The time [s] the leading axis needs from q_from to q_to (6,) [rad] at ``fraction`` x the speed scale x
+    its speed limit, rounded up to TIME_STEP_S (0: no motion)."""
+    speeds = fraction * program.speed_scale * program.limits.qd_max
+    seconds = float(np.max(np.abs(np.asarray(q_to) - np.asarray(q_from)) / speeds))
+    return math.ceil(seconds / TIME_STEP_S - 1e-9) * TIME_STEP_S
+
+
+def via_target(program: Program, move: Move) -> tuple[np.ndarray, np.ndarray]:
+    """(pose (4, 4) [m], joint values (6,) [rad]) of a circular move's via point: the via position, with the
+    orientation and joint values where the move's track passes it."""
+    tool_path = move.track.along.tool_path
+    index = next(i for i, segment in enumerate(tool_path.segments) if segment.index == move.end)
+    centre, radius, e1, e2, _ = tool_path.segments[index].arc
+    offset = move.via - centre
+    angle = math.atan2(float(offset @ e2), float(offset @ e1)) % (2.0 * math.pi)
+    sigma = tool_path.starts[index] + radius * angle
+    q = move.track.along.path(np.array([sigma / tool_path.length]))[0]
+    X = np.eye(4)
+    X[:3, :3] = tool_path.rotation([sigma]).as_matrix()[0]
+    X[:3, 3] = move.via
+    return X, q
+
+
+class _Module:
+    """The declarations and instructions of one module, gathered move by move."""
+
+    def __init__(self, program: Program):
+        self.program = program
+        self.declarations: dict[str, tuple[str, str]] = {}          # name -> (data type, value)
+        self.instructions: list[str] = []
+        X_WB = None if program.cell is None else program.cell.X_WB
+        self.wobj = "" if X_WB is None or np.allclose(X_WB, np.eye(4), atol=1e-12) else f"\\WObj:={WOBJ}"
+        self.declare(TOOL, "tooldata", f"[TRUE,{pose_text(program.tool.X_FT)},[1,[0,0,0],[1,0,0,0],0,0,0]]")
+        if self.wobj:
+            self.declare(WOBJ, "wobjdata", f"[FALSE,TRUE,\"\",{pose_text(X_WB)},[[0,0,0],[1,0,0,0]]]")
+
+    def declare(self, name: str, datatype: str, value: str | None) -> None:
+        if value is not None:
+            self.declarations.setdefault(check_identifier(name, "data name"), (datatype, value))
+
+    def jointtarget(self, name: str, q: np.ndarray) -> str:
+        angles = axis_angles(self.program.robot, q, ABB)
+        self.declare(name, "jointtarget", f"[{numbers(angles, DEG)},{EXTERNAL_AXES}]")
+        return name
+
+    def robtarget(self, name: str, X: np.ndarray, q: np.ndarray) -> str:
+        robot = self.program.robot
+        conf = format_configuration(ABB, written_configuration(robot, X, q))
+        self.declare(name, "robtarget", f"[{pose_text(X)[1:-1]},{conf},{EXTERNAL_AXES}]")
+        return name
+
+    def speed(self, move: Move) -> str:
+        mm_s = tcp_speed(self.program, move) * 1e3
+        name = "speed_" + number(mm_s, SPEED).replace(".", "_")
+        fields = ",".join([number(mm_s, SPEED), *(number(v, SPEED) for v in SPEED_REST)])
+        self.declare(name, "speeddata", f"[{fields}]")
+        return name
+
+    def timed(self, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> str:
+        seconds = joint_move_time(self.program, q_from, q_to, fraction)
+        return f"vmax\\T:={number(seconds, 3)}" if seconds > 0.0 else "vmax"
+
+    def zone(self, move: Move) -> str:
+        name, value = zone_name(self.program, move)
+        self.declare(name, "zonedata", value)
+        return name
+
+    def add_moves(self) -> None:
+        program = self.program
+        start = self.jointtarget("j0", program.targets[0])
+        self.instructions += ["ConfJ\\On;", "ConfL\\On;", f"MoveAbsJ {start}, {APPROACH_SPEED}, fine, {TOOL};"]
+        for move in program.moves:
+            self.add_move(move)
+
+    def add_move(self, move: Move) -> None:
+        program, k = self.program, move.end
+        q_from = program.targets[k - 1]
+        tail = f"{self.zone(move)}, {TOOL}{self.wobj};"
+        if move.kind == JOINT:
+            if move.planned is not None:
+                for i, vertex in enumerate(move.planned.waypoints[1:-1], start=1):
+                    name = self.jointtarget(f"j{k}_{i}", vertex)
+                    self.instructions.append(f"MoveAbsJ {name}, {self.timed(q_from, vertex, move.speed)}, fine, "
+                                             f"{TOOL};")
+                    q_from = vertex
+            speed = self.timed(q_from, move.target, move.speed)
+            if program.waypoints[k].method is None:
+                self.instructions.append(f"MoveAbsJ {self.jointtarget(f'j{k}', move.target)}, {speed}, {tail}")
+            else:
+                self.instructions.append(f"MoveJ {self.robtarget(f'p{k}', move.X_BT, move.target)}, {speed}, {tail}")
+        elif move.kind == LINEAR:
+            self.instructions.append(f"MoveL {self.robtarget(f'p{k}', move.X_BT, move.target)}, {self.speed(move)}, "
+                                     f"{tail}")
+        elif move.kind == CIRCULAR:
+            via = self.robtarget(f"c{k}", *via_target(program, move))
+            self.instructions.append(f"MoveC {via}, {self.robtarget(f'p{k}', move.X_BT, move.target)}, "
+                                     f"{self.speed(move)}, {tail}")
+        else:
+            raise OutputError(f"move to waypoint {k}: RAPID has no move of kind {move.kind!r}")
+
+    def header(self, module_name: str) -> list[str]:
+        program = self.program
+        accel = "none" if program.tcp_accel_max is None else f"{program.tcp_accel_max * 1e3:g} mm/s^2"
+        return [
+            (f"{module_name}: the compiled program {program.name!r} (robot {program.robot.name}, "
+             f"{len(program.moves)} moves), written by pipeline.outputs.controllers.rapid."),
+            "Units: mm, deg; quaternions [q1 (scalar), q2, q3, q4]. Rounding: 0.001 mm, 1e-6, 0.0001 deg.",
+            "The controller plans its own velocity profile: this is not the certified profile.",
+            "- tool moves run at their TCP speed (speeddata v_tcp); joint moves take \\T, the time the",
+            "  leading axis needs at the move's fraction of its speed limit without accelerating,",
+            "  and the controller adds its own acceleration",
+            f"- no acceleration limit is written (the job's TCP limit: {accel}); RAPID sets",
+            "  acceleration only as a percentage of the controller's own (AccSet)",
+            "- zones are the controller's corner paths, not the program's blends; fine stops exactly;",
+            "  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move",
+            f"- joint moves are axis-interpolated, not the job's path shape ({program.path or 'default'})",
+            "confdata [cf1,cf4,cf6,cfx] from each target's joint values; ConfJ/ConfL \\On keep them.",
+            f"Axis map: {axis_map(program.robot, ABB).source}.",
+            f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one.",
+            (f"{WOBJ}: the robot's base in the cell; the controller's base frame must be set the same."
+             if self.wobj else "Targets in the robot's base frame (wobj0)."),
+            f"MoveAbsJ j0 at {APPROACH_SPEED} is an approach to the start, not part of the program.",
+        ]
+
+    def text(self, module_name: str) -> str:
+        lines = [f"MODULE {module_name}"]
+        for line in self.header(module_name):
+            lines += [f"  ! {part}" for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ")]
+        for name, (datatype, value) in sorted(self.declarations.items(), key=lambda item: DATA_ORDER[item[1][0]]):
+            lines.append(f"  {STORAGE[datatype]} {datatype} {name} := {value};")
+        lines += ["  PROC main()"] + [f"    {instruction}" for instruction in self.instructions]
+        lines += ["  ENDPROC", "ENDMODULE"]
+        return "\n".join(lines) + "\n"

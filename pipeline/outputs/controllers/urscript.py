@@ -1,0 +1,221 @@
+"""``write_urscript(program, name, profile=None, period=0.002) -> str``: a compiled Program as a URScript
+program (``.script``) for a Universal Robots controller, and optionally the certified profile's replay.
+
+What it writes, and the URScript facts it follows (Universal Robots, "The URScript Programming Language",
+Script Manual e-Series SW 5.x: the language chapter for ``def``/``end``, ``if``/``else``, ``#`` comments,
+lists and poses; "Module motion" for the functions):
+
+* Units: m, rad, s; a pose is ``p[x, y, z, rx, ry, rz]`` (position [m] and rotation vector [rad]) of the TCP in
+  the robot's base frame, rounded to 1e-6; joint values [rad] rounded to 1e-6. ``set_tcp`` sets the job's
+  tool (X_FT). URScript has no configuration data: a joint target is the joint vector itself.
+* ``movej(q, a, v, r)`` for every joint move (to its solved joint values, whether the job gave joints or a
+  pose: the branch is then the program's), with v = the move's fraction x the speed scale x the smallest
+  joint speed limit [rad/s] (URScript's v is the leading axis's speed) and a = the speed scale^2 x the smallest
+  joint acceleration limit [rad/s^2] (the manual's default 1.4 rad/s^2 when the robot has none); a planned
+  joint move passes its planner vertices with ``r=0`` (movej is straight in joint space, the segments the
+  planner checked).
+* ``movel(pose, a, v, r)`` and ``movec(pose_via, pose_to, a, v, r, mode=0)`` for tool moves, v the move's TCP
+  speed x the speed scale (capped by the job's safety TCP limit x the scale) [m/s], a the job's TCP
+  acceleration limit x the scale^2 (the manual's default 1.2 m/s^2 when the job has none) [m/s^2]; mode 0
+  interpolates the orientation from the start to the target pose, as the program's slerp does; the via
+  pose's rotation is not used by movec (the manual) and is written as the target's.
+* ``r``: the move's zone [m]; 0 at the program's stops, at both ends of a planned joint move, and where the
+  program passes through a waypoint without a zone (the controller stops there).
+* With a certified profile: ``certified_replay()`` moves to the profile's first sample with ``movej`` (the
+  manual's default a, v: an approach), then calls ``servoj(q, t=period, lookahead_time, gain)`` once per
+  controller period with the profile resampled at k x period (cubic Hermite on the profile's q and qd
+  samples; the last call at the profile's end), then ``stopj``. ``native_moves()`` holds the moves above, and
+  ``use_certified_replay`` chooses which one runs. servoj: t is how long the call controls the robot [s]
+  (0.002 s on e-Series, 0.008 s on CB3: ``period``), lookahead_time [s] in [0.03, 0.2] smooths the target
+  over that horizon and delays it, gain in [100, 2000] is the proportional gain of the tracking (the manual's
+  defaults: 0.1 s and 300).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import textwrap
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+from scipy.spatial.transform import Rotation
+
+from ...errors import OutputError
+from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from ...timing.profile import Profile
+from .lint import URSCRIPT, lint
+
+IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+#: URScript's keywords and the names this module defines: no program name may be one of them.
+RESERVED = frozenset(("def", "end", "if", "elif", "else", "while", "for", "return", "thread", "run", "kill",
+                      "global", "local", "and", "or", "not", "xor", "True", "False", "halt", "sec", "native_moves",
+                      "certified_replay", "use_certified_replay"))
+#: The Script Manual's defaults: movej a [rad/s^2], v [rad/s]; movel a [m/s^2].
+MOVEJ_DEFAULT_A, MOVEJ_DEFAULT_V, MOVEL_DEFAULT_A = 1.4, 1.05, 1.2
+#: servoj: the manual's default lookahead_time [s] and gain, and the ranges it allows.
+LOOKAHEAD_S, GAIN = 0.1, 300.0
+LOOKAHEAD_RANGE, GAIN_RANGE = (0.03, 0.2), (100.0, 2000.0)
+#: Decimals written for lengths [m], angles [rad], speeds and accelerations.
+DECIMALS = 6
+#: A profile must start at the program's first target within this [rad or m].
+START_TOLERANCE = 1e-6
+COMMENT_WIDTH = 96
+
+
+def write_urscript(program: Program, name: str, profile: Profile | None = None, period: float = 0.002,
+                   lookahead_time: float = LOOKAHEAD_S, gain: float = GAIN) -> str:
+    """The URScript program text of ``program`` (module docstring), its ``def`` named ``name``; with
+    ``profile`` (the program's certified Profile) also its servoj replay every ``period`` [s] with
+    ``lookahead_time`` [s] and ``gain``. OutputError names what cannot be written; ``lint`` runs first on
+    the name and the header comments (ControllerLintError; URScript writes no configuration data)."""
+    check_name(name)
+    _check_replay_options(period, lookahead_time, gain)
+    if program.robot.dof != 6:
+        raise OutputError(f"{program.robot.name}: URScript moves a 6-joint arm, this one has {program.robot.dof}")
+    header = _header(program, name, profile, period, lookahead_time, gain)
+    lint(program, URSCRIPT, name, header)
+    moves = _native_moves(program)
+    lines = [f"def {name}():"]
+    lines += [f"  # {line}" for line in header]
+    lines.append(f"  set_tcp({pose(program.tool.X_FT)})")
+    if profile is None:
+        lines += [f"  {move}" for move in moves]
+    else:
+        replay = _replay(program, profile, period, lookahead_time, gain)
+        lines += ["  use_certified_replay = True", "  def native_moves():"] + [f"    {m}" for m in moves]
+        lines += ["  end", "  def certified_replay():"] + [f"    {m}" for m in replay]
+        lines += ["  end", "  if use_certified_replay:", "    certified_replay()", "  else:", "    native_moves()",
+                  "  end"]
+    return "\n".join(lines + ["end", ""])
+
+
+def check_name(name: str) -> str:
+    """``name`` if it can name the program's ``def``, else OutputError naming the rule."""
+    if not isinstance(name, str) or not IDENTIFIER.match(name) or name in RESERVED:
+        raise OutputError(f"URScript program name {name!r}: a name is letters, digits and underscores starting "
+                          "with a letter, and not a keyword or a name the program defines")
+    return name
+
+
+def _check_replay_options(period: float, lookahead_time: float, gain: float) -> None:
+    if not (isinstance(period, (int, float)) and math.isfinite(period) and period > 0.0):
+        raise OutputError(f"servoj period must be a positive time [s] (0.002 e-Series, 0.008 CB3), got {period!r}")
+    if not LOOKAHEAD_RANGE[0] <= lookahead_time <= LOOKAHEAD_RANGE[1]:
+        raise OutputError(f"servoj lookahead_time must be in {list(LOOKAHEAD_RANGE)} s, got {lookahead_time!r}")
+    if not GAIN_RANGE[0] <= gain <= GAIN_RANGE[1]:
+        raise OutputError(f"servoj gain must be in {list(GAIN_RANGE)}, got {gain!r}")
+
+
+def number(value: float) -> str:
+    """``value`` with at most DECIMALS decimals, without trailing zeros or a negative zero (always a float)."""
+    text = f"{value:.{DECIMALS}f}".rstrip("0")
+    text = text + "0" if text.endswith(".") else text
+    return "0.0" if text == "-0.0" else text
+
+
+def joints(q) -> str:
+    """``[q1, ..., q6]`` [rad]."""
+    return "[" + ", ".join(number(float(v)) for v in q) + "]"
+
+
+def pose(X: np.ndarray) -> str:
+    """``p[x, y, z, rx, ry, rz]`` of a pose (4, 4) [m]: position [m], rotation vector [rad]."""
+    rotation = Rotation.from_matrix(X[:3, :3]).as_rotvec()
+    return "p[" + ", ".join(number(float(v)) for v in (*X[:3, 3], *rotation)) + "]"
+
+
+def joint_speed(program: Program, fraction: float) -> tuple[float, float]:
+    """(a [rad/s^2], v [rad/s]) of a joint move at ``fraction`` of the joint speed limits (module docstring)."""
+    limits, scale = program.limits, program.speed_scale
+    accel = MOVEJ_DEFAULT_A if limits.qdd_max is None else float(np.min(limits.qdd_max)) * scale**2
+    return accel, fraction * scale * float(np.min(limits.qd_max))
+
+
+def tool_speed(program: Program, move: Move) -> tuple[float, float]:
+    """(a [m/s^2], v [m/s]) of a tool move (module docstring)."""
+    speed = move.speed
+    if program.limits.tcp_speed_max is not None:
+        speed = min(speed, program.limits.tcp_speed_max)
+    scale = program.speed_scale
+    accel = MOVEL_DEFAULT_A if program.tcp_accel_max is None else program.tcp_accel_max * scale**2
+    return accel, speed * scale
+
+
+def blend(program: Program, move: Move) -> float:
+    """The blend radius r [m] at the end of ``move``: its zone; 0 at a stop and at both ends of a planned joint
+    move (a controller's blend there is not a path the planner or the clearance certificate checked)."""
+    return 0.0 if program.exact_stop_at(move) else move.zone
+
+
+def _native_moves(program: Program) -> list[str]:
+    a, v = MOVEJ_DEFAULT_A, MOVEJ_DEFAULT_V
+    lines = [f"movej({joints(program.targets[0])}, a={number(a)}, v={number(v)}, r=0.0)"]
+    for move in program.moves:
+        r = number(blend(program, move))
+        if move.kind == JOINT:
+            a, v = joint_speed(program, move.speed)
+            speeds = f"a={number(a)}, v={number(v)}"
+            vertices = [] if move.planned is None else move.planned.waypoints[1:-1]
+            lines += [f"movej({joints(q)}, {speeds}, r=0.0)" for q in vertices]
+            lines.append(f"movej({joints(move.target)}, {speeds}, r={r})")
+        elif move.kind == LINEAR:
+            a, v = tool_speed(program, move)
+            lines.append(f"movel({pose(move.X_BT)}, a={number(a)}, v={number(v)}, r={r})")
+        elif move.kind == CIRCULAR:
+            a, v = tool_speed(program, move)
+            X_via = move.X_BT.copy()
+            X_via[:3, 3] = move.via
+            lines.append(f"movec({pose(X_via)}, {pose(move.X_BT)}, a={number(a)}, v={number(v)}, r={r}, mode=0)")
+        else:
+            raise OutputError(f"move to waypoint {move.end}: URScript has no move of kind {move.kind!r}")
+    return lines
+
+
+def resample(profile: Profile, period: float) -> np.ndarray:
+    """The profile's joint values (n, dof) at t = period, 2 period, ... and its end [s] (the last one the
+    profile's end): cubic Hermite interpolation on its samples' q and qd."""
+    t = profile.t - profile.t[0]
+    count = max(1, math.ceil(t[-1] / period - 1e-9))
+    times = np.minimum(np.arange(1, count + 1) * period, t[-1])
+    return CubicHermiteSpline(t, profile.q, profile.qd)(times)
+
+
+def _replay(program: Program, profile: Profile, period: float, lookahead_time: float, gain: float) -> list[str]:
+    if profile.q.shape[1] != 6 or np.abs(profile.q[0] - program.targets[0]).max() > START_TOLERANCE:
+        raise OutputError(f"the profile does not start at the program's first target "
+                          f"{joints(program.targets[0])} rad: not this program's profile")
+    options = f"t={number(period)}, lookahead_time={number(lookahead_time)}, gain={number(gain)}"
+    lines = [f"movej({joints(profile.q[0])}, a={number(MOVEJ_DEFAULT_A)}, v={number(MOVEJ_DEFAULT_V)}, r=0.0)"]
+    lines += [f"servoj({joints(q)}, {options})" for q in resample(profile, period)]
+    stop = MOVEJ_DEFAULT_A if program.limits.qdd_max is None else float(np.min(program.limits.qdd_max))
+    return lines + [f"stopj({number(stop)})"]
+
+
+def _header(program: Program, name: str, profile: Profile | None, period: float, lookahead_time: float,
+            gain: float) -> list[str]:
+    accel = "none" if program.tcp_accel_max is None else f"{program.tcp_accel_max:g} m/s^2"
+    lines = [
+        (f"{name}: the compiled program {program.name!r} (robot {program.robot.name}, {len(program.moves)} moves), "
+         "written by pipeline.outputs.controllers.urscript."),
+        "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
+        ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
+         "not the certified profile:"),
+        ("- movej goes to the program's joint values, straight in joint space (not the job's path shape "
+         f"{program.path or 'default'}); v is the move's fraction of the smallest joint speed limit"),
+        ("- movel/movec keep the TCP's line or arc at speed v; the controller picks the joint solution itself "
+         f"(URScript has no configuration data); a is the job's TCP acceleration limit ({accel}) or the "
+         "manual's default"),
+        ("- blend radii r are the program's zones, blended the controller's way; r = 0 stops, also where the "
+         "certified profile passes through a waypoint without a zone, and at both ends of a planned move"),
+        "The first movej goes to the start with the manual's default a and v: an approach.",
+    ]
+    if profile is not None:
+        lines += [
+            (f"certified_replay: the certified profile itself ({profile.duration:.3f} s, {profile.method}), "
+             f"sampled every {period:g} s for servoj (cubic Hermite on its samples every {program.dt:g} s), "
+             f"lookahead_time {lookahead_time:g} s (smooths and delays the target by up to that), gain {gain:g}; "
+             "the controller's speed scaling (speed slider, safety limits) stretches it in time."),
+            "use_certified_replay chooses certified_replay() (True) or native_moves() (False).",
+        ]
+    return [part for line in lines for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ")]

@@ -1,0 +1,155 @@
+"""``write_jbi(program, name) -> str``: a program as a Yaskawa INFORM job (``.jbi``).
+
+The file follows the job data format of Yaskawa's data transmission manuals (NX100 "Data Transmission
+Function" HW0481924, section 4.1 "Job Data Format"; DX100 156191-1CD, section 4.1): ``/JOB``, ``//NAME``
+(up to 8 characters), ``//POS`` with ``///NPOS`` (robot teaching positions, then base axis, station,
+position variables: 0), ``///TOOL``, ``///POSTYPE ROBOT`` (Cartesian data in the robot frame), ``///RECTAN``,
+``///RCONF`` (the manipulator type of the Cartesian data that follow it: Flip, Upper/Lower arm, Front/Rear,
+R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz``, then ``//INST`` with
+``///DATE``, ``///COMM`` (up to 32 characters), ``///ATTR SC,RW`` (save complete, read/write) and
+``///GROUP1 RB1``, and the instructions between ``NOP`` and ``END``. What this writer emits, and why:
+
+* Name: 1 to 8 characters, an upper-case letter then upper-case letters, digits or ``_`` (the NX100 limit;
+  newer controllers take longer names, a short one loads on all). Comments (``'text``): up to 32 characters.
+* Moves: a joint move to the first waypoint (where the robot starts is not known), then ``MOVJ C.. VJ=``
+  (% of the joints' maximum speed, 0.01 to 100.00: the move's fraction of the speed limits x the job's
+  ``speed_scale``; a planned move's planner vertices each get a MOVJ without PL, an exact stop, as do both
+  ends of a planned move), ``MOVL C.. V=`` (TCP speed in mm/s, to 0.1 mm/s), ``MOVC`` x 3 for a circular move: INFORM
+  defines an arc by three MOVC points, so the arc's start (where the previous move ends) is written again as
+  the first MOVC point, then the via and the end point; an arc ending where the next arc starts gets ``FPT``.
+* Zones: ``PL=n`` (positioning level, 0 to 8). A level is a distance the controller's parameters
+  S1CxG033..S1CxG040 set for PL1..PL8, not a fixed size; ``PL_MM`` is our assumption for them (12.5 mm,
+  doubling per level), to be set on the controller or replaced by the controller's values through
+  ``pl_mm``. A zone z > 0 gets the largest level whose distance is <= z (so the controller never rounds more
+  than the certified zone), PL=0 when z is below PL1's distance; a move without a zone gets no PL (the
+  controller stops at its point, as PL=0).
+* Points: every point in Cartesian data (``POSTYPE ROBOT``): the TCP in the robot frame, X, Y, Z in mm to
+  0.001 mm, Rx, Ry, Rz in deg to 0.01 deg, the rotations "in the order Rz, Ry, Rx" of the frame (DX100
+  manual, section 4.3: R = Rz Ry Rx, rotations about the fixed x, y, z axes), with ``///RCONF`` from
+  ``pipeline.model.vendors.configuration``. Pulse data (``POSTYPE PULSE``) would need each axis's pulses per
+  degree, which the robot files do not give: joint waypoints are written as Cartesian data too. Each point
+  is solved again as written, with its RCONF, and must land on the program's joint values within the
+  rounding (``fanuc_ls.check_written_point``): a joint waypoint with R, T or S at exactly +-180 deg, where
+  the ">= 180" bit is decided by the last digit, is refused (it needs pulse data).
+* Frames: the GP7's robot frame is 330 mm above its mounting face (``fanuc_ls.CONTROLLER_FRAMES``); other
+  robots are written in our base frame. ``///TOOL 1`` must hold the job's tool (stated in the comments).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import re
+from dataclasses import replace
+
+import numpy as np
+
+from ...errors import ConfigurationError
+from ...model.vendors.axes import YASKAWA
+from ...model.vendors.configuration import configurations
+from ...program.model import CIRCULAR, JOINT, Move, Program
+from .fanuc_ls import (MM, Motion, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
+                       program_points, rounded, tool_text, xyz_rpy)
+from .lint import JBI, lint
+
+#: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
+PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
+NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
+#: ///RCONF fields after l, m, n, o, p, q on DX100 and later controllers (r1..r18, unused).
+UNUSED_RCONF = 18
+
+
+def pl_level(zone: float, pl_mm=PL_MM) -> int:
+    """PL level 0..8 of a zone [m]: the largest level whose distance [mm] is <= the zone."""
+    return int(np.searchsorted(np.asarray(pl_mm, dtype=float), zone * MM + 1e-9, side="right"))
+
+
+def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, pl_mm=PL_MM) -> str:
+    """The program as a Yaskawa INFORM job (module docstring); ``name`` its //NAME, ``created`` its
+    ///DATE (None: now, UTC), ``pl_mm`` the controller's PL1..PL8 distances [mm]. ConfigurationError for
+    a bad name, a non-6R robot, a speed the controller cannot take or pl_mm not 8 increasing distances;
+    ``lint`` runs first on the name, the comment lines and the RCONF of every waypoint (all are Cartesian:
+    ControllerLintError)."""
+    check_name(name, NAME_PATTERN, "Yaskawa job")
+    check_six_joints(program)
+    if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
+        raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
+    height, frame = controller_frame(program.robot, YASKAWA)
+    header = comment_lines(_header_text(program, frame))
+    motions = job_points(program)
+    zones = [f"zone {m.zone * MM:.1f}mm PL{pl_level(m.zone, pl_mm)}" for m in motions if m.zone > 0.0]
+    lint(program, JBI, name, header + zones, configurations(program.robot, program.targets, YASKAWA))
+    positions, instructions, index = [], [], 0
+    for k, motion in enumerate(motions):
+        labels = []
+        for point in motion.points:
+            labels.append(f"C{index:05d}")
+            positions.extend(_position(program, labels[-1], point.q, point.X_BT, height, positions))
+            index += 1
+        following = motions[k + 1].move if k + 1 < len(motions) else None
+        instructions.extend(_instructions(program, motion, labels, following, pl_mm))
+    comments = [f"'{line}" for line in header]
+    when = created or _dt.datetime.now(_dt.timezone.utc)
+    return "\n".join(["/JOB", f"//NAME {name}", "//POS", f"///NPOS {index},0,0,0,0,0", "///TOOL 1",
+                      "///POSTYPE ROBOT", "///RECTAN", *positions, "//INST", f"///DATE {when:%Y/%m/%d %H:%M}",
+                      f"///COMM {comment_lines(program.name)[0] if program.name else name}", "///ATTR SC,RW",
+                      "///GROUP1 RB1", "NOP", *comments, *instructions, "END", ""])
+
+
+def job_points(program: Program) -> list[Motion]:
+    """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous motion's end) as the
+    first of its three MOVC points: the points in the order C00000, C00001, ... are written."""
+    motions = program_points(program, YASKAWA)
+    return [replace(m, points=[motions[k - 1].points[-1], *m.points]) if m.move is not None and m.move.kind == CIRCULAR
+            else m for k, m in enumerate(motions)]
+
+
+def _header_text(program: Program, frame: str) -> str:
+    return (f"{program.name} on {program.robot.name}. The controller plans its own speed profile for each move, "
+            "not the certified one: timing and the path at PL points differ. TOOL 1 = "
+            f"{tool_text(program)} (x y z rx ry rz, mm deg). {frame}. All points are Cartesian data: the robot "
+            "file gives no pulses per degree for pulse data.")
+
+
+def _position(program: Program, label: str, q, X_BT, height: float, written: list[str]) -> list[str]:
+    """The lines of one Cartesian point: ///RCONF when it differs from the last one written, then Cxxxxx=."""
+    config = configurations(program.robot, q, YASKAWA)
+    rconf = "///RCONF " + ",".join(str(int(v)) for v in [*config, *([0] * UNUSED_RCONF)])
+    last = next((line for line in reversed(written) if line.startswith("///RCONF")), None)
+    p, angles = xyz_rpy(X_BT, height)
+    p, angles = rounded(p, 3), rounded(angles, 2)
+    check_written_point(program.robot, YASKAWA, label, q, p, angles, height, config, (0.001, 0.01))
+    values = [f"{v:.3f}" for v in p] + [f"{v:.2f}" for v in angles]
+    return ([] if rconf == last else [rconf]) + [f"{label}={','.join(values)}"]
+
+
+def _speed(program: Program, move: Move | None) -> str:
+    """VJ= for a joint move (% to 0.01, 0.01..100), V= for a tool move (mm/s to 0.1); ConfigurationError for a
+    TCP speed that rounds to 0 (the robot's own maximum is for the lint to check)."""
+    if move is None or move.kind == JOINT:
+        fraction = program.speed_scale if move is None else move.speed * program.speed_scale
+        return f"VJ={min(100.0, max(0.01, round(fraction * 100.0, 2))):.2f}"
+    mm_s = round(move.speed * program.speed_scale * MM, 1)
+    if mm_s < 0.1:
+        raise ConfigurationError(f"move {move.end}: TCP speed {move.speed * program.speed_scale * MM:.4g} mm/s rounds "
+                                 "to 0 in V= (0.1 mm/s steps)")
+    return f"V={mm_s:.1f}"
+
+
+def _instructions(program: Program, motion: Motion, labels: list[str], following: Move | None,
+                  pl_mm) -> list[str]:
+    """The INFORM lines of one motion: a zone comment and MOVJ / MOVL / MOVC x 3 with speed and PL."""
+    move = motion.move
+    speed = _speed(program, move)
+    tail = ""
+    if motion.zone > 0.0:
+        tail = f" PL={pl_level(motion.zone, pl_mm)}"
+    if move is None or move.kind == JOINT:
+        lines = [f"MOVJ {labels[0]} {speed}{tail}"]
+    elif move.kind == CIRCULAR:
+        fpt = " FPT" if following is not None and following.kind == CIRCULAR else ""
+        lines = [f"MOVC {labels[0]} {speed}", f"MOVC {labels[1]} {speed}", f"MOVC {labels[2]} {speed}{tail}{fpt}"]
+    else:
+        lines = [f"MOVL {labels[0]} {speed}{tail}"]
+    if tail:
+        lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{pl_level(motion.zone, pl_mm)}")
+    return lines

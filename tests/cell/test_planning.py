@@ -1,0 +1,93 @@
+"""The planner (``pipeline.cell.planning``, ``pipeline.cell.roadmap``): each stage gives the same path whatever was
+planned before it and in any process; the stages' building blocks (the halving order, slerp, shortcuts)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation, Slerp
+
+from pipeline.bench.plan_sets import problem_set, set_model
+from pipeline.cell import planning, roadmap
+
+#: Queries of the IRB 1600 bookshelf set whose detours fail (the roadmap plans them; OMPL finds them in < 1 s).
+HARD = 8, 9
+
+
+@pytest.fixture(scope="module")
+def shelf():
+    model = set_model("irb1600_bookshelf")
+    return model, problem_set("irb1600_bookshelf", model, count=10, seed=0).queries
+
+
+def _search(model, query, seed: int) -> np.ndarray:
+    checks = planning._Checks(model, (query.start, query.goal))
+    return planning._search(model, checks, query.start, query.goal, "RRTConnect", 5.0, seed).waypoints
+
+
+def test_ompl_gives_the_same_path_after_other_plans_and_another_seed_another(shelf):
+    model, queries = shelf
+    first = _search(model, queries[HARD[0]], seed=3)
+    _search(model, queries[HARD[1]], seed=3)                  # draws from OMPL's generators in between
+    again = _search(model, queries[HARD[0]], seed=3)
+    assert np.array_equal(first, again)
+    assert not np.array_equal(first, _search(model, queries[HARD[0]], seed=4))
+
+
+@pytest.mark.slow                                            # a fresh Python process: about 10 s
+def test_ompl_gives_the_same_path_in_a_fresh_process(shelf):
+    model, queries = shelf
+    here = _search(model, queries[HARD[0]], seed=3)
+    code = ("import numpy as np, sys; sys.path.insert(0, '.'); from .test_planning import _search; "
+            "from pipeline.bench.plan_sets import problem_set, set_model; m = set_model('irb1600_bookshelf'); "
+            f"q = problem_set('irb1600_bookshelf', m, count=10, seed=0).queries[{HARD[0]}]; "
+            "sys.stdout.write(_search(m, q, 3).tobytes().hex())")
+    there = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert bytes.fromhex(there) == here.tobytes()
+
+
+def test_the_roadmap_answers_alike_cold_and_warm(shelf):
+    """A query answered by a fresh roadmap and by one that earlier queries have checked edges of."""
+    model, queries = shelf
+    routes = []
+    for warm_up in ([], queries[:HARD[0]]):
+        roadmap._roadmaps.clear()
+        for query in warm_up:
+            planning.plan_joint_path(model, query.start, query.goal)
+        routes.append(planning.plan_joint_path(model, queries[HARD[0]].start, queries[HARD[0]].goal))
+    assert routes[0].planner == routes[1].planner == "roadmap"
+    assert np.array_equal(routes[0].waypoints, routes[1].waypoints)
+
+
+def test_the_halving_order_visits_every_step_middle_first():
+    order = planning.halving_order(5)
+    assert order[0] == 0.5 and list(order[1:3]) == [0.25, 0.75]
+    assert sorted(order) == list(np.arange(1, 8) / 8)
+
+
+def test_interpolated_poses_turn_as_slerp_does():
+    rng = np.random.default_rng(0)
+    for k in range(20):
+        X_a, X_b = np.eye(4), np.eye(4)
+        X_a[:3, :3], X_b[:3, :3] = Rotation.random(2, random_state=k).as_matrix()
+        X_a[:3, 3], X_b[:3, 3] = rng.random(3), rng.random(3)
+        f = np.linspace(0.0, 1.0, 5)
+        ours = planning.interpolated_poses(X_a, X_b, f)
+        np.testing.assert_allclose(ours[:, :3, :3], Slerp([0, 1], Rotation.from_matrix([X_a[:3, :3], X_b[:3, :3]]))(
+            f).as_matrix(), atol=1e-9)
+        np.testing.assert_allclose(ours[:, :3, 3], X_a[:3, 3] + f[:, None] * (X_b[:3, 3] - X_a[:3, 3]), atol=1e-12)
+    half = np.diag([1.0, -1.0, -1.0, 1.0])                   # half a turn about x
+    middle = planning.interpolated_poses(np.eye(4), half, np.array([0.5]))[0, :3, :3]
+    np.testing.assert_allclose(middle @ middle, half[:3, :3], atol=1e-9)
+
+
+def test_a_shortcut_skips_what_a_free_edge_skips_and_keeps_the_rest():
+    class Walls:                                             # an edge is free unless it crosses x = 1.5
+        def edge(self, a, b):
+            return (a[0] - 1.5) * (b[0] - 1.5) > 0 or min(a[1], b[1]) > 0.5
+
+    vertices = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [2.0, 1.0], [2.0, 0.0], [3.0, 0.0]])
+    np.testing.assert_array_equal(planning.shortcut_path(Walls(), vertices), vertices[[0, 2, 3, 5]])

@@ -1,0 +1,151 @@
+"""The controller programs from the command line and as job outputs: ``python -m pipeline program JOB --lang L``
+writes the GP7 demo job in each of the five languages, ``read-program`` reads each back into a job file that
+``load_job`` accepts with the same waypoints (kinds, branches, positions within the formats' rounding), mistakes
+are one ``error:`` line with exit status 2, and a job listing ``rapid`` among its outputs writes program.mod.
+
+The CLI runs in this process (``pipeline.__main__.main``: about 0.1 s per call), writing only into tmp_path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.__main__ import main
+from pipeline.program.job import load_job
+from pipeline.runner import PROGRAM_FILES, program_name, run_job_file
+
+ROOT = Path(__file__).resolve().parents[2]
+GP7_JOB = ROOT / "trajectories" / "jobs" / "gp7_pick_place.yaml"
+#: Language -> the files ``program`` writes into a folder for the GP7 demo job (its name made valid).
+WRITTEN = {"rapid": ["gp7_pick_place.mod"], "ls": ["GP7_PICK.ls"], "jbi": ["GP7_PICK.jbi"],
+           "krl": ["gp7_pick_place.dat", "gp7_pick_place.src"], "urscript": ["gp7_pick_place.script"]}
+#: The formats' position rounding [m]: 0.001 mm everywhere, URScript 1e-6 m.
+POSITION_TOL = 1.5e-6
+#: ... and the orientations' (JBI: 0.01 deg) [1].
+ROTATION_TOL = 2e-4
+#: A pose from joint values rounded to 1e-6 rad (URScript) is further off, by up to this factor.
+JOINT_ROUNDING = 5.0
+
+
+def cli(capsys, *args: str) -> tuple[int, str, str]:
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> Path:
+    """The GP7 demo job written in every language into one folder."""
+    folder = tmp_path_factory.mktemp("programs")
+    for language in WRITTEN:
+        assert main(["program", str(GP7_JOB), "--lang", language, "--out", str(folder)]) == 0
+    return folder
+
+
+@pytest.mark.parametrize("language", list(WRITTEN))
+def test_program_writes_each_language_named_from_the_job(written, language):
+    names = WRITTEN[language]
+    assert all((written / name).is_file() for name in names)
+    text = (written / names[-1]).read_text()
+    if language in ("ls", "jbi"):       # the name was cut: the header says what it was made from
+        assert "gp7_pick_place (written as" in text
+    if language == "urscript":
+        assert "def certified_replay():" in text and "servoj(" in text
+
+
+@pytest.mark.parametrize("language", list(WRITTEN))
+def test_read_program_gives_back_a_job_with_the_same_waypoints(written, tmp_path, capsys, language):
+    program = written / next(name for name in WRITTEN[language] if not name.endswith(".dat"))
+    out = tmp_path / "read" / "job.yaml"
+    code, stdout, err = cli(capsys, "read-program", program, "--robot", "gp7", "--out", out)
+    assert code == 0, err
+    assert f"wrote {out}" in stdout
+    job, original = load_job(out), load_job(GP7_JOB)
+    assert job.robot.name == "gp7" and len(job.waypoints) == len(original.waypoints)
+    for read, given in zip(job.waypoints[1:], original.waypoints[1:]):
+        assert read.move == given.move
+        if hasattr(given, "X_BE"):     # URScript has no configuration data: its joint moves are joint targets
+            X_read, tol = (read.X_BE, 1.0) if hasattr(read, "X_BE") else (job.robot.fk(read.q), JOINT_ROUNDING)
+            np.testing.assert_allclose(X_read[:3, 3], given.X_BE[:3, 3], atol=POSITION_TOL * tol)
+            np.testing.assert_allclose(X_read[:3, :3], given.X_BE[:3, :3], atol=ROTATION_TOL)
+
+
+def test_read_program_prints_the_job_without_out(written, capsys):
+    code, stdout, _ = cli(capsys, "read-program", written / "GP7_PICK.jbi", "--robot", "gp7")
+    assert code == 0 and stdout.startswith("# ") and "waypoints:" in stdout
+
+
+def test_program_into_a_named_file(tmp_path, capsys):
+    code, _, err = cli(capsys, "program", GP7_JOB, "--lang", "krl", "--out", tmp_path / "pick.src")
+    assert code == 0, err
+    assert (tmp_path / "pick.src").read_text().startswith("DEF pick( )")    # KRL: the DEF is the file's name
+    assert (tmp_path / "pick.dat").read_text().startswith("DEFDAT pick")
+
+
+@pytest.mark.parametrize("args, message", [
+    (["program", GP7_JOB, "--lang", "cobol"], "invalid choice: 'cobol'"),
+    (["program", GP7_JOB, "--lang", "rapid", "--out", "x.ls"], "a rapid program is a .mod file"),
+    (["program", GP7_JOB, "--lang", "rapid", "--servo-period", "0.008"], "servoj replay; rapid has none"),
+    (["read-program", "missing.mod", "--robot", "gp7"], "cannot read the file"),
+    (["read-program", "job.txt", "--robot", "gp7"], "unknown program file type '.txt'"),
+])
+def test_mistakes_are_one_error_line(tmp_path, capsys, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = main([str(a) for a in args])
+    except SystemExit as usage:             # argparse's usage errors leave through sys.exit
+        code = usage.code
+    stdout, err = capsys.readouterr()
+    assert code == 2 and stdout == "" and err.startswith("error: ") and err.count("\n") == 1 and message in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_servo_period_sets_the_replay_period(tmp_path, capsys):
+    """A CB3 takes servoj every 0.008 s: the replay has one servoj per period of the certified profile."""
+    code, stdout, err = cli(capsys, "program", GP7_JOB, "--lang", "urscript", "--servo-period", "0.008", "--out",
+                            tmp_path / "cb3.script")
+    assert code == 0, err
+    duration = float(stdout.split("the certified profile takes ")[1].split(" s")[0])
+    calls = [line for line in (tmp_path / "cb3.script").read_text().splitlines() if "servoj(" in line]
+    assert all("t=0.008," in line for line in calls)
+    assert len(calls) == int(np.ceil(duration / 0.008 - 1e-9))
+
+
+def test_a_krl_src_without_its_dat_is_one_error_line(written, tmp_path, capsys):
+    (tmp_path / "lonely.src").write_text((written / "gp7_pick_place.src").read_text())
+    code, _, err = cli(capsys, "read-program", tmp_path / "lonely.src", "--robot", "gp7")
+    assert code == 2 and err.count("\n") == 1 and "lonely.dat: file: missing" in err
+
+
+def test_a_job_listing_rapid_writes_program_mod(tmp_path):
+    document = yaml.safe_load(GP7_JOB.read_text())
+    document["outputs"] = ["json", "rapid"]
+    job_file = tmp_path / "gp7_rapid.yaml"
+    job_file.write_text(yaml.safe_dump(document))
+    outcome = run_job_file(job_file, tmp_path / "out")
+    assert [p.name for p in outcome.files] == ["report.json", *PROGRAM_FILES["rapid"]] == ["report.json", "program.mod"]
+    assert (tmp_path / "out" / "program.mod").read_text().startswith("MODULE gp7_rapid")
+
+
+@pytest.mark.parametrize("language, job_name, name", [
+    ("ls", "gp7 pick & place", "GP7_PICK"), ("jbi", "3d-print", "P_3D_PRI"), ("rapid", "module", "P_module"),
+    ("urscript", "end", "P_end"), ("krl", "a" * 30, "a" * 24), ("rapid", "---", "P"),
+])
+def test_program_names_are_made_valid(language, job_name, name):
+    assert program_name(language, job_name) == name
+
+
+def test_read_program_names_a_robot_file_relative_to_the_job_written(written, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    robot = Path("models") / "gp7.yaml"
+    robot.parent.mkdir()
+    robot.write_text((ROOT / "models" / "gp7.yaml").read_text())
+    out = Path("jobs") / "deep" / "read.yaml"
+    code, _, err = cli(capsys, "read-program", written / "gp7_pick_place.mod", "--robot", robot, "--out", out)
+    assert code == 0, err
+    assert yaml.safe_load(out.read_text())["robot"] == "../../models/gp7.yaml"
+    assert load_job(out).robot.name == "gp7"
