@@ -1,7 +1,7 @@
 """``run_job(job, out_dir)``: the one path from a job to certified output files.
 
 Steps: the output folder is checked first (``staged_output``: nothing is computed for a folder that
-cannot be written), then the job is compiled into a program (``pipeline.program.compile_job``: IK,
+cannot be written), then the job is compiled into a program (``pipeline.program.compile.compile_job``: IK,
 tool tracks, planned moves), checked against the duration limits, timed and certified once
 (``time_program``: a profile that fails is an error, never an output), then every requested output (profile CSV/NPZ, JSON report, profile plot, the 3-D views: a
 standalone Meshcat HTML animation and a PNG drawing of the arm, and the profile as a ROS 2

@@ -93,7 +93,7 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
     a pose is unreachable, has no solution of the configuration asked for, or changes branch from the
     previous pose waypoint (naming both branches and the joint that forces it) unless the job allows
     branch changes. With ``scene`` (a CollisionModel) a joint waypoint that collides is an error naming
-    the pair, and IK answers that collide are skipped (``cell_motion``). A pose with a controller
+    the pair, and IK answers that collide are skipped (``clear_motion``). A pose with a controller
     configuration takes exactly the solution it names (``controller_solution``)."""
     robot = job.robot
     previous = job.start if job.start is not None else robot.limits.q_middle

@@ -3,7 +3,7 @@
 Every job file (a folder stands for the ``*.yaml`` / ``*.yml`` files in it, sorted) is read and checked
 here; each job is then run by ``runner.run_job`` in a task of its own (a Dask worker, or this process
 without a client) into a temporary folder on that machine, and its files come back as bytes, so a
-cluster needs no shared disk. ``out_dir`` is replaced whole (``io.staged_output``): ``<job name>/``
+cluster needs no shared disk. ``out_dir`` is replaced whole (``pipeline.files.atomic.staged_output``): ``<job name>/``
 per job that succeeded (exactly what ``run`` writes), ``summary.csv`` and ``summary.json``.
 
 A job that fails (a file that does not read, an unreachable pose, a timing or collision error, even

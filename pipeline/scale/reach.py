@@ -133,7 +133,7 @@ def penetrates(model, q: np.ndarray) -> bool:
 
 def collision_free(model, solutions) -> tuple:
     """The solutions Drake's checker finds free (``CollisionModel.is_free``), as
-    ``cell_motion.free_solutions`` keeps them, with two shortcuts: a solution that ``penetrates`` is not
+    ``clear_motion.free_solutions`` keeps them, with two shortcuts: a solution that ``penetrates`` is not
     free, and solutions that differ by whole turns of revolute joints (the same arm: the closed form
     returns every 2 pi variant in the limits) are checked once."""
     revolute = np.array([j.is_revolute for j in model.robot.spec.joints])

@@ -150,7 +150,7 @@ class ReachabilityMap:
         return tuple(folder / name for name in FILES.values())
 
     def save(self, out_dir: str | Path) -> tuple[Path, ...]:
-        """Write the files into ``out_dir``, replaced whole (``io.staged_output``); returns their paths."""
+        """Write the files into ``out_dir``, replaced whole (``pipeline.files.atomic.staged_output``); returns their paths."""
         with staged_output(out_dir) as staging:
             self.write_into(staging)
         return tuple(Path(out_dir) / name for name in FILES.values())

@@ -121,7 +121,7 @@ def closest_words(clearance: Clearance | None) -> str:
 
 
 def maker_vendor(robot) -> str | None:
-    """The controller vendor whose axis map is the robot's preset's (``controllers.axes.PRESET_MAPS``), or None."""
+    """The controller vendor whose axis map is the robot's preset's (``model.vendors.axes.PRESET_MAPS``), or None."""
     return next((vendor for name, vendor in PRESET_MAPS if name == robot.name), None)
 
 
@@ -138,7 +138,7 @@ def branch_names(robot, Q: np.ndarray) -> tuple[list[str], str | None, list[str 
 
 def shown_vendor(robot) -> str | None:
     """The maker's vendor (``maker_vendor``) where its configuration data applies (a 6R arm with a
-    spherical wrist: ``controllers.geometry``), else None."""
+    spherical wrist: ``model.vendors.sides``), else None."""
     vendor = maker_vendor(robot)
     solver = analytic_solver_for(robot)
     return vendor if vendor is not None and solver.applicable and solver.family == SPHERICAL_WRIST else None
