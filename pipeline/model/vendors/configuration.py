@@ -1,7 +1,7 @@
 """Each vendor's configuration data from joint values, as integer fields, and as the text its language writes.
 
 Computed for N configurations at once from the controller's axis angles (``axes``) and the geometric
-shoulder and elbow sides (``geometry``). The fields, their sources and the readings we follow where
+shoulder and elbow sides (``sides``). The fields, their sources and the readings we follow where
 open implementations disagree (models/SOURCES.md, "Controller axis angles and configuration data", says the same):
 
 ABB ``confdata`` [cf1, cf4, cf6, cfx] (RAPID reference manual, data type confdata): cf1, cf4, cf6 the
