@@ -15,6 +15,7 @@ import json
 import logging
 import os
 import re
+import signal
 import sys
 import threading
 import traceback
@@ -24,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigurationError, FileFormatError, OutputError, PipelineError
-from .files.atomic import prepare_file_target, staged_output, write_text_atomic
+from .files.atomic import WRITTEN_BY, prepare_file_target, staged_output, write_text_atomic
 from .files.choices import DEFAULT_MAX_DURATION_S
 from .files.robot_spec import preset_names
 from .model.chain.singularity import compute_singularity
@@ -96,6 +97,9 @@ def cmd_ik(args) -> int:
     seed = None if args.seed is None else _joint_values(robot, args.seed, "deg", "--seed")
     robot, tool = _with_tool(robot, args.tool)
     pose = [getattr(args, name) for name in POSE_NAMES]
+    if not all(isinstance(value, float) for value in pose):
+        raise ConfigurationError(f"the TCP pose is six numbers {' '.join(n.upper() for n in POSE_NAMES)} [mm, deg], "
+                                 f"got {pose}")
     X_BT = rpy_position_to_pose(np.radians(pose[3:]), np.array(pose[:3]) * 1e-3)
     print(f"{robot.name}{where}; TCP: {tool}")
     print(target_branches(robot, X_BT, seed, scene).describe())
@@ -170,7 +174,7 @@ def cmd_export(args) -> int:
     from .urdf import write_urdf
 
     robot = load_robot(args.robot)
-    path = write_urdf(robot, args.urdf)
+    path = write_urdf(robot, args.urdf, args.force)
     print(f"wrote {path}: {robot.name}, {robot.dof} joints ({', '.join(robot.joint_names)}), base_link -> tool0")
     return 0
 
@@ -179,10 +183,10 @@ def cmd_import_urdf(args) -> int:
     """Turn a URDF serial chain into a robot file (DH extracted from the joint axes) and report it."""
     from .urdf import import_urdf
 
-    prepare_file_target(args.out)
+    prepare_file_target(args.out, args.force)
     imported = import_urdf(args.urdf, base=args.base, tip=args.tip, convention=args.convention, name=args.name,
                            time_to_full_speed=args.time_to_full_speed)
-    imported.write(args.out)
+    imported.write(args.out, args.force)
     chain = imported.chain
     print(imported.robot)
     print(f"\nwrote {args.out}: chain {chain.base} -> {chain.tip} of {args.urdf}; FK of the robot file against the "
@@ -193,27 +197,28 @@ def cmd_import_urdf(args) -> int:
 
 
 def cmd_check_cell(args) -> int:
-    """Print a cell, its collision model, the robot's clearance at its home pose (q = 0) and the pair in
-    collision there, if any; exit 1 when q = 0 collides or comes closer than the clearance."""
+    """Print a cell, its collision model, the robot's clearance at a pose (--q, default q = 0) and the pair in
+    collision there, if any; exit 1 when that pose collides or comes closer than the clearance."""
     from .cell.cell_file import load_cell
     from .cell.collision import CollisionModel
 
     cell = load_cell(args.cell)
     robot = cell.load_robot()
     model = CollisionModel(robot, cell)
-    q0 = np.zeros(robot.dof)
-    clearance = model.clearance(q0)
+    q = np.zeros(robot.dof) if args.q is None else _joint_values(robot, args.q, args.unit, "--q")
+    pose = "q = 0" if args.q is None else f"q = [{', '.join(args.q)}] {args.unit}"
+    clearance = model.clearance(q)
     print(cell)
     print(model.describe())
     closest = ("no obstacle within reach" if clearance.obstacle_pair is None else
                f"{clearance.obstacle * 1e3:.1f} mm ({clearance.obstacle_pair[0]} - {clearance.obstacle_pair[1]})")
     links = ("no link pair within reach" if clearance.self_pair is None else
              f"{clearance.self * 1e3:.1f} mm ({clearance.self_pair[0]} - {clearance.self_pair[1]})")
-    print(f"at the home pose q = 0: closest obstacle {closest}; closest links {links}")
-    if model.is_free(q0):
-        print(f"q = 0 is collision-free with {cell.clearance * 1e3:g} mm clearance")
+    print(f"at {pose}: closest obstacle {closest}; closest links {links}")
+    if model.is_free(q):
+        print(f"{pose} is collision-free with {cell.clearance * 1e3:g} mm clearance")
         return 0
-    print(f"COLLISION at q = 0: {model.why_not_free(q0)}")
+    print(f"COLLISION at {pose}: {model.why_not_free(q)}")
     return 1
 
 
@@ -243,19 +248,21 @@ def cmd_program(args) -> int:
     from .program.job import load_job
     from .runner import LANGUAGE_TITLES, SERVO_PERIOD_S, program_name, program_texts, timed_program
 
+    from .outputs.controllers.urscript import check_servo_period
+
     if args.servo_period is not None and args.lang != "urscript":
         raise OutputError(f"--servo-period is the period of URScript's servoj replay; {args.lang} has none")
-    period = SERVO_PERIOD_S if args.servo_period is None else args.servo_period
+    period = check_servo_period(SERVO_PERIOD_S if args.servo_period is None else args.servo_period)
     job = load_job(args.job)
     name, targets = _program_targets(args.lang, program_name(args.lang, job.name), Path(args.out or "."))
     for path in targets.values():
-        prepare_file_target(path)
+        prepare_file_target(path, args.force)
     program, _, profile = timed_program(job, args.max_samples, args.max_duration)
     texts = program_texts(job, args.lang, program, profile, name, period)
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
     for suffix, text in texts.items():
-        print(f"wrote {write_text_atomic(targets[suffix], text)}")
+        print(f"wrote {write_text_atomic(targets[suffix], text, args.force)}")
     return 0
 
 
@@ -297,8 +304,11 @@ def cmd_read_program(args) -> int:
                              f"{', '.join(READ_SUFFIXES)} (KRL: the .src, with its .dat beside it)")
     out = Path(args.out) if args.out else None
     if out is not None:
-        prepare_file_target(out)
-    document = _read_program(language, path, args.robot)
+        prepare_file_target(out, args.force)
+    load_robot(args.robot)                  # the robot file's own errors name that file, not the program
+    from .outputs.controllers.read_units import in_program_units
+
+    document = in_program_units(_read_program(language, path, args.robot), language)
     document["robot"] = _robot_reference(args.robot, out)
     job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
     header = f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
@@ -306,7 +316,7 @@ def cmd_read_program(args) -> int:
     if out is None:
         print(text, end="")
         return 0
-    write_text_atomic(out, text)
+    write_text_atomic(out, text, args.force)
     print(f"read {path}: {len(document['waypoints'])} waypoints for {args.robot}; wrote {out}")
     return 0
 
@@ -325,12 +335,20 @@ def _program_error(path: Path, problem: str, field: str = "file", line: int | No
     return ControllerProgramError(str(path), field, problem, line=line)
 
 
+#: The largest controller program read [bytes]: every program the writers make (a URScript servoj replay is at
+#: most ``urscript.MAX_REPLAY_LINES`` lines), and a bound on the parse time (some 2 s a MiB).
+MAX_PROGRAM_BYTES = 8 * 1024 * 1024
+
+
 def _read_text(path: Path) -> str:
-    """The file's UTF-8 text (a byte-order mark allowed), or the one-line error naming it."""
-    try:
-        return path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise _program_error(path, f"cannot read the file: {getattr(exc, 'strerror', None) or exc}") from None
+    """The program file's UTF-8 text (a byte-order mark allowed): a regular file of at most MAX_PROGRAM_BYTES,
+    or the one-line error naming it."""
+    from .files.schema import decode_text, read_file_bytes
+
+    def fail(_, problem):
+        raise _program_error(path, problem)
+
+    return decode_text(read_file_bytes(path, fail, MAX_PROGRAM_BYTES), fail)
 
 
 def _read_program(language: str, path: Path, robot: str) -> dict:
@@ -403,7 +421,7 @@ def cmd_ui(args) -> int:
     from .ui.page import open_page
 
     if args.screenshot:
-        prepare_file_target(args.screenshot)
+        prepare_file_target(args.screenshot, args.force)
     page = open_page(args.source, args.host, args.port)
     url = f"http://{page.host}:{page.port}"
     try:
@@ -411,7 +429,7 @@ def cmd_ui(args) -> int:
             from .ui.screenshot import take_screenshot
 
             page.show_for_screenshot()
-            print(f"wrote {take_screenshot(url, args.screenshot)}")
+            print(f"wrote {take_screenshot(url, args.screenshot, args.force)}")
             return 0
         print(f"the page of {page.source.title}: open {url} in a browser (Ctrl-C stops it)")
         threading.Event().wait()
@@ -432,12 +450,12 @@ def _robot_or_cell(name_or_path: str):
 def cmd_bench(args) -> int:
     """Benchmarks beside the peers measured in the same run."""
     if args.out:
-        prepare_file_target(args.out)
+        prepare_file_target(args.out, args.force)
     if args.suite == "timing":
         from .bench.timing import METHOD_KEYS, ROBOTS, run_timing_benchmark
 
         report = run_timing_benchmark(_names(args.robots, ROBOTS), paths=args.paths, seed=args.seed,
-                                      methods=_names(args.methods, METHOD_KEYS))
+                                      methods=_names(args.methods, METHOD_KEYS), waypoints=args.waypoints)
     elif args.suite == "ik":
         from .bench.ik import METHODS, ROBOTS, run_ik_benchmark
 
@@ -475,7 +493,7 @@ def cmd_bench(args) -> int:
                                           seed=args.seed)
     print(report.format_table())
     if args.out:
-        write_text_atomic(args.out, json.dumps(report.to_dict(), indent=2))
+        write_text_atomic(args.out, json.dumps({"written_by": WRITTEN_BY, **report.to_dict()}, indent=2), args.force)
     return 0
 
 
@@ -518,6 +536,12 @@ _millimetres, _seconds = _positive_number("millimetres"), _positive_number("seco
 
 #: A pose on the command line: position [mm], roll, pitch, yaw [deg].
 POSE_NAMES = ("x", "y", "z", "roll", "pitch", "yaw")
+
+
+def _add_force_option(parser) -> None:
+    """--force: replace an existing output file the package did not write (never a folder or special file)."""
+    parser.add_argument("--force", action="store_true", help="replace an existing file at the output path even "
+                        "if dh-pipeline did not write it (without: such a file is refused, naming it)")
 
 
 def _add_tool_option(parser) -> None:
@@ -616,6 +640,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     program.add_argument("--lang", required=True, choices=languages, help="the controller's language")
     program.add_argument("--out", metavar="FILE_OR_DIR", help="a file with the language's suffix (KRL: the .src, "
                          "its .dat beside it), or a folder for NAME.<suffix> (default: the current folder)")
+    _add_force_option(program)
     program.add_argument("--servo-period", type=_seconds, metavar="SECONDS",
                          help="urscript: the controller period of the servoj replay (default 0.002, e-Series; "
                               "0.008 on a CB3)")
@@ -634,6 +659,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     read.add_argument("file", help="the program: .mod (RAPID), .ls (FANUC), .jbi (Yaskawa), .src (KRL), .script (UR)")
     read.add_argument("--robot", required=True, help="preset name or robot file path of the arm the program runs on")
     read.add_argument("--out", metavar="JOB.yaml", help="the job file to write (default: print it)")
+    _add_force_option(read)
     read.set_defaults(func=cmd_read_program)
 
     show = _verb(sub, prog, "show", "print a robot's DH table, FK and Jacobian at q = 0",
@@ -690,6 +716,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                    "joint limits, shapes and inertias.", ["gp7 --urdf gp7.urdf"])
     export.add_argument("robot", help="preset name or robot file path")
     export.add_argument("--urdf", required=True, metavar="FILE", help="the URDF file to write")
+    _add_force_option(export)
     export.set_defaults(func=cmd_export)
 
     urdf_in = _verb(sub, prog, "import-urdf", "turn a URDF serial chain into a robot file (DH table from the axes)",
@@ -699,6 +726,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                     ["irb1600.urdf --out irb1600.yaml", "ur5.urdf --out ur5.yaml --tip tool0 --convention modified"])
     urdf_in.add_argument("urdf", help="the URDF file (xacro must be expanded first)")
     urdf_in.add_argument("--out", required=True, metavar="ROBOT.yaml", help="the robot file to write")
+    _add_force_option(urdf_in)
     urdf_in.add_argument("--base", metavar="LINK", help="the chain's first link (default base_link, else the root)")
     urdf_in.add_argument("--tip", metavar="LINK", help="the chain's last link (default tool0, else the end of the "
                          "moving joints)")
@@ -711,12 +739,15 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     urdf_in.set_defaults(func=cmd_import_urdf)
 
     check_cell = _verb(sub, prog, "check-cell", "print a cell, its collision model and the robot's clearance at "
-                       "q = 0 (exit 1 when q = 0 collides)",
+                       "a pose (exit 1 when it collides)",
                        "Print a work cell (its robot, base pose, obstacles, clearance), the pairs the collision\n"
-                       "model does not check, and the robot's distance to the obstacles at q = 0; exit 1 when\n"
-                       "q = 0 collides or comes closer than the clearance.",
-                       ["gp7_wall_cell", "my_cell.yaml"])
+                       "model does not check, and the robot's distance to the obstacles at q = 0 or at the pose\n"
+                       "--q (a home pose); exit 1 when that pose collides or comes closer than the clearance.",
+                       ["gp7_wall_cell", "my_cell.yaml --q 0 -30 30 0 60 0"])
     check_cell.add_argument("cell", help=f"a demo cell ({', '.join(cell_names())}) or a cell file")
+    check_cell.add_argument("--q", nargs="+", metavar="Q", help="the pose to check: joint values (--unit; "
+                            "prismatic joints in mm), default q = 0")
+    check_cell.add_argument("--unit", choices=("deg", "rad"), default="deg", help="unit of --q (default deg)")
     check_cell.set_defaults(func=cmd_check_cell)
 
     bench = _verb(sub, prog, "bench", "benchmarks beside the peers, in the same run",
@@ -728,7 +759,9 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
-    bench.add_argument("--paths", type=POSITIVE, default=5, help="timing: seeded random 10-waypoint paths per robot")
+    bench.add_argument("--paths", type=POSITIVE, default=5, help="timing: seeded random paths per robot")
+    bench.add_argument("--waypoints", type=POSITIVE, default=10, metavar="N",
+                       help="timing only: waypoints of each random path (default 10, at least 2)")
     bench.add_argument("--moves", type=POSITIVE, default=20, metavar="N",
                        help="cartesian only: seeded random 0.5 m straight-line moves per robot (default 20)")
     bench.add_argument("--methods", help="ik: comma-separated methods of ours (default analytic,jacobian,drake); "
@@ -753,6 +786,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     bench.add_argument("--browser", action="store_true", help="ui: drag again with headless Chromium connected")
     bench.add_argument("--seed", type=NON_NEGATIVE, default=0)
     bench.add_argument("--out", help="JSON file for the results")
+    _add_force_option(bench)
     bench.set_defaults(func=cmd_bench)
 
     batch = _verb(sub, prog, "batch", "run many job files on Dask workers, each into DIR/<job name>/, with "
@@ -808,6 +842,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                     "only; another exposes the page to the network)")
     ui.add_argument("--screenshot", metavar="FILE.png", help="take a headless Chromium picture of the page (a job's "
                     "program planned and timed, the target's branches shown) and stop")
+    _add_force_option(ui)
     ui.set_defaults(func=cmd_ui)
     return parser
 
@@ -833,6 +868,9 @@ def main(argv: list[str] | None = None, prog: str = "python -m pipeline") -> int
     except KeyboardInterrupt:
         print("interrupted: no output written", file=sys.stderr)
         return 130
+    except BrokenPipeError:             # the reader of our output left (``... | head``): stop quietly, as on SIGPIPE
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     except Exception as exc:            # a bug: one line, the traceback only when asked for
         if args.verbose:
             traceback.print_exc()

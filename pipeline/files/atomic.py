@@ -9,6 +9,7 @@ one, never a mix. Only folders this package wrote (see ``OWNER_MARKER``) or empt
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import functools
@@ -28,41 +29,69 @@ from .special import special_kind
 #: Written into every output folder: the names of the files the package put there. A folder is
 #: replaced only when it is empty, or holds this marker and nothing it does not list.
 OWNER_MARKER = ".dh-pipeline-output.json"
+#: Every single file the package writes names it within its first MARK_BYTES bytes (a comment, a JSON key, a
+#: PNG text chunk): an existing file without it was not written here and is replaced only when asked.
+WRITTEN_BY = "dh-pipeline"
+MARK_BYTES = 4096
 #: Linux ``renameat2`` flag that swaps two paths atomically, and "relative to the working directory".
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
 
-def write_text_atomic(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same directory and an atomic rename.
-    The file gets ordinary permissions (0666 less the umask). Raises OutputError when it cannot."""
+def write_text_atomic(path: str | Path, text: str, replace: bool = False) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` as ``write_bytes_atomic`` does."""
+    return write_bytes_atomic(path, text.encode("utf-8"), replace)
+
+
+def write_bytes_atomic(path: str | Path, data: bytes, replace: bool = False) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same directory and an atomic rename.
+    The file gets ordinary permissions (0666 less the umask). Raises OutputError when it cannot, or when
+    ``path`` holds a file the package did not write and ``replace`` is not asked (``prepare_file_target``)."""
     path = Path(path)
-    prepare_file_target(path)
+    prepare_file_target(path, replace)
     tmp = path.with_name(_hidden_name(path.name, "tmp"))
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write the file: {exc.strerror or exc}") from exc
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
         os.replace(tmp, path)
     except OSError as exc:
         raise OutputError(f"{path}: cannot write the file: {exc.strerror or exc}") from exc
     finally:
-        tmp.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
     return path
 
 
-def prepare_file_target(path: str | Path) -> None:
-    """Check before any work that a single output file can go to ``path``: absent or a regular file
-    (never a folder, FIFO, device or socket, which the atomic rename would replace; a symbolic link
-    counts as what it points to), and its parent a folder (created if missing). Raises OutputError
-    naming the path."""
+def prepare_file_target(path: str | Path, replace: bool = False) -> None:
+    """Check before any work that a single output file can go to ``path``: absent, or a regular file this
+    package wrote (WRITTEN_BY within its first MARK_BYTES; any regular file with ``replace``), never a folder,
+    FIFO, device or socket (which the atomic rename would replace; a symbolic link counts as what it points
+    to), and its parent a folder (created if missing) we may write in. Raises OutputError naming the path."""
     path = Path(path)
     kind = special_kind(path)
     if kind == "a folder":
         raise OutputError(f"{path}: is a folder; give a file name for this output")
     if kind is not None:
         raise OutputError(f"{path}: is {kind}, not a regular file: it is never replaced; give a file name")
+    if not replace and os.path.exists(path) and not written_here(path):
+        raise OutputError(f"{path}: exists and was not written by {WRITTEN_BY}: it is not replaced; give another "
+                          "name, or ask for the replacement (--force)")
     _make_parent(path)
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{path}: cannot write in the folder {path.parent}: it is not writable")
+
+
+def written_here(path: Path) -> bool:
+    """Whether the regular file ``path`` names WRITTEN_BY within its first MARK_BYTES bytes."""
+    try:
+        with open(path, "rb") as handle:
+            return WRITTEN_BY.encode() in handle.read(MARK_BYTES)
+    except OSError:
+        return False
 
 
 @contextmanager

@@ -189,6 +189,8 @@ MAX_RANGE_RAD = 6.0 * math.pi  # a revolute range wider than three turns is a un
 MAX_TURNS = 1000              # a revolute limit stays within this many turns of zero
 MAX_SPEED_RAD_S = 100.0       # a revolute qd_max above ~5700 deg/s is a unit mistake
 MIN_RATE = 1e-9               # qd_max, qdd_max, qddd_max [unit/s^k]: smaller cannot move
+MIN_SPEED_RAD_S = 0.1         # a revolute qd_max below ~5.7 deg/s, or qdd_max below MIN_ACCEL_RAD_S2 (~29 deg/s^2), is
+MIN_ACCEL_RAD_S2 = 0.5        #   slower than any robot axis: rad/s written under deg (3.93 rad/s read as 3.93 deg/s)
 MAX_RATE = 1e9                # qdd_max, qddd_max, tau_max: beyond any drive
 MAX_MASS_KG = 1e6
 MAX_RADIUS_M = 2.0            # a link radius [m]: thicker is mm written under m
@@ -235,6 +237,17 @@ class _RobotReader(Reader):
         if value > high:
             self.fail(path, f"is implausibly large ({value:.4g} in SI units, above {high:g}): {hint}", self.get(path))
         return value
+
+    def plausible_rate(self, path, q_scale: float, low: float, per: str) -> None:
+        """A revolute joint's speed or acceleration limit of at least ``low`` [rad/s^k]: below it no robot axis
+        moves, and a value in degrees' place that reads right in radians gets that hint."""
+        given = self.number(path)
+        if not MIN_RATE <= given * q_scale < low:          # too small to move at all: ``rate`` says so
+            return
+        hint = (f": is it in rad/{per}? Then write {math.degrees(given):.4g} (deg/{per})" if self.angle_unit == "deg"
+                and given >= low else "")
+        self.fail(path, f"is {given * q_scale:.4g} rad/{per}, slower than any robot axis (at least {low:g} rad/{per})"
+                  f"{hint}", self.get(path))
 
     def joint_range(self, path, kind: str, q_scale: float) -> tuple[float, float]:
         """(q_min, q_max) in SI: (-inf, +inf) for a continuous joint (``continuous_range``); else both
@@ -307,6 +320,10 @@ class _RobotReader(Reader):
             f"is length_unit: {self.length_unit} right?"
         optional = {key: self.rate((*path, key), q_scale, MAX_RATE, unit_hint) if key in raw else None
                     for key in ("qdd_max", "qddd_max")}
+        if kind == "revolute":
+            self.plausible_rate((*path, "qd_max"), q_scale, MIN_SPEED_RAD_S, "s")
+            if optional["qdd_max"] is not None:
+                self.plausible_rate((*path, "qdd_max"), q_scale, MIN_ACCEL_RAD_S2, "s^2")
         tau_max = self.rate((*path, "tau_max"), 1.0, MAX_RATE, "N m or N") if "tau_max" in raw else None
         if tau_max is not None and "inertia" not in raw:
             self.fail((*path, "inertia"), "tau_max needs the link's inertia (torques come from its dynamics)",

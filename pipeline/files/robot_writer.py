@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .atomic import write_text_atomic
+from .atomic import WRITTEN_BY, write_text_atomic
 from .poses import rotation_to_rpy
 from .robot_spec import DhJoint, LinkInertia, RobotSpec
 from .units import ANGLE_UNITS, LENGTH_UNITS
@@ -107,16 +107,18 @@ def robot_document(spec: RobotSpec, length_unit: str = "mm", angle_unit: str = "
 
 
 def robot_file_text(document: dict) -> str:
-    """A robot file's text: one flow-style line per joint row, like the presets."""
+    """A robot file's text: a comment naming its writer, then one flow-style line per joint row, like the
+    presets."""
     head = {key: value for key, value in document.items() if key not in ("base", "tool", "joints")}
     frames = {key: document[key] for key in ("base", "tool") if key in document}
     text = yaml.safe_dump(head, sort_keys=False, width=110, allow_unicode=True)
     if frames:
         text += yaml.safe_dump(frames, sort_keys=False, default_flow_style=None)
     rows = [yaml.safe_dump([row], sort_keys=False, default_flow_style=None, width=10_000) for row in document["joints"]]
-    return text + "joints:\n" + "".join(rows)
+    return f"# A robot file written by {WRITTEN_BY} (its format: models/README.md)\n{text}joints:\n{''.join(rows)}"
 
 
-def write_robot_file(document: dict, path: str | Path) -> Path:
-    """Write a robot file atomically (OutputError when it cannot)."""
-    return write_text_atomic(path, robot_file_text(document))
+def write_robot_file(document: dict, path: str | Path, replace: bool = False) -> Path:
+    """Write a robot file atomically (OutputError when it cannot; a file the package did not write is replaced
+    only with ``replace``)."""
+    return write_text_atomic(path, robot_file_text(document), replace)

@@ -151,23 +151,24 @@ class _Converter:
         return text
 
 
-def _read_bytes(path: Path, fail) -> bytes:
-    """The file's bytes: it must exist, be a regular file (a FIFO or device may never end) and be at
-    most MAX_FILE_BYTES (no more is read)."""
+def read_file_bytes(path: Path, fail, max_bytes: int = MAX_FILE_BYTES) -> bytes:
+    """The file's bytes: it must exist, be a regular file (a FIFO or device may never end; checked before it
+    is opened, which would block on a FIFO) and be at most ``max_bytes`` (no more is read, so the readers'
+    time is bounded too). ``fail((), problem)`` raises the caller's error."""
     kind = special_kind(path)
     if kind is not None:
         fail((), f"cannot read the file: it is {kind}, not a regular file")
     try:
         with open(path, "rb") as handle:
-            raw = handle.read(MAX_FILE_BYTES + 1)
+            raw = handle.read(max_bytes + 1)
     except OSError as exc:
         fail((), f"cannot read the file: {exc.strerror or exc}")
-    if len(raw) > MAX_FILE_BYTES:
-        fail((), f"the file is larger than {MAX_FILE_BYTES // 1024} KiB; is it the right file?")
+    if len(raw) > max_bytes:
+        fail((), f"the file is larger than {max_bytes // 1024} KiB; is it the right file?")
     return raw
 
 
-def _decode(raw: bytes, fail) -> str:
+def decode_text(raw: bytes, fail) -> str:
     """UTF-8 text (a byte-order mark is allowed)."""
     try:
         return raw.decode("utf-8-sig")
@@ -205,8 +206,8 @@ def load_document(path: str | Path, file_kind: type[FileFormatError]) -> Documen
     error naming the file."""
     source = str(path)
     fail = functools.partial(_raise, file_kind, source)
-    raw = _read_bytes(Path(path), fail)
-    return dataclasses.replace(parse_document(_decode(raw, fail), source, file_kind), content=raw)
+    raw = read_file_bytes(Path(path), fail)
+    return dataclasses.replace(parse_document(decode_text(raw, fail), source, file_kind), content=raw)
 
 
 class Reader:

@@ -24,7 +24,7 @@ from ..cell.planning import plan_joint_path
 from ..cell.tilt import TiltLimit
 from ..cell.tool import Tool
 from ..errors import VendorConfigurationError
-from ..files.branch_names import matches
+from ..files.branch_names import label_parts, matches
 from ..model.ik import with_drake_model
 from ..model.ik.branches import BranchChoice, branch_change_reason, choose_solution, configuration_labels
 from ..model.ik.result import MATCHED_COMPONENTS, make_target, pose_errors
@@ -33,9 +33,12 @@ from ..model.vendors.selection import select_solution
 from .job import Job, JointWaypoint
 from .model import JOINT, Move, Program, ToolTrack, WaypointSolution
 from .tool_moves import ToolMoveError, joint_path_along
-from .tool_path import ToolMove, ToolPath
+from .tool_path import ToolMove, ToolPath, move_length
 
 log = logging.getLogger(__name__)
+
+#: A zone may exceed half a neighbouring move by this much [m] (the rounding of the move's length).
+ZONE_SLACK_M = 1e-9
 
 
 def compile_job(job: Job, scene=None) -> Program:
@@ -44,6 +47,7 @@ def compile_job(job: Job, scene=None) -> Program:
     ToolMoveError naming the tool move and sample, PlanningError / CollisionError from the planner."""
     solved = solve_waypoints(job, scene)
     targets = [w.q for w in solved]
+    job = with_capped_zones(job, targets)
     tracks = _tool_tracks(job, targets, scene)
     tilt = None if job.plan_tilt_max is None else TiltLimit(job.cell.X_WB[:3, :3], job.plan_tilt_max)
     moves = []
@@ -62,6 +66,24 @@ def compile_job(job: Job, scene=None) -> Program:
     limits = dataclasses.replace(job.robot.limits, tcp_speed_max=job.tcp_speed_limit, tcp_accel_max=None)
     return Program(job.name, job.robot, Tool.of_job(job), job.cell, limits, job.tcp_accel_max, job.speed_scale, job.timing,
                    job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan, tilt)
+
+
+def with_capped_zones(job: Job, targets: list[np.ndarray]) -> Job:
+    """The job with every zone [m] at most half of either neighbouring move's TCP length (``move_length``; a
+    move of no length takes the zones on both its ends to 0), as controllers shrink a zone: the profile is
+    timed, and the controller programs written, with the same zones. A warning names each zone shrunk."""
+    tcp = job.robot.fk_batch(np.array(targets))[:, :3, 3]
+    lengths = [move_length(tcp[k - 1], tcp[k], getattr(job.waypoints[k], "via", None))
+               for k in range(1, len(targets))]
+    waypoints = list(job.waypoints)
+    for k in range(1, len(waypoints) - 1):
+        cap = 0.5 * min(lengths[k - 1], lengths[k])
+        if waypoints[k].zone > cap + ZONE_SLACK_M:
+            log.warning("%s: zone %.6g mm is more than half of a neighbouring move (%.6g mm long): rounded with "
+                        "%.6g mm, as a controller shrinks it", job.location(("waypoints", k, "zone")),
+                        waypoints[k].zone * 1e3, 2e3 * cap, cap * 1e3)
+            waypoints[k] = dataclasses.replace(waypoints[k], zone=cap)
+    return dataclasses.replace(job, waypoints=tuple(waypoints))
 
 
 def move_speed(job: Job, waypoint) -> float:
@@ -126,11 +148,11 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
         choice = choose_solution(robot, result, previous, previous_branch, waypoint.config)
         if choice.q is None:
             raise job.error((*field, "config"), choice.reason)
-        if choice.changed and not job.allow_branch_change:
+        if choice.changed and not job.allow_branch_change and not _names_change(waypoint.config, choice):
             raise job.error(field, f"the IK branch changes from '{choice.previous}' to '{choice.branch}': "
                                f"{branch_change_reason(robot, choice, waypoint.X_BE, previous)}. Name the configuration "
                                "(config:), add waypoints, or allow the change (allow_branch_change: true)")
-        if choice.changed:
+        if choice.changed and not _names_change(waypoint.config, choice):
             log.warning("%s: branch changes from %s to %s (allowed)", job.location(field), choice.previous,
                         choice.branch)
         solved.append(WaypointSolution(choice.q, result.method, result.position_error, result.rotation_error,
@@ -138,6 +160,14 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
                                        choice.branch, choice.changed))
         previous, previous_branch = choice.q, choice.branch
     return solved
+
+
+def _names_change(config: dict[str, str] | None, choice: BranchChoice) -> bool:
+    """Whether the configuration a waypoint names asks for the branch change ``choice`` makes: it names every
+    part of the branch that changes (a program read back from a controller names each point's)."""
+    before, after = label_parts(choice.previous), label_parts(choice.branch)
+    return bool(config) and all(config.get(part) == value for part, value in after.items()
+                                if before.get(part) != value)
 
 
 def controller_solution(job: Job, k: int, previous_branch: str, scene=None) -> WaypointSolution:

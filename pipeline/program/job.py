@@ -15,6 +15,7 @@ field.
 from __future__ import annotations
 
 import hashlib
+import importlib.resources
 import json
 import logging
 import math
@@ -86,6 +87,8 @@ _TCP_BOUNDS = {"speed": (MAX_TCP_SPEED, MIN_TCP_SPEED_MM, "m/s"),
 #: A joint move's ``speed`` is a percentage of the joint speed limits, at most this.
 MAX_JOINT_SPEED_PERCENT = 100.0
 
+#: The demo jobs, installed with the package (the checkout's trajectories/jobs/).
+DEMO_JOBS = importlib.resources.files("pipeline.demo_jobs")
 _log = logging.getLogger(__name__)
 
 
@@ -695,10 +698,24 @@ def parse_job(doc: Any, source: str = "<dict>", name: str = "job", base_dir: str
 
 
 def load_job(path: str | Path) -> Job:
-    """Read and validate a job file; relative robot paths in it are relative to the file."""
-    path = Path(path)
+    """Read and validate a job file (or the demo job of that name: ``resolve_job_path``); relative robot and
+    cell paths in it are relative to the file."""
+    path = resolve_job_path(path)
     document = load_document(path, JobFileError)
     return _read_job(document, path.parent, path.stem, document.content)
+
+
+def resolve_job_path(name_or_path: str | Path) -> Path:
+    """A demo job's name (``gp7_pick_place``, ``demo_job_names``) or a path to a job file -> the file's path (a
+    path is returned as given: the reader words its errors)."""
+    if not Path(name_or_path).exists() and str(name_or_path) in demo_job_names():
+        return Path(str(DEMO_JOBS / f"{name_or_path}.yaml"))
+    return Path(name_or_path)
+
+
+def demo_job_names() -> list[str]:
+    """Names of the demo jobs (``trajectories/jobs/*.yaml``, installed as ``pipeline.demo_jobs``)."""
+    return sorted(entry.name[: -len(".yaml")] for entry in DEMO_JOBS.iterdir() if entry.name.endswith(".yaml"))
 
 
 def _read_job(document: Document, base_dir: Path, name: str, job_bytes: bytes) -> Job:

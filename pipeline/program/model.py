@@ -153,6 +153,12 @@ class Program:
         """(K, dof) the joint values of the K waypoints [rad or m]."""
         return np.array([self.waypoints[0].q] + [move.target for move in self.moves])
 
+    def tool_speed(self, move: Move) -> float:
+        """The TCP speed [m/s] a tool move runs at: its own, capped by the job's safety TCP speed limit, x the
+        speed scale (as the timing applies them, and as every controller program writes it)."""
+        speed = move.speed if self.limits.tcp_speed_max is None else min(move.speed, self.limits.tcp_speed_max)
+        return speed * self.speed_scale
+
     def exact_stop_at(self, move: Move) -> bool:
         """Whether a controller program stops exactly at the end of ``move``: a stop of the program, or a
         planned joint move or one leading into it (a controller's corner path there is not a path the

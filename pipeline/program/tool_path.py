@@ -115,6 +115,19 @@ def _circle(p0: np.ndarray, via: np.ndarray, p1: np.ndarray, index: int):
     return centre, radius, e1, e2, angle_of(p1) or 2.0 * math.pi
 
 
+def move_length(p_start: np.ndarray, p_end: np.ndarray, via: np.ndarray | None = None) -> float:
+    """The TCP's length [m] of a move, as a controller measures a zone against it: a circular move's arc from
+    ``p_start`` through ``via`` to ``p_end`` (3,) [m] (their chord sum where the three are in line), every other
+    move's straight distance (a joint move's too)."""
+    if via is None:
+        return float(np.linalg.norm(p_end - p_start))
+    try:
+        _, radius, _, _, angle = _circle(p_start, via, p_end, 0)
+    except ConfigurationError:
+        return float(np.linalg.norm(via - p_start) + np.linalg.norm(p_end - via))
+    return radius * angle
+
+
 def _smoothstep(t: np.ndarray, order: int = 0) -> np.ndarray:
     coefficients = np.polynomial.polynomial.polyder(_SMOOTHSTEP, order) if order else _SMOOTHSTEP
     return np.polynomial.polynomial.polyval(t, coefficients)
@@ -150,6 +163,10 @@ class _Blend:
         return self.end - self.start
 
 
+#: Breakpoints closer than this [m] are one (the rounding of sums of move lengths).
+BREAKPOINT_MERGE_M = 1e-9
+
+
 class ToolPath:
     """The TCP pose along a chain of tool moves from ``X_start`` (see the module docstring).
 
@@ -172,8 +189,10 @@ class ToolPath:
         self.starts = np.concatenate([[0.0], np.cumsum([s.length for s in self.segments])])
         self.length = float(self.starts[-1])
         self.blends = [self._blend(k, moves[k].zone) for k in range(len(moves) - 1) if moves[k].zone > 0.0]
-        points = [self.starts, *[[b.start, b.end] for b in self.blends]]
-        self.breakpoints = np.unique(np.concatenate(points))
+        points = np.sort(np.concatenate([self.starts, *[[b.start, b.end] for b in self.blends]]))
+        # Two zones that take half of the same move each meet in its middle: one breakpoint there, not two a
+        # rounding apart (the later of a close pair is kept, so the last stays the length).
+        self.breakpoints = points[np.concatenate([np.diff(points) > BREAKPOINT_MERGE_M, [True]])]
 
     def _blend(self, k: int, zone: float) -> _Blend:
         before, after = self.segments[k], self.segments[k + 1]

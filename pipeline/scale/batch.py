@@ -25,7 +25,7 @@ from pathlib import Path
 from ..errors import PipelineError, ScaleInputError
 from ..files.atomic import staged_output
 from ..outputs.formats import write_json
-from ..program.job import load_job
+from ..program.job import load_job, resolve_job_path
 from ..runner import run_job
 from ..timing import DEFAULT_MAX_SAMPLES
 from ..timing.profile import QUANTITIES
@@ -44,11 +44,11 @@ OK, FAILED, INTERNAL = "ok", "failed", "internal error"
 
 
 def job_files(paths) -> list[Path]:
-    """The job files that ``paths`` (files or folders) stand for, in order; ScaleInputError for a path
-    that does not exist, when there are none, or when two have the same name (their output folders
+    """The job files that ``paths`` (files, folders or demo job names) stand for, in order; ScaleInputError for a
+    path that does not exist, when there are none, or when two have the same name (their output folders
     would collide)."""
     files: list[Path] = []
-    for path in (Path(p) for p in paths):
+    for path in (resolve_job_path(p) for p in paths):
         if not path.exists():
             raise ScaleInputError("jobs", "no such job file or folder", str(path))
         files += sorted(p for p in path.iterdir() if p.suffix in JOB_SUFFIXES) if path.is_dir() else [path]

@@ -83,6 +83,9 @@ def reach_grid(robot, step: float) -> VoxelGrid:
     """The grid of voxel centres ``step`` [m] apart covering the ball of ``robot.spec.reach_bound`` (see
     the module docstring for where the centres lie)."""
     step = check_step(step)
+    if step > robot.spec.reach_bound:
+        raise ScaleInputError("step", f"is larger than the reach of {robot.name} ({robot.spec.reach_bound:.3g} m): "
+                              "one voxel would hold the whole map; choose a smaller step", step)
     half = math.ceil(robot.spec.reach_bound / step)
     if 4 * half * half * (2 * half + 1) > MAX_VOXELS:
         raise ScaleInputError("step", f"gives {4 * half * half * (2 * half + 1):,} voxels over the reach of "

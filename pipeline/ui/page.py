@@ -15,6 +15,7 @@ cell); targets are TCP poses X_WT [m]; the IK works on X_BT = inv(X_WB) X_WT.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from dataclasses import dataclass
@@ -26,8 +27,9 @@ import yaml
 from ..cell.cell_file import cell_names, load_cell, resolve_cell_path
 from ..cell.tool import Tool, rigid_inverse
 from ..errors import ConfigurationError, PipelineError
-from ..files.atomic import write_text_atomic
-from ..files.poses import pose_to_quaternion_position, quaternion_position_to_pose
+from ..files.arrays import float_array
+from ..files.atomic import prepare_file_target, write_text_atomic
+from ..files.poses import check_pose, pose_to_quaternion_position, quaternion_position_to_pose
 from ..files.units import ANGLE_UNITS, LENGTH_UNITS
 from ..model.robot import load_robot
 from ..outputs.views import camera_pose, scene_spheres
@@ -131,7 +133,7 @@ class Page:
     # -- the arm ---------------------------------------------------------------------------------------------
     def set_joints(self, q) -> None:
         """Jog to q (dof,) [rad or m], within the joint limits (ConfigurationError naming the joint)."""
-        q = np.asarray(q, dtype=float)
+        q = float_array(q, "q", (self.robot.dof,))
         limits = self.robot.limits
         outside = np.flatnonzero((q < limits.q_min - 1e-12) | (q > limits.q_max + 1e-12))
         if len(outside):
@@ -159,6 +161,7 @@ class Page:
     # -- the target and its branches -------------------------------------------------------------------------
     def place_target(self, X_WT: np.ndarray) -> None:
         """Move the draggable target to X_WT (4, 4) [m] without computing its branches."""
+        X_WT = check_pose(X_WT, "target X_WT")
         quaternion, position = pose_to_quaternion_position(X_WT)
         self.gizmo.wxyz, self.gizmo.position = quaternion, position
 
@@ -166,7 +169,7 @@ class Page:
         """Every IK branch of the TCP target X_WT (4, 4) [m]: drawn as ghost arms coloured by state and listed
         on the page (the time it took is kept in ``update_seconds``)."""
         start = time.perf_counter()
-        X_BT = rigid_inverse(self.X_WB) @ np.asarray(X_WT, dtype=float)
+        X_BT = rigid_inverse(self.X_WB) @ check_pose(X_WT, "target X_WT")
         self.branches = target_branches(self.robot, X_BT, self.q, self.collision)
         self.scene.ghosts.show(self.branches.branches)
         self.branch_table.content = self._branch_markdown(self.branches)
@@ -234,11 +237,12 @@ class Page:
         self.place_target(X_WT)
         self.drag_target(X_WT)
 
-    def save_job(self, path) -> Path:
-        """The program as a job file that ``python -m pipeline run`` reproduces sample for sample."""
-        return self.program.save(path)
+    def save_job(self, path, replace: bool = False) -> Path:
+        """The program as a job file that ``python -m pipeline run`` reproduces sample for sample (a file the
+        package did not write is replaced only with ``replace``)."""
+        return self.program.save(_file_path(path), replace)
 
-    def export(self, language: str, folder) -> list[Path]:
+    def export(self, language: str, folder, replace: bool = False) -> list[Path]:
         """The planned and timed program in a controller's language (rapid, ls, jbi, krl, urscript) as files
         NAME.<suffix> in ``folder`` (``pipeline.runner.program_texts``: the files ``python -m pipeline
         program`` writes); ConfigurationError before the program is planned and timed."""
@@ -249,12 +253,15 @@ class Page:
         outcome = self.outcome
         texts = program_texts(outcome.job, language, outcome.program, outcome.profile)
         name = program_name(language, outcome.job.name)
-        return [write_text_atomic(Path(folder) / f"{name}{suffix}", text) for suffix, text in texts.items()]
+        targets = {suffix: _file_path(Path(_file_path(folder)) / f"{name}{suffix}") for suffix in texts}
+        for path in targets.values():
+            prepare_file_target(path, replace)
+        return [write_text_atomic(targets[suffix], text, replace) for suffix, text in texts.items()]
 
     def load_job(self, path) -> None:
         """Edit the program of a job file of the page's robot (and cell); another is refused, naming the
         command that opens it."""
-        program = PageProgram.from_job_file(path)
+        program = PageProgram.from_job_file(_file_path(path))
         job_cell = None if program.cell_reference is None else load_cell(resolve_cell_path(program.cell_reference))
         if program.robot.spec.name != self.robot.spec.name or (job_cell is None) != (self.cell is None) or (
                 job_cell is not None and job_cell.name != self.cell.name):
@@ -377,6 +384,7 @@ class Page:
             self.progress = gui.add_progress_bar(100.0, animated=True, visible=False)
             self.path_text = gui.add_text("Job file", f"{self.program.name}.yaml")
             files = gui.add_button_group("File", ("Save", "Load"))
+            self.replace_box = gui.add_checkbox("Replace a file not written here", False)
             files.on_click(lambda event: self._guarded(self.program_error, lambda: self._file(event.target.value)))
             self.language = gui.add_dropdown("Controller", tuple(LANGUAGE_TITLES), initial_value="rapid",
                                              hint=", ".join(f"{k}: {v}" for k, v in LANGUAGE_TITLES.items()))
@@ -444,14 +452,21 @@ class Page:
         self._show_program()
 
     def _export(self) -> None:
-        files = self.export(self.language.value, Path(self.path_text.value).parent)
+        files = self.export(self.language.value, Path(self.path_text.value).parent, self.replace_box.value)
         self.status.content = "wrote " + ", ".join(str(path) for path in files)
 
     def _file(self, action: str) -> None:
         if action == "Save":
-            self.status.content = f"saved {self.save_job(self.path_text.value)}"
+            self.status.content = f"saved {self.save_job(self.path_text.value, self.replace_box.value)}"
         else:
             self.load_job(self.path_text.value)
+
+
+def _file_path(path) -> Path:
+    """A file or folder name typed on the page or handed to its API: text without NUL (ConfigurationError)."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip() or "\0" in str(path):
+        raise ConfigurationError(f"a file name must be non-empty text, got {path!r}")
+    return Path(path)
 
 
 def _series_colour(j: int) -> str:

@@ -23,7 +23,8 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..cell.cell_file import resolve_cell_path
 from ..errors import ConfigurationError
-from ..files.atomic import write_text_atomic
+from ..files.arrays import float_array
+from ..files.atomic import WRITTEN_BY, write_text_atomic
 from ..files.branch_names import label_parts
 from ..files.choices import MOVES
 from ..files.poses import check_pose, make_pose, rotation_to_rpy
@@ -95,9 +96,9 @@ class PageProgram:
         joint, without speed or zone."""
         if move not in MOVES:
             raise ConfigurationError(f"move must be one of {', '.join(MOVES)}, got {move!r}")
-        if speed is not None and not (math.isfinite(speed) and speed > 0.0):
+        if speed is not None and not (_is_number(speed) and math.isfinite(speed) and speed > 0.0):
             raise ConfigurationError(f"speed must be a positive number or None (the job's default), got {speed!r}")
-        if not (math.isfinite(zone) and zone >= 0.0):
+        if not (_is_number(zone) and math.isfinite(zone) and zone >= 0.0):
             raise ConfigurationError(f"zone must be a finite number >= 0 [m], got {zone!r}")
         self.waypoints.append(PageWaypoint(move, self._joints(q, "q"), None, speed, float(zone)))
         self._start_at_rest()
@@ -184,12 +185,13 @@ class PageProgram:
         ``relative_to`` (where the file will be)."""
         return self._document(self.waypoints, relative_to=relative_to)
 
-    def save(self, path: str | Path) -> Path:
-        """Write the job file to ``path`` (YAML, atomically); robot and cell files named relative to it."""
+    def save(self, path: str | Path, replace: bool = False) -> Path:
+        """Write the job file to ``path`` (YAML, atomically); robot and cell files named relative to it. A file
+        the package did not write is replaced only with ``replace`` (OutputError naming it otherwise)."""
         path = Path(path)
         text = yaml.safe_dump(self.to_document(relative_to=path.absolute().parent), sort_keys=False,
                               default_flow_style=None, width=120)
-        return write_text_atomic(path, text)
+        return write_text_atomic(path, f"# {self.name}: a job file written by {WRITTEN_BY}'s page\n{text}", replace)
 
     @classmethod
     def from_job_file(cls, path: str | Path) -> PageProgram:
@@ -300,9 +302,7 @@ class PageProgram:
 
     def _joints(self, q, what: str) -> np.ndarray:
         """``q`` as a read-only (dof,) float array (ConfigurationError naming ``what`` otherwise)."""
-        q = np.array(q, dtype=float)
-        if q.shape != (self.robot.dof,) or not np.isfinite(q).all():
-            raise ConfigurationError(f"{what} must be {self.robot.dof} finite joint values [rad or m], got {q!r}")
+        q = float_array(q, what, (self.robot.dof,)).copy()
         q.setflags(write=False)
         return q
 
@@ -387,3 +387,8 @@ def _written_reference(reference: str, relative_to) -> str:
         return reference
     shared = os.path.commonpath([reference, os.path.abspath(relative_to)])
     return reference if shared == os.path.dirname(shared) else os.path.relpath(reference, relative_to)
+
+
+def _is_number(value) -> bool:
+    """A real number handed to the API (int, float or a NumPy scalar; not a bool, not text)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)

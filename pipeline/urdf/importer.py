@@ -52,9 +52,9 @@ class UrdfImport:
     chain: SerialChain
     max_fk_error_m: float
 
-    def write(self, path: str | Path) -> Path:
-        """Write the robot file (atomically)."""
-        return write_robot_file(self.document, path)
+    def write(self, path: str | Path, replace: bool = False) -> Path:
+        """Write the robot file (atomically; a file the package did not write only with ``replace``)."""
+        return write_robot_file(self.document, path, replace)
 
 
 def _limits(joint, source: str) -> tuple[float, float, float]:

@@ -145,7 +145,8 @@ def _comment(spec: RobotSpec) -> str:
     return f"<!-- {text} -->"
 
 
-def write_urdf(robot, path: str | Path) -> Path:
-    """Write the URDF of a Robot (or RobotSpec) to ``path`` atomically (OutputError when it cannot)."""
+def write_urdf(robot, path: str | Path, replace: bool = False) -> Path:
+    """Write the URDF of a Robot (or RobotSpec) to ``path`` atomically (OutputError when it cannot; a file the
+    package did not write is replaced only with ``replace``)."""
     spec = robot.spec if hasattr(robot, "spec") else robot
-    return write_text_atomic(path, urdf_text(spec))
+    return write_text_atomic(path, urdf_text(spec), replace)

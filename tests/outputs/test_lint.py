@@ -23,6 +23,7 @@ from pipeline.outputs.controllers.lint import (
     check_points,
     lint,
     move_lengths,
+    written_speed,
 )
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job
@@ -147,12 +148,17 @@ def test_tool_speeds_outside_the_language_are_refused(programs, language, speed)
     assert (error.value.move, error.value.field) == (2, "speed")
 
 
-def test_tool_speeds_above_the_robots_tcp_limit_are_refused(programs):
+@pytest.mark.parametrize("language", [RAPID, FANUC_LS, JBI, KRL, URSCRIPT])
+def test_tool_moves_faster_than_the_jobs_tcp_speed_limit_are_written_at_it(programs, language):
+    """A job's tcp_speed_limit (a safety-rated reduced speed) caps its 500 mm/s tool moves: the timing runs them
+    at the limit, and so does every written program (it was refused as above "the robot's TCP speed limit")."""
     program = programs["gp7_pick_place"]
     limited = dataclasses.replace(program, limits=dataclasses.replace(program.limits, tcp_speed_max=0.3))
-    with pytest.raises(ControllerLintError, match="TCP speed limit") as error:
-        lint(limited, KRL, "GP7")
-    assert (error.value.move, error.value.field, error.value.value) == (2, "speed", 0.5)
+    lint(limited, language, "GP7")
+    tool_moves = [m for m in limited.moves if m.is_tool_move]
+    assert tool_moves and all(m.speed == 0.5 and limited.tool_speed(m) == 0.3 for m in tool_moves)
+    value, speed = written_speed(language, limited, tool_moves[0])
+    assert value == pytest.approx(0.3 * speed.per_si, abs=speed.step)
 
 
 @pytest.mark.parametrize("language", [RAPID, FANUC_LS, JBI, KRL])

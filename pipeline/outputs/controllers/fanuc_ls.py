@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ConfigurationError, ConfigurationNotFoundError
+from ...files.atomic import WRITTEN_BY
 from ...files.poses import rotation_to_rpy, rpy_position_to_pose
 from ...model.vendors.axes import FANUC, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
@@ -209,7 +210,7 @@ def zone_reach(program: Program, k: int) -> tuple[float, str]:
     limited, else half the shorter of moves k and k + 1 (TCP chords)."""
     move = program.moves[k]
     if move.kind != JOINT and program.tcp_accel_max:
-        v = move.speed * program.speed_scale
+        v = program.tool_speed(move)
         return v * v / (2.0 * program.tcp_accel_max), "decel"
     before = program.robot.fk(program.targets[k])[:3, 3]
     lengths = [np.linalg.norm(move.X_BT[:3, 3] - before)]
@@ -255,7 +256,8 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -
 
 
 def _header_text(program: Program, frame: str) -> str:
-    return (f"{program.name} on {program.robot.name}. The controller plans its own speed profile for each move, "
+    return (f"{program.name} on {program.robot.name}, written by {WRITTEN_BY}. The controller plans its own "
+            "speed profile for each move, "
             "not the certified one: timing and the path in zones differ. It stops (FINE) at every waypoint "
             f"without a zone. UT 1 = {tool_text(program)} (x y z w p r, mm deg). {frame}. Loading .ls needs the "
             "ASCII Program Loader option (or MakeTP offline).")
@@ -277,7 +279,7 @@ def _speed(program: Program, move: Move | None) -> str:
     if move is None or move.kind == JOINT:
         fraction = program.speed_scale if move is None else move.speed * program.speed_scale
         return f"{int(min(100, max(1, round(fraction * 100.0))))}%"
-    mm_s = round(move.speed * program.speed_scale * MM)
+    mm_s = round(program.tool_speed(move) * MM)
     low, high = FANUC_SPEED_MM_S
     if not low <= mm_s <= high:
         raise ConfigurationError(f"move {move.end}: TCP speed {mm_s} mm/sec is outside FANUC's {low}..{high} mm/sec")

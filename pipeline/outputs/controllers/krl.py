@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import ConfigurationNotFoundError
+from ...files.atomic import WRITTEN_BY
 from ...files.poses import rotation_to_rpy, rpy_to_rotation
 from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
@@ -128,7 +129,7 @@ def header(program, name: str) -> list[str]:
     mapping = axis_map(program.robot, KUKA)
     return [
         f"{name}: {len(program.moves)} moves of job {program.name} on {program.robot.name}, written by "
-        "pipeline.outputs.controllers.krl",
+        f"{WRITTEN_BY} (pipeline.outputs.controllers.krl)",
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "
         "jerk): the timing differs",
@@ -157,9 +158,9 @@ def _init(program) -> list[str]:
     return lines
 
 
-def _speed_lines(move, speed_scale: float, current: dict) -> list[str]:
+def _speed_lines(program, move, current: dict) -> list[str]:
     """The speed assignments before ``move`` that differ from ``current`` (updated in place)."""
-    value, _ = written_speed(KRL, move, speed_scale)
+    value, _ = written_speed(KRL, program, move)
     if move.is_tool_move:
         text = f"{value:.3f}"
         if current.get("cp") == text:
@@ -244,7 +245,7 @@ def write_krl(program, name: str) -> tuple[str, str]:
     angles = axis_angles(program.robot, program.targets, KUKA)
     body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
     for move in program.moves:
-        body += _speed_lines(move, program.speed_scale, speeds)
+        body += _speed_lines(program, move, speeds)
         body += [f"PTP {name}" for name, _ in _vertices(move)]
         zone = 0.0 if program.exact_stop_at(move) else move.zone
         body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone)

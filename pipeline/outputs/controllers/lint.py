@@ -30,9 +30,9 @@ import numpy as np
 
 from ...errors import ControllerLintError
 from ...model.vendors.configuration import FIELDS, configurations, mismatched_field
+from ...program.compile import ZONE_SLACK_M
+from ...program.tool_path import move_length
 
-#: A zone may exceed half a move by this much [m]: the floating-point rounding of the move's length.
-ZONE_SLACK = 1e-9
 RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
 LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
 
@@ -163,31 +163,10 @@ def check_points(language: str, count: int) -> None:
 
 
 def move_lengths(program) -> np.ndarray:
-    """The TCP's length [m] of each move: a circular move's arc through its via point, every other move's
-    straight distance from start to end (for a joint move the distance the controller measures its
-    approximation against)."""
+    """The TCP's length [m] of each move (``pipeline.program.tool_path.move_length``: for a joint move the
+    distance the controller measures its approximation against)."""
     starts = [program.robot.fk(program.waypoints[0].q)[:3, 3]] + [m.X_BT[:3, 3] for m in program.moves[:-1]]
-    return np.array([_arc_length(p0, m.via, m.X_BT[:3, 3]) if m.via is not None else float(np.linalg.norm(
-        m.X_BT[:3, 3] - p0)) for p0, m in zip(starts, program.moves)])
-
-
-def _arc_length(p0: np.ndarray, via: np.ndarray, p1: np.ndarray) -> float:
-    """Length [m] of the circular arc from p0 through via to p1 (3,) [m]; their chord sum if in line."""
-    a, b = via - p0, p1 - p0
-    normal = np.cross(a, b)
-    area2 = float(normal @ normal)
-    if area2 < 1e-18:
-        return float(np.linalg.norm(a) + np.linalg.norm(p1 - via))
-    centre = p0 + (np.cross(normal, a) * (b @ b) + np.cross(b, normal) * (a @ a)) / (2.0 * area2)
-    u, v, w = p0 - centre, via - centre, p1 - centre
-    radius = float(np.linalg.norm(u))
-    angle = _angle(u, v, normal) + _angle(v, w, normal)
-    return radius * angle
-
-
-def _angle(u: np.ndarray, v: np.ndarray, normal: np.ndarray) -> float:
-    """The angle [rad] in [0, 2 pi) from u to v about ``normal``."""
-    return float(np.mod(np.arctan2(np.cross(u, v) @ normal / np.linalg.norm(normal), u @ v), 2.0 * np.pi))
+    return np.array([move_length(p0, m.X_BT[:3, 3], m.via) for p0, m in zip(starts, program.moves)])
 
 
 def check_zones(language: str, program) -> None:
@@ -198,37 +177,34 @@ def check_zones(language: str, program) -> None:
             continue
         neighbours = lengths[k: k + 2]
         shortest = float(neighbours.min())
-        if move.zone > 0.5 * shortest + ZONE_SLACK:
+        if move.zone > 0.5 * shortest + ZONE_SLACK_M:
             raise ControllerLintError(language, move.end, "zone", move.zone,
                                       f"zone {move.zone * 1e3:.3f} mm is more than half of a neighbouring move "
                                       f"({shortest * 1e3:.3f} mm long); the controller would shrink it to "
                                       f"{0.5 * shortest * 1e3:.3f} mm and round another corner than the profile")
 
 
-def written_speed(language: str, move, speed_scale: float) -> tuple[float, Speed]:
-    """The value a language writes for ``move``'s speed times ``speed_scale``, rounded to its step, and
-    how it writes it (joint moves: percent of the joint speed limits; tool moves: the TCP speed unit)."""
+def written_speed(language: str, program, move) -> tuple[float, Speed]:
+    """The value a language writes for ``move``'s speed, rounded to its step, and how it writes it (joint moves:
+    percent of the joint speed limits x the speed scale; tool moves: ``program.tool_speed`` in the language's
+    TCP speed unit)."""
     limits = language_limits(language)
     speed = limits.tool_speed if move.is_tool_move else limits.joint_speed
-    value = move.speed * speed_scale * speed.per_si
+    si = program.tool_speed(move) if move.is_tool_move else move.speed * program.speed_scale
+    value = si * speed.per_si
     return round(value / speed.step) * speed.step, speed
 
 
 def check_speeds(language: str, program) -> None:
-    """Each move's written speed within the language's range, and a tool move's within the robot's TCP
-    speed limit (program.limits.tcp_speed_max [m/s], where set)."""
-    tcp_max = program.limits.tcp_speed_max
+    """Each move's written speed within the language's range (a tool move's is already capped by the job's
+    safety TCP speed limit: ``Program.tool_speed``)."""
     for move in program.moves:
-        value, speed = written_speed(language, move, program.speed_scale)
+        value, speed = written_speed(language, program, move)
         if value < speed.low or value <= 0.0 or (speed.high is not None and value > speed.high):
             high = "" if speed.high is None else f" to {speed.high:g}"
             raise ControllerLintError(language, move.end, "speed", move.speed,
                                       f"written as {value:g} {speed.unit}, outside {speed.low:g}{high} "
                                       f"{speed.unit} ({speed.source})")
-        if move.is_tool_move and tcp_max is not None and move.speed * program.speed_scale > tcp_max:
-            raise ControllerLintError(language, move.end, "speed", move.speed,
-                                      f"TCP speed {move.speed * program.speed_scale * 1e3:g} mm/s is above the "
-                                      f"robot's TCP speed limit {tcp_max * 1e3:g} mm/s")
 
 
 def check_configurations(language: str, program, configs, vendor: str) -> None:

@@ -49,6 +49,7 @@ import textwrap
 import numpy as np
 
 from ...errors import OutputError
+from ...files.atomic import WRITTEN_BY
 from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ...model.vendors import selection
 from ...model.vendors.axes import ABB, axis_angles, axis_map
@@ -163,15 +164,6 @@ def zone_name(program: Program, move: Move) -> tuple[str, str | None]:
     return name, f"[FALSE,{','.join(fields)}]"
 
 
-def tcp_speed(program: Program, move: Move) -> float:
-    """The TCP speed [m/s] a tool move is written with: its own x the speed scale, capped by the job's safety
-    TCP limit x the speed scale (as the timing applies them)."""
-    speed = move.speed
-    if program.limits.tcp_speed_max is not None:
-        speed = min(speed, program.limits.tcp_speed_max)
-    return speed * program.speed_scale
-
-
 def joint_move_time(program: Program, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> float:
     """The time [s] the leading axis needs from q_from to q_to (6,) [rad] at ``fraction`` x the speed scale x
     its speed limit, rounded up to TIME_STEP_S (0: no motion)."""
@@ -225,7 +217,7 @@ class _Module:
         return name
 
     def speed(self, move: Move) -> str:
-        mm_s = tcp_speed(self.program, move) * 1e3
+        mm_s = self.program.tool_speed(move) * 1e3
         name = "speed_" + number(mm_s, SPEED).replace(".", "_")
         fields = ",".join([number(mm_s, SPEED), *(number(v, SPEED) for v in SPEED_REST)])
         self.declare(name, "speeddata", f"[{fields}]")
@@ -278,7 +270,7 @@ class _Module:
         accel = "none" if program.tcp_accel_max is None else f"{program.tcp_accel_max * 1e3:g} mm/s^2"
         return [
             (f"{module_name}: the compiled program {program.name!r} (robot {program.robot.name}, "
-             f"{len(program.moves)} moves), written by pipeline.outputs.controllers.rapid."),
+             f"{len(program.moves)} moves), written by {WRITTEN_BY} (pipeline.outputs.controllers.rapid)."),
             "Units: mm, deg; quaternions [q1 (scalar), q2, q3, q4]. Rounding: 0.001 mm, 1e-6, 0.0001 deg.",
             "The controller plans its own velocity profile: this is not the certified profile.",
             "- tool moves run at their TCP speed (speeddata v_tcp); joint moves take \\T, the time the",

@@ -42,6 +42,7 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation
 
 from ...errors import OutputError
+from ...files.atomic import WRITTEN_BY
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...timing.profile import Profile
 from .lint import URSCRIPT, lint
@@ -56,6 +57,11 @@ MOVEJ_DEFAULT_A, MOVEJ_DEFAULT_V, MOVEL_DEFAULT_A = 1.4, 1.05, 1.2
 #: servoj: the manual's default lookahead_time [s] and gain, and the ranges it allows.
 LOOKAHEAD_S, GAIN = 0.1, 300.0
 LOOKAHEAD_RANGE, GAIN_RANGE = (0.03, 0.2), (100.0, 2000.0)
+#: servoj's t [s]: from the e-Series controller period (0.002 s; CB3: 0.008 s) to four CB3 periods; a longer t
+#: leaves the certified profile to the controller's own interpolation between far targets.
+PERIOD_RANGE = (0.002, 0.032)
+#: Most servoj lines of a replay (2 minutes at 0.002 s, some 7 MB of script: read-program reads it back).
+MAX_REPLAY_LINES = 60_000
 #: Decimals written for lengths [m], angles [rad], speeds and accelerations.
 DECIMALS = 6
 #: A profile must start at the program's first target within this [rad or m].
@@ -98,9 +104,17 @@ def check_name(name: str) -> str:
     return name
 
 
+def check_servo_period(period) -> float:
+    """The servoj period [s], or OutputError: a number in PERIOD_RANGE."""
+    if not (isinstance(period, (int, float)) and not isinstance(period, bool) and math.isfinite(period)
+            and PERIOD_RANGE[0] <= period <= PERIOD_RANGE[1]):
+        raise OutputError(f"servoj period must be a time in [{PERIOD_RANGE[0]:g}, {PERIOD_RANGE[1]:g}] s (the "
+                          f"controller period: 0.002 e-Series, 0.008 CB3), got {period!r}")
+    return float(period)
+
+
 def _check_replay_options(period: float, lookahead_time: float, gain: float) -> None:
-    if not (isinstance(period, (int, float)) and math.isfinite(period) and period > 0.0):
-        raise OutputError(f"servoj period must be a positive time [s] (0.002 e-Series, 0.008 CB3), got {period!r}")
+    check_servo_period(period)
     if not LOOKAHEAD_RANGE[0] <= lookahead_time <= LOOKAHEAD_RANGE[1]:
         raise OutputError(f"servoj lookahead_time must be in {list(LOOKAHEAD_RANGE)} s, got {lookahead_time!r}")
     if not GAIN_RANGE[0] <= gain <= GAIN_RANGE[1]:
@@ -134,12 +148,9 @@ def joint_speed(program: Program, fraction: float) -> tuple[float, float]:
 
 def tool_speed(program: Program, move: Move) -> tuple[float, float]:
     """(a [m/s^2], v [m/s]) of a tool move (module docstring)."""
-    speed = move.speed
-    if program.limits.tcp_speed_max is not None:
-        speed = min(speed, program.limits.tcp_speed_max)
     scale = program.speed_scale
     accel = MOVEL_DEFAULT_A if program.tcp_accel_max is None else program.tcp_accel_max * scale**2
-    return accel, speed * scale
+    return accel, program.tool_speed(move)
 
 
 def blend(program: Program, move: Move) -> float:
@@ -177,6 +188,9 @@ def resample(profile: Profile, period: float) -> np.ndarray:
     profile's end): cubic Hermite interpolation on its samples' q and qd."""
     t = profile.t - profile.t[0]
     count = max(1, math.ceil(t[-1] / period - 1e-9))
+    if count > MAX_REPLAY_LINES:
+        raise OutputError(f"the servoj replay of this {t[-1]:.1f} s profile every {period:g} s would be {count:,} "
+                          f"lines, more than {MAX_REPLAY_LINES:,}: split the job or write it without the replay")
     times = np.minimum(np.arange(1, count + 1) * period, t[-1])
     return CubicHermiteSpline(t, profile.q, profile.qd)(times)
 
@@ -197,7 +211,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
     accel = "none" if program.tcp_accel_max is None else f"{program.tcp_accel_max:g} m/s^2"
     lines = [
         (f"{name}: the compiled program {program.name!r} (robot {program.robot.name}, {len(program.moves)} moves), "
-         "written by pipeline.outputs.controllers.urscript."),
+         f"written by {WRITTEN_BY} (pipeline.outputs.controllers.urscript)."),
         "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
         ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
          "not the certified profile:"),

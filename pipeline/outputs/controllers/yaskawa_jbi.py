@@ -44,6 +44,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import ConfigurationError
+from ...files.atomic import WRITTEN_BY
 from ...model.vendors.axes import YASKAWA
 from ...model.vendors.configuration import configurations
 from ...program.model import CIRCULAR, JOINT, Move, Program
@@ -104,7 +105,8 @@ def job_points(program: Program) -> list[Motion]:
 
 
 def _header_text(program: Program, frame: str) -> str:
-    return (f"{program.name} on {program.robot.name}. The controller plans its own speed profile for each move, "
+    return (f"{program.name} on {program.robot.name}, written by {WRITTEN_BY}. The controller plans its own "
+            "speed profile for each move, "
             "not the certified one: timing and the path at PL points differ. TOOL 1 = "
             f"{tool_text(program)} (x y z rx ry rz, mm deg). {frame}. All points are Cartesian data: the robot "
             "file gives no pulses per degree for pulse data.")
@@ -128,9 +130,9 @@ def _speed(program: Program, move: Move | None) -> str:
     if move is None or move.kind == JOINT:
         fraction = program.speed_scale if move is None else move.speed * program.speed_scale
         return f"VJ={min(100.0, max(0.01, round(fraction * 100.0, 2))):.2f}"
-    mm_s = round(move.speed * program.speed_scale * MM, 1)
+    mm_s = round(program.tool_speed(move) * MM, 1)
     if mm_s < 0.1:
-        raise ConfigurationError(f"move {move.end}: TCP speed {move.speed * program.speed_scale * MM:.4g} mm/s rounds "
+        raise ConfigurationError(f"move {move.end}: TCP speed {program.tool_speed(move) * MM:.4g} mm/s rounds "
                                  "to 0 in V= (0.1 mm/s steps)")
     return f"V={mm_s:.1f}"
 
