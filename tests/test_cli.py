@@ -6,6 +6,9 @@ from __future__ import annotations
 import json
 import logging
 import re
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -181,3 +184,34 @@ def test_toppra_own_log_lines_show_only_with_v(monkeypatch, capsys, caplog):
     assert main(["-v", "show", "gp7"]) == 2
     assert [r.getMessage() for r in caplog.records if r.name.startswith("toppra")] == [
         "Fail to parametrize path. Return code: 1"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["ik", "gp7", "--", "500", "0", "400", "180", "0", "--"], "the TCP pose is six numbers X Y Z ROLL PITCH YAW"),
+    (["reach", "gp7", "--step", "1e308", "--out", "map"], "step: is larger than the reach of gp7"),
+    (["check-cell", "gp7_wall_cell", "--q", "0", "0", "0"], "--q: gp7 has 6 joints"),
+])
+def test_bad_input_is_one_error_line_never_an_internal_error(args, message, tmp_path, monkeypatch, capsys):
+    """Each was an internal error (exit 1: ValueError, OverflowError after numpy warnings)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    out, err = capsys.readouterr()
+    assert err.startswith("error: ") and err.count("\n") == 1 and message in err and "internal" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_reader_that_leaves_ends_the_command_quietly(tmp_path):
+    """``dh-pipeline ik ... | head -1``: an internal error (BrokenPipeError, exit 1) before; now the exit of a
+    process ended by SIGPIPE, nothing on stderr."""
+    command = [sys.executable, "-m", "pipeline", "ik", "gp7", "500", "0", "400", "180", "0", "0"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path)
+    process.stdout.close()                              # the reader is gone before the first line
+    _, err = process.communicate(timeout=300)
+    assert process.returncode == 128 + signal.SIGPIPE and b"error" not in err
+
+
+def test_check_cell_checks_a_home_pose(capsys):
+    """KUKA's zero pose is stretched into most cells: --q checks the pose the robot really starts from."""
+    assert main(["check-cell", "gp7_wall_cell", "--q", "0", "-30", "30", "0", "60", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "at q = [0, -30, 30, 0, 60, 0] deg: closest obstacle" in out and "is collision-free" in out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import stat
@@ -13,7 +14,7 @@ import pytest
 
 import pipeline.files.atomic
 from pipeline.errors import OutputError
-from pipeline.files.atomic import OWNER_MARKER, staged_output, write_text_atomic
+from pipeline.files.atomic import OWNER_MARKER, WRITTEN_BY, staged_output, write_text_atomic, written_here
 
 
 def write_set(out, files: dict[str, str]) -> None:
@@ -138,3 +139,28 @@ def test_write_text_atomic_refuses_a_folder(tmp_path):
     with pytest.raises(OutputError, match="is a folder"):
         write_text_atomic(tmp_path, "{}")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_not_written_here_is_never_replaced_without_asking(tmp_path):
+    """A user's notes.yaml at the path of an output: refused, naming it, and kept; replaced only when asked."""
+    notes = tmp_path / "notes.yaml"
+    notes.write_text("my notes\n")
+    with pytest.raises(OutputError, match=r"notes.yaml: exists and was not written by dh-pipeline.*--force"):
+        write_text_atomic(notes, f"# written by {WRITTEN_BY}\n")
+    assert notes.read_text() == "my notes\n"
+    write_text_atomic(notes, f"# written by {WRITTEN_BY}\n", replace=True)
+    assert notes.read_text() == f"# written by {WRITTEN_BY}\n"
+    write_text_atomic(notes, f"# written by {WRITTEN_BY}, again\n")       # ours now: replaced without asking
+    assert written_here(notes) and "again" in notes.read_text()
+
+
+def test_a_read_only_place_is_an_output_error_not_an_os_error(tmp_path, monkeypatch):
+    """On a read-only file system nothing can be created nor removed: the temporary file's clean-up must not
+    turn the refusal into an OSError (it did: ``unlink`` of the file never made raised EROFS)."""
+    def read_only(*_args, **_kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(pipeline.files.atomic.os, "open", read_only)
+    monkeypatch.setattr(Path, "unlink", read_only)
+    with pytest.raises(OutputError, match="Read-only file system"):
+        write_text_atomic(tmp_path / "robot.urdf", "<robot/>")

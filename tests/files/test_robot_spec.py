@@ -187,3 +187,18 @@ def test_invalid_yaml_and_non_mapping(tmp_path):
 def test_unknown_robot_names_the_presets():
     with pytest.raises(RobotNotFoundError, match="gp7"):
         load_robot_spec("no_such_robot")
+
+
+@pytest.mark.parametrize("key, value, hint", [
+    ("qd_max", 3.93, "is it in rad/s? Then write 225.2 (deg/s)"),           # rad/s typed under degrees
+    ("qdd_max", 10.0, "is it in rad/s^2? Then write 573 (deg/s^2)"),
+    ("qd_max", 0.05, ""),                                                  # slower than any axis in either unit
+])
+def test_joint_rates_plausible_only_in_radians_get_the_hint(tmp_path, key, value, hint):
+    """qd_max: 3.93 under degrees (0.069 rad/s) ended in 'near a shoulder singularity' far from the file."""
+    doc = valid_doc()
+    doc["joints"][0][key] = value
+    with pytest.raises(RobotFileError) as error:
+        load_robot_spec(write(tmp_path, doc))
+    assert error.value.field == f"joints[0].{key}" and "slower than any robot axis" in str(error.value)
+    assert hint in str(error.value)

@@ -8,13 +8,16 @@ The CLI runs in this process (``pipeline.__main__.main``: about 0.1 s per call),
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
-from pipeline.__main__ import main
+from pipeline.__main__ import MAX_PROGRAM_BYTES, main
+from pipeline.errors import OutputError
+from pipeline.files.atomic import written_here
 from pipeline.program.job import load_job
 from pipeline.runner import PROGRAM_FILES, program_name, run_job_file
 
@@ -149,3 +152,84 @@ def test_read_program_names_a_robot_file_relative_to_the_job_written(written, tm
     assert code == 0, err
     assert yaml.safe_load(out.read_text())["robot"] == "../../models/gp7.yaml"
     assert load_job(out).robot.name == "gp7"
+
+
+def test_an_existing_file_not_written_here_is_kept_unless_forced(tmp_path, capsys):
+    """program --out onto a user's file: refused before any work, naming it; --force replaces it; our own file
+    is replaced without asking."""
+    mine = tmp_path / "cell.mod"
+    mine.write_text("MODULE mine\nENDMODULE\n")
+    code, _, err = cli(capsys, "program", GP7_JOB, "--lang", "rapid", "--out", mine)
+    assert code == 2 and "was not written by dh-pipeline" in err and mine.read_text().startswith("MODULE mine")
+    assert cli(capsys, "program", GP7_JOB, "--lang", "rapid", "--out", mine, "--force")[0] == 0
+    assert cli(capsys, "program", GP7_JOB, "--lang", "rapid", "--out", mine)[0] == 0
+    assert written_here(mine)
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "huge"])
+def test_read_program_takes_regular_files_of_bounded_size_only(tmp_path, capsys, kind):
+    """A FIFO named like a program blocked read-program forever, a link to /dev/zero grew it to 19 GB, 100 MB
+    took 44 s: each is one error line, before the file is opened or read past the limit."""
+    path = tmp_path / "prog.mod"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "device":
+        path.symlink_to("/dev/zero")
+    else:
+        path.write_bytes(b"! x\n" * (MAX_PROGRAM_BYTES // 4 + 1))
+    code, _, err = cli(capsys, "read-program", path, "--robot", "gp7")
+    assert code == 2 and err.count("\n") == 1
+    assert ("not a regular file" in err) if kind != "huge" else ("larger than 8192 KiB" in err)
+
+
+@pytest.mark.parametrize("period", ["1e9", "1e-6", "0.001", "0.05"])
+def test_a_servo_period_outside_the_controllers_is_refused_before_any_work(tmp_path, capsys, period):
+    """--servo-period 1e9 replayed one servoj (the certified profile lost), 1e-6 wrote 525 MB."""
+    code, out, err = cli(capsys, "program", GP7_JOB, "--lang", "urscript", "--servo-period", period, "--out",
+                         tmp_path / "x.script")
+    assert code == 2 and out == "" and "servoj period must be a time in [0.002, 0.032] s" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_replay_longer_than_the_guard_is_refused(monkeypatch):
+    from pipeline.outputs.controllers import urscript
+
+    monkeypatch.setattr(urscript, "MAX_REPLAY_LINES", 10)
+    profile = type("P", (), {"t": np.linspace(0.0, 1.0, 11), "q": np.zeros((11, 6)), "qd": np.zeros((11, 6))})()
+    with pytest.raises(OutputError, match="would be 500 lines, more than 10"):
+        urscript.resample(profile, 0.002)
+
+
+def test_read_program_blames_the_robot_file_for_its_own_errors(written, tmp_path, capsys):
+    """--robot given a job file: the error names that file and its line, not the program (it said ok.mod:5)."""
+    code, _, err = cli(capsys, "read-program", written / "gp7_pick_place.mod", "--robot", GP7_JOB)
+    assert code == 2 and err.startswith(f"error: {GP7_JOB}:") and "gp7_pick_place.mod" not in err
+
+
+@pytest.mark.parametrize("language, unit, orientation", [("rapid", "mm", "quaternion"), ("ls", "mm", "rpy"),
+                                                         ("jbi", "mm", "rpy"), ("krl", "mm", "rpy"),
+                                                         ("urscript", "m", None)])
+def test_read_program_writes_the_programs_own_units(written, tmp_path, capsys, language, unit, orientation):
+    """A program in mm and degrees reads back as a job in mm (and rpy in degrees where the language writes
+    them): it came back in metres and quaternions."""
+    program = written / next(name for name in WRITTEN[language] if not name.endswith(".dat"))
+    out = tmp_path / "back.yaml"
+    assert cli(capsys, "read-program", program, "--robot", "gp7", "--out", out)[0] == 0
+    document = yaml.safe_load(out.read_text())
+    assert document["length_unit"] == unit
+    poses = [w for w in document["waypoints"] if isinstance(w, dict) and "xyz" in w]
+    if unit == "mm":
+        assert poses and max(abs(v) for w in poses for v in w["xyz"]) > 100.0       # mm, not m
+    if orientation is not None:
+        assert all(orientation in w for w in poses)
+
+
+def test_a_jbi_round_trip_of_the_arm6_demo_runs(tmp_path, capsys):
+    """program -> read-program -> run on the arm6 demo: every waypoint read back names its configuration, and
+    a branch change the configurations name is no error (it was refused as an unnamed one)."""
+    job = ROOT / "trajectories" / "jobs" / "arm6_joint_rad.yaml"
+    assert cli(capsys, "program", job, "--lang", "jbi", "--out", tmp_path / "ARM6.jbi")[0] == 0
+    back = tmp_path / "back.yaml"
+    assert cli(capsys, "read-program", tmp_path / "ARM6.jbi", "--robot", "arm6", "--out", back)[0] == 0
+    code, _, err = cli(capsys, "run", back, "--out", tmp_path / "out")
+    assert code == 0, err

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from pipeline.errors import JobFileError
+from pipeline.errors import ConfigurationError, JobFileError, OutputError
 from pipeline.files.poses import make_pose, rpy_to_rotation
 from pipeline.program.job import JointWaypoint, load_job, parse_job
 from pipeline.runner import run_job_file
@@ -199,3 +199,32 @@ def test_add_typed_takes_a_zone_for_the_corner_into_the_next_move():
     with pytest.raises(JobFileError) as refused:
         empty.add_typed(q, "linear", "", "10")               # the start: no move into it, no zone
     assert refused.value.field == "waypoints[0].zone" and empty.waypoints == []
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda p: p.add(np.zeros(6), "joint", speed="50"), "speed must be a positive number"),
+    (lambda p: p.add(np.zeros(6), "joint", zone=None), "zone must be a finite number"),
+    (lambda p: p.add(["a"] * 6), "q must hold numbers"),
+    (lambda p: p.add(np.zeros(5)), "q must have shape (6,)"),
+])
+def test_the_page_api_refuses_mistyped_arguments_with_a_typed_error(call, message):
+    """They escaped as TypeError / ValueError, and the page showed nothing."""
+    program = PageProgram("gp7")
+    with pytest.raises(ConfigurationError) as error:
+        call(program)
+    assert message in str(error.value) and program.waypoints == []
+
+
+def test_save_keeps_a_file_it_did_not_write(tmp_path):
+    """The page's Save replaced any file at the typed path (a notes.yaml became a job file)."""
+    notes = tmp_path / "notes.yaml"
+    notes.write_text("my notes\n")
+    program = PageProgram("gp7")
+    program.add(np.zeros(6))
+    program.add(np.full(6, 0.1))
+    with pytest.raises(OutputError, match="notes.yaml: exists and was not written by dh-pipeline"):
+        program.save(notes)
+    assert notes.read_text() == "my notes\n"
+    program.save(notes, replace=True)
+    program.save(notes)                                 # ours now: saved again without asking
+    assert load_job(notes).robot.name == "gp7"

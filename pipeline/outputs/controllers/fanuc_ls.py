@@ -189,7 +189,7 @@ def rounded(values, decimals: int) -> np.ndarray:
 
 def comment_lines(text: str) -> list[str]:
     """``text`` in lines of at most COMMENT_CHARS characters, without the characters pendants refuse."""
-    return textwrap.wrap(re.sub(r"[;'\"!]", "", text), COMMENT_CHARS)
+    return textwrap.wrap(re.sub(r"[;'\"!]", "", text), COMMENT_CHARS, break_on_hyphens=False)
 
 
 def tool_text(program: Program) -> str:

@@ -250,5 +250,6 @@ def write_krl(program, name: str) -> tuple[str, str]:
         zone = 0.0 if program.exact_stop_at(move) else move.zone
         body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone)
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
-    dat = [f"DEFDAT {name}"] + _declarations(program, status_turn, angles) + ["ENDDAT"]
+    dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}",
+           *_declarations(program, status_turn, angles), "ENDDAT"]
     return "\n".join(src) + "\n", "\n".join(dat) + "\n"

@@ -292,7 +292,8 @@ class _Module:
     def text(self, module_name: str) -> str:
         lines = [f"MODULE {module_name}"]
         for line in self.header(module_name):
-            lines += [f"  ! {part}" for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ")]
+            lines += [f"  ! {part}"
+                      for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ", break_on_hyphens=False)]
         for name, (datatype, value) in sorted(self.declarations.items(), key=lambda item: DATA_ORDER[item[1][0]]):
             lines.append(f"  {STORAGE[datatype]} {datatype} {name} := {value};")
         lines += ["  PROC main()"] + [f"    {instruction}" for instruction in self.instructions]

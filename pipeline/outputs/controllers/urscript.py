@@ -232,4 +232,5 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
              "the controller's speed scaling (speed slider, safety limits) stretches it in time."),
             "use_certified_replay chooses certified_replay() (True) or native_moves() (False).",
         ]
-    return [part for line in lines for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ")]
+    return [part for line in lines
+            for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ", break_on_hyphens=False)]
