@@ -88,7 +88,7 @@ def reach_grid(robot, step: float) -> VoxelGrid:
                               "one voxel would hold the whole map; choose a smaller step", step)
     half = math.ceil(robot.spec.reach_bound / step)
     if 4 * half * half * (2 * half + 1) > MAX_VOXELS:
-        raise ScaleInputError("step", f"gives {4 * half * half * (2 * half + 1):,} voxels over the reach of "
+        raise ScaleInputError("step", f"gives {4 * half * half * (2 * half + 1):.3g} voxels over the reach of "
                               f"{robot.name} ({robot.spec.reach_bound:.3g} m), more than {MAX_VOXELS:,}: choose a "
                               "larger step", step)
     across = (np.arange(-half, half) + 0.5) * step

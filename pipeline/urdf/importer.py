@@ -33,6 +33,8 @@ from .reader import read_urdf
 
 #: Longest time to full speed ``import_urdf`` accepts [s]: an arm that needs longer is a mistake.
 MAX_TIME_TO_FULL_SPEED_S = 10.0
+#: ... and at the least [s]: no drive reaches full speed sooner.
+MIN_TIME_TO_FULL_SPEED_S = 0.01
 #: Configurations on which the imported FK is compared with the URDF chain's, and the seed.
 CHECK_CONFIGURATIONS = 200
 CHECK_SEED = 0
@@ -129,9 +131,10 @@ def import_urdf(path: str | Path, base: str | None = None, tip: str | None = Non
     ``qd_max / time_to_full_speed``, recorded in the file's provenance (None: no qdd_max)."""
     if convention not in CONVENTIONS:
         raise ConfigurationError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
-    if time_to_full_speed is not None and not 0.0 < time_to_full_speed <= MAX_TIME_TO_FULL_SPEED_S:
-        raise ConfigurationError(f"time_to_full_speed must be in (0, {MAX_TIME_TO_FULL_SPEED_S:g}] s, got "
-                                 f"{time_to_full_speed!r}")
+    if time_to_full_speed is not None and not MIN_TIME_TO_FULL_SPEED_S <= time_to_full_speed <= \
+            MAX_TIME_TO_FULL_SPEED_S:
+        raise ConfigurationError(f"time_to_full_speed must be in [{MIN_TIME_TO_FULL_SPEED_S:g}, "
+                                 f"{MAX_TIME_TO_FULL_SPEED_S:g}] s (is it in seconds?), got {time_to_full_speed!r}")
     model = read_urdf(path)
     chain = serial_chain(model, base, tip)
     assumptions: list[str] = []
