@@ -290,8 +290,8 @@ READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".s
 
 
 def cmd_read_program(args) -> int:
-    """Read a controller program back into a job document (``pipeline.model.vendors.read_*``), check it as a
-    job, and write it as YAML to --out (atomically) or print it."""
+    """Read a controller program back into a job document (``pipeline.outputs.controllers.read_*``), in the
+    program's own units, check it as a job, and write it as YAML to --out (atomically) or print it."""
     import yaml
 
     from .program.job import parse_job
