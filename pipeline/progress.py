@@ -13,9 +13,10 @@ from numba.core import event
 
 #: Redraw at most this often [s].
 REDRAW_INTERVAL = 0.2
-#: What compiling the kernels takes on first use on this machine kind, all of them (measured with an empty
-#: NUMBA_CACHE_DIR: 18-22 s); a burst of compiling that takes longer than COMPILE_REPORT_S says how long.
-FIRST_COMPILE_S = 20
+#: What compiling takes on this machine kind for the first call that needs the most: the closed form's IK kernel,
+#: compiled when first called (measured with an empty NUMBA_CACHE_DIR, ``bench job``: 15-18 s; FK alone takes a
+#: few seconds); a burst of compiling that takes longer than COMPILE_REPORT_S says how long.
+FIRST_COMPILE_S = 16
 COMPILE_REPORT_S = 1.0
 
 log = logging.getLogger(__name__)
@@ -70,8 +71,8 @@ class CompileNotice(event.Listener):
             self.started = time.perf_counter()
             if not self.said:
                 self.said = True
-                self._say(f"compiling the kinematics once for this machine (about {FIRST_COMPILE_S} s; later runs "
-                          "load them from the cache) ...")
+                self._say(f"compiling the kinematics once for this machine (each kernel when first used, up to about "
+                          f"{FIRST_COMPILE_S} s; later runs load them from the cache) ...")
         self.depth += 1
 
     def on_end(self, event) -> None:

@@ -50,6 +50,12 @@ robot of the run (the UR5 of tests/data, in the default robots when the checkout
 form single call <= 2x the median of the spherical-wrist robots' closed-form medians and <= 0.5x
 ``RTB_100`` median, strict success 100 %, the original configuration among the branches on 100 % of
 the targets. A goal whose row did not run is reported as not measured (and not passed).
+
+Array layouts (issue 39), on ``GOAL_ROBOT`` when the closed form runs: single calls on arrays of the layouts a
+caller brings against the same calls on C-ordered copies, in turns on the same targets (``layout_rows``): IK
+(``robot.ik(X)``, the closed form's single-call path) on Fortran-ordered poses (Drake's ``GetAsMatrix4()``), FK
+and the Jacobian on strided joint vectors (rows of a Fortran-ordered array). Goals: each median time at most
+``LAYOUT_GOAL_RATIO`` x the C-ordered call's, with the same answers bit for bit.
 """
 
 from __future__ import annotations
@@ -106,6 +112,7 @@ UR_RTB_GOAL_RATIO = 0.5           # UR family: ours analytic median / RTB_100 me
 UR_STRICT_GOAL_PCT = 100.0        # UR family: ours analytic strict success [%], and the original found [%]
 #: Two joint vectors this close modulo 2 pi [rad] are one configuration.
 SAME_CONFIGURATION = 1e-6
+LAYOUT_GOAL_RATIO = 1.2           # a call on a Fortran-ordered or strided array / the same call C-ordered, median
 
 
 def ours_name(method: str) -> str:
@@ -181,8 +188,25 @@ class IkRobotReport:
 
 
 @dataclass(frozen=True)
+class LayoutRow:
+    """One single call (``call``) on ``targets`` inputs as C-ordered arrays and as arrays of another ``layout``:
+    the median time per call of each [µs], their ratio (other / C), and whether every answer was the same
+    bit for bit."""
+
+    robot_name: str
+    call: str
+    layout: str
+    targets: int
+    c_us: float
+    other_us: float
+    ratio: float
+    identical: bool
+
+
+@dataclass(frozen=True)
 class IkBenchReport(GoalReport):
-    """Result of one IK benchmark run: one IkRobotReport per robot, the goals over them."""
+    """Result of one IK benchmark run: one IkRobotReport per robot, the array layouts' rows (``layout_rows``),
+    the goals over them."""
 
     targets: int
     seed: int
@@ -190,6 +214,7 @@ class IkBenchReport(GoalReport):
     robots: tuple[IkRobotReport, ...]
     goals: tuple[Goal, ...]
     versions: dict[str, str]
+    layouts: tuple[LayoutRow, ...] = ()
 
     def format_table(self) -> str:
         """One table per robot (method | reported % | strict % | median µs | p95 µs), ratios, goals."""
@@ -201,7 +226,12 @@ class IkBenchReport(GoalReport):
         ]
         for robot in self.robots:
             lines += ["", *robot.format_lines()]
-        lines += goal_lines("Goals (issues 15, 25):", self.goals, self.versions)
+        if self.layouts:
+            lines += ["", (f"array layouts ({self.layouts[0].robot_name}, {self.layouts[0].targets} calls each, in "
+                           "turns with the C-ordered call; median µs)")]
+            lines += [f"  {row.call} on a {row.layout}: {row.other_us:.2f} µs, C-ordered {row.c_us:.2f} µs: "
+                      f"{row.ratio:.3g}x, answers {'identical' if row.identical else 'DIFFERENT'}" for row in self.layouts]
+        lines += goal_lines("Goals (issues 15, 25, 39):", self.goals, self.versions)
         return "\n".join(lines)
 
 
@@ -724,6 +754,53 @@ def _ur_goals(robot: IkRobotReport, spherical: list[IkRobotReport]) -> tuple[Goa
     )
 
 
+def _same_answer(first, second) -> bool:
+    """Whether two answers (arrays, or IkResults: q, errors and every solution) are the same bit for bit."""
+    if isinstance(first, np.ndarray):
+        return np.array_equal(first, second)
+    return (np.array_equal(first.q, second.q) and (first.position_error, first.rotation_error) ==
+            (second.position_error, second.rotation_error) and len(first.solutions) == len(second.solutions) and
+            all(np.array_equal(a.q, b.q) for a, b in zip(first.solutions, second.solutions)))
+
+
+def layout_rows(robot: Robot, Q: np.ndarray) -> tuple[LayoutRow, ...]:
+    """Single calls on the layouts a caller brings, beside the same calls C-ordered: ``robot.ik`` on the FK poses
+    of Q (N, dof) Fortran-ordered, ``robot.fk`` and ``robot.jacobian`` on the rows of Q strided (rows of a
+    Fortran-ordered copy). Each call is timed alone, the two layouts in turns (which goes first alternates), after
+    WARMUP_TARGETS calls of each."""
+    poses = robot.fk_batch(Q)
+    Q_strided = np.asfortranarray(Q)
+    calls = (("robot.ik(X)", "Fortran-ordered pose", robot.ik,
+              [np.ascontiguousarray(X) for X in poses], [np.asfortranarray(X) for X in poses]),
+             ("robot.fk(q)", "strided joint vector", robot.fk, list(np.ascontiguousarray(Q)), list(Q_strided)),
+             ("robot.jacobian(q)", "strided joint vector", robot.jacobian, list(np.ascontiguousarray(Q)),
+              list(Q_strided)))
+    clock = time.perf_counter_ns
+    rows = []
+    for name, layout, call, c_order, other in calls:
+        for argument in c_order[:WARMUP_TARGETS] + other[:WARMUP_TARGETS]:
+            call(argument)
+        times, identical = np.zeros((2, len(Q))), True
+        for n in range(len(Q)):
+            answers = [None, None]
+            for k in ((0, 1) if n % 2 == 0 else (1, 0)):
+                argument = (c_order, other)[k][n]
+                start = clock()
+                answers[k] = call(argument)
+                times[k, n] = clock() - start
+            identical &= _same_answer(*answers)
+        c_us, other_us = (float(np.median(row)) / 1e3 for row in times)
+        rows.append(LayoutRow(robot.name, name, layout, len(Q), c_us, other_us, other_us / c_us, bool(identical)))
+    return tuple(rows)
+
+
+def layout_goals(rows: tuple[LayoutRow, ...]) -> tuple[Goal, ...]:
+    """Each layout row's time ratio <= LAYOUT_GOAL_RATIO, its answers identical to the C-ordered call's."""
+    return tuple(Goal(f"{row.robot_name}: {row.call} on a {row.layout} / C-ordered, median time [x]", row.ratio,
+                      f"<= {LAYOUT_GOAL_RATIO:g}, the same answers" + ("" if row.identical else ": they differ"),
+                      row.identical and row.ratio <= LAYOUT_GOAL_RATIO) for row in rows)
+
+
 def evaluate_goals(robots: tuple[IkRobotReport, ...]) -> tuple[Goal, ...]:
     """The closed form's goals on ``GOAL_ROBOT``, the UR family's on each of its robots, then damped least
     squares' on every robot of the run."""
@@ -751,6 +828,10 @@ def run_ik_benchmark(robots=ROBOTS, targets: int = 1000, seed: int = 0, methods=
     if unknown:
         raise ConfigurationError(f"unknown IK method(s) {', '.join(unknown)}; choose from {', '.join(IK_METHODS)}")
     reports = tuple(benchmark_robot(load_robot(name), targets, seed, methods) for name in robots)
+    layouts = ()
+    if "analytic" in methods and any(report.robot_name == GOAL_ROBOT for report in reports):
+        robot = load_robot(GOAL_ROBOT)
+        layouts = layout_rows(robot, robot.random_configurations(np.random.default_rng(seed), targets))
     versions = version_table("numpy", "numba", "drake", "roboticstoolbox-python", "py-opw-kinematics", "eaik")
-    return IkBenchReport(targets=targets, seed=seed, methods=methods, robots=reports, goals=evaluate_goals(reports),
-                         versions=versions)
+    return IkBenchReport(targets=targets, seed=seed, methods=methods, robots=reports,
+                         goals=evaluate_goals(reports) + layout_goals(layouts), versions=versions, layouts=layouts)

@@ -1,10 +1,10 @@
 """Time-parameterisation benchmark: our ``retime`` (toppra, topp3, ruckig) beside raw toppra and Drake's Toppra.
 
-Per robot, ``paths`` seeded random paths through ``WAYPOINTS`` = 10 waypoints drawn uniformly in the
-middle 80 % of every joint range (each robot draws from its own generator seeded with ``seed``). The
-path is our default shape, ``make_path(W, q_min, q_max)`` (monotone: it never leaves the limits, so
-no draw is ever rejected; a ``PathError`` would be counted as a redraw). Velocity and acceleration
-limits are the robot's (and its jerk limits for the jerk-limited rows), at rest at both ends.
+Per robot, ``paths`` seeded random paths through ``waypoints`` waypoints (``WAYPOINTS`` = 10 unless asked:
+``--waypoints``) drawn uniformly in the middle 80 % of every joint range (each robot draws from its own
+generator seeded with ``seed``). The path is our default shape, ``make_path(W, q_min, q_max)`` (monotone: it
+never leaves the limits, so no draw is ever rejected; a ``PathError`` would be counted as a redraw). Velocity
+and acceleration limits are the robot's (and its jerk limits for the jerk-limited rows), at rest at both ends.
 
 Every method times the SAME geometric path:
 
@@ -59,7 +59,7 @@ toppra compute time at most raw toppra's at 1000 grid points (median over all pa
 ratio; raw toppra there exceeds qdd by up to ~5 % between its grid points and has a larger gap); for
 topp3: compute time <= 10x raw toppra's at 1000 grid points (median of per-path ratios), duration
 <= 1.15x our toppra's (median) and <= 1.3x (max), <= 5 jerk reversals per joint per second, path
-deviation <= 1e-6 rad.
+deviation <= 1e-6 rad. The same goals hold for any number of waypoints (issue 39: 6, ``--waypoints 6``).
 """
 
 from __future__ import annotations
@@ -291,14 +291,15 @@ def _aligned(head: tuple[str, ...], body: list[tuple[str, ...]]) -> list[str]:
 
 
 # -- the paths --------------------------------------------------------------------------------------
-def random_paths(robot: Robot, count: int, rng: np.random.Generator) -> list[tuple[JointPath, int]]:
-    """``count`` paths (default shape) through WAYPOINTS random waypoints in the middle 80 % of the
+def random_paths(robot: Robot, count: int, rng: np.random.Generator,
+                 waypoints: int = WAYPOINTS) -> list[tuple[JointPath, int]]:
+    """``count`` paths (default shape) through ``waypoints`` random waypoints in the middle 80 % of the
     ranges, each with the number of draws rejected before it (the path left the limits)."""
     limits = robot.limits
     paths = []
     for _ in range(count):
         for redraws in range(MAX_REDRAWS + 1):
-            W = robot.random_configurations(rng, WAYPOINTS, margin=MARGIN)
+            W = robot.random_configurations(rng, waypoints, margin=MARGIN)
             try:
                 path = make_path(W, limits.q_min, limits.q_max)
             except PathError:
@@ -306,7 +307,7 @@ def random_paths(robot: Robot, count: int, rng: np.random.Generator) -> list[tup
             paths.append((path, redraws))
             break
         else:
-            raise ConfigurationError(f"{robot.name}: {MAX_REDRAWS + 1} random draws of {WAYPOINTS} waypoints all "
+            raise ConfigurationError(f"{robot.name}: {MAX_REDRAWS + 1} random draws of {waypoints} waypoints all "
                                      "gave a path that leaves the joint limits")
     return paths
 
@@ -536,9 +537,10 @@ def _row(name: str, runs: list[MethodRun], toppra_runs: list[MethodRun] | None =
     )
 
 
-def benchmark_robot(robot: Robot, paths: int, seed: int, methods: tuple[str, ...] = METHOD_KEYS) -> TimingRobotReport:
+def benchmark_robot(robot: Robot, paths: int, seed: int, methods: tuple[str, ...] = METHOD_KEYS,
+                    waypoints: int = WAYPOINTS) -> TimingRobotReport:
     """The chosen ``methods`` (METHOD_KEYS) and the reference on ``paths`` seeded random paths of one
-    robot, interleaved."""
+    robot through ``waypoints`` waypoints each, interleaved."""
     from ..model.chain.drake_model import build_drake_robot
 
     limits = robot.limits
@@ -548,7 +550,7 @@ def benchmark_robot(robot: Robot, paths: int, seed: int, methods: tuple[str, ...
     if unknown or "toppra" not in methods:
         raise ConfigurationError(f"timing benchmark methods must include toppra and come from {', '.join(METHOD_KEYS)}, "
                                  f"got {', '.join(methods)}")
-    drawn = random_paths(robot, paths, np.random.default_rng(seed))
+    drawn = random_paths(robot, paths, np.random.default_rng(seed), waypoints)
     polynomials, geometry, drake_rows = {}, [], []
     if "drake" in methods:
         plant = build_drake_robot(robot.spec).plant
@@ -683,20 +685,23 @@ def _topp3_goals(robots: tuple[TimingRobotReport, ...]) -> tuple[Goal, ...]:
 
 
 def run_timing_benchmark(robots=ROBOTS, paths: int = 5, seed: int = 0,
-                         methods: tuple[str, ...] = METHOD_KEYS) -> TimingBenchReport:
+                         methods: tuple[str, ...] = METHOD_KEYS, waypoints: int = WAYPOINTS) -> TimingBenchReport:
     """Ours (toppra, topp3, ruckig) beside raw toppra (100, 1000 grid points) and Drake's Toppra
     (100, 1000) on each robot.
 
-    ``robots``: preset names or robot files; ``paths``: seeded random 10-waypoint paths per robot;
+    ``robots``: preset names or robot files; ``paths``: seeded random paths per robot, through ``waypoints``
+    waypoints each (at least 2);
     ``seed``: of the waypoints (each robot draws from its own generator seeded with it); ``methods``:
     which rows run (METHOD_KEYS; toppra always, and the reference).
     """
     if paths < 1:
         raise ConfigurationError(f"paths must be >= 1, got {paths}")
+    if waypoints < 2:
+        raise ConfigurationError(f"waypoints must be >= 2, got {waypoints}")
     robots = (robots,) if isinstance(robots, str) else tuple(robots)
     if not robots:
         raise ConfigurationError("no robots to benchmark")
-    reports = tuple(benchmark_robot(load_robot(name), paths, seed, tuple(methods)) for name in robots)
+    reports = tuple(benchmark_robot(load_robot(name), paths, seed, tuple(methods), waypoints) for name in robots)
     versions = version_table("numpy", "scipy", "toppra", "drake", "ruckig", "copp-py")
-    return TimingBenchReport(paths=paths, seed=seed, waypoints=WAYPOINTS, samples=SAMPLES, robots=reports,
+    return TimingBenchReport(paths=paths, seed=seed, waypoints=waypoints, samples=SAMPLES, robots=reports,
                              goals=evaluate_goals(reports), versions=versions)

@@ -59,8 +59,8 @@ def check_pose(X, what: str = "pose", max_position: float = math.inf) -> np.ndar
     """Validate a homogeneous transform (4, 4): finite, a proper rotation, last row [0 0 0 1], and no
     position coordinate beyond ``max_position`` [m]."""
     if type(X) is np.ndarray and X.dtype == np.float64 and X.shape == (4, 4) and \
-            is_pose(X, ROTATION_TOLERANCE, max_position):
-        return X                                     # the compiled check passed: no error to word
+            is_pose(X if X.flags.c_contiguous else np.ascontiguousarray(X), ROTATION_TOLERANCE, max_position):
+        return X                                     # the compiled check passed (of a C-ordered X: one specialisation)
     X = float_array(X, what, (4, 4))
     R = X[:3, :3]
     if (np.abs(R).max() > 1.0 + ROTATION_TOLERANCE or np.abs(R.T @ R - np.eye(3)).max() > ROTATION_TOLERANCE

@@ -40,12 +40,13 @@ class Robot(DhKinematics):
         self._sampled_ranges = (np.where(continuous, -np.pi, spec.limits.q_min),
                                 np.where(continuous, np.pi, spec.limits.q_max))
 
-    # -- the compiled core: C-contiguous float64 arrays go straight in; anything else (the kernel's
+    # -- the compiled core: float64 arrays of any layout go straight in; anything else (the kernel's
     # -- TypeError or ValueError) is checked by DhKinematics for the typed error, or converted --------
     def as_configuration(self, q) -> np.ndarray:
-        """Validate one joint vector -> float array (dof,) [rad or m]; a C-contiguous float64 array the
-        compiled check passes is returned as it is."""
-        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and q.flags.c_contiguous:
+        """Validate one joint vector -> float array (dof,) [rad or m]; a float64 array the compiled check
+        passes is returned as it is (C-contiguous: a strided one as a C-contiguous copy)."""
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1:
+            q = q if q.flags.c_contiguous else np.ascontiguousarray(q)    # one compiled check for every layout
             try:
                 compiled.check_configuration(q, self.dof)
                 return q

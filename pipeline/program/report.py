@@ -43,13 +43,17 @@ def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = 
     passages = list(profile.details.passages_s)
     labels = binding_labels(profile)
     narrowed = {s["last"]: s["blends_narrowed"] for s in profile.details.stretches}
+    # Each move's samples (t0 <= t <= t1) and the last waypoint of its stretch, found by bisection.
+    starts = np.searchsorted(profile.t, passages[:-1], side="left")
+    ends = np.searchsorted(profile.t, passages[1:], side="right")
+    stops = np.asarray(program.stops)
+    stretch_ends = stops[np.searchsorted(stops, np.arange(len(program.moves)), side="right")]
     moves = []
     for k, move in enumerate(program.moves):
         t0, t1 = passages[k], passages[k + 1]
-        inside = [labels[i] for i in np.flatnonzero((profile.t >= t0) & (profile.t <= t1))]
+        inside = labels[starts[k]: ends[k]]
         binding = Counter(inside).most_common(1)[0][0] if inside else "none"
-        stretch_end = next(last for first, last in program.stretches() if first <= k < last)
-        if narrowed.get(stretch_end):
+        if narrowed.get(int(stretch_ends[k])):
             binding += " (blends narrowed to keep the limits or the clearance)"
         if move.track is not None and move.track.along.slowest_tcp_speed < move.speed * program.speed_scale:
             binding += " (singularity slow-down)"

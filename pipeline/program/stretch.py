@@ -19,17 +19,19 @@ blends, whose parameter width is the length they replace, neither loop nor stall
 [0, 1] is u over the total. The ``schedule`` (``pipeline.timing.schedule``) gives each part its limits: a
 tool move's line or arc outside its zones its TCP speed and the job's TCP acceleration; a joint move
 and a blend the joint speed fraction of its move (a blend between two moves, or a run of joint moves
-the path passes through, the smallest).
+the path passes through, the smallest, with a bound at each waypoint it passes, so that the timing's time
+there is exact).
 ``passages`` are the s at which the stretch passes its waypoints (a blend's middle at a zone).
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..timing.joint_path import JointPath, PathError, hermite_matrix, make_path
+from ..timing.joint_path import JointPath, PathError, hermite_matrix, kept_indices, make_path
 from ..timing.schedule import LimitSchedule
 from .model import JOINT, Move, Program
 
@@ -225,9 +227,14 @@ class StretchPath:
         kind, i, u0, u1 = self.pieces[k]
         if kind != "segment":
             return np.empty(0)
-        segment = self.segments[i]
-        u = segment.path.breakpoints * segment.length - segment.cut_in + u0
+        u = self._stretch_u(k, self.segments[i].path.breakpoints)
         return u[(u > u0) & (u < u1)] / self.total
+
+    def _stretch_u(self, k: int, x: np.ndarray) -> np.ndarray:
+        """The stretch's u at s = ``x`` (n,) of piece k's segment's own path."""
+        _, i, u0, _ = self.pieces[k]
+        segment = self.segments[i]
+        return x * segment.length - segment.cut_in + u0
 
     def _blend_ok(self, blend: Blend) -> bool:
         """The blend stays inside the joint limits and, in a cell, keeps the clearance."""
@@ -263,7 +270,13 @@ class StretchPath:
             if segment.kind == "track":
                 rows += self._track_rows(k, segment, accel)
             else:
-                rows.append((s0, s1, min(m.speed for m in segment.moves), np.inf, np.inf))
+                # A bound at every waypoint a joint run passes (each a breakpoint of the path): the timing's time
+                # there is exact (``passages``).
+                inner = self._inner_passages(k)[1]
+                inner = inner[(inner > s0) & (inner < s1) & np.isin(inner, self.path.breakpoints)]
+                edges = [s0, *np.unique(inner).tolist(), s1]
+                speed = min(m.speed for m in segment.moves)
+                rows += [(a, b, speed, np.inf, np.inf) for a, b in itertools.pairwise(edges)]
         bounds = np.array([r[0] for r in rows] + [1.0])
         mids = (bounds[:-1] + bounds[1:]) / 2.0
         values = np.array([[r[2], r[3], r[4]] for r in rows])
@@ -291,33 +304,40 @@ class StretchPath:
 
     @property
     def passages(self) -> list[float]:
-        """s at which the stretch passes waypoints first+1 .. last."""
-        out = []
-        for end in range(self.first + 1, self.last + 1):
-            blend = next((b for b in self.blends if b.waypoint == end), None)
-            if blend is not None:
-                k = next(j for j, p in enumerate(self.pieces) if p[0] == "blend" and self.blends[p[1]] is blend)
-                out.append((self.pieces[k][2] + self.pieces[k][3]) / 2.0 / self.total)
-            elif end == self.last:
-                out.append(1.0)
-            else:
-                out.append(self._inner_passage(end))
-        return out
+        """s at which the stretch passes waypoints first+1 .. last: at a zone the middle of its blend, the
+        stretch's end at 1, the others where their segment passes them (``_inner_passages``)."""
+        blend_pieces = {i: (u0, u1) for kind, i, u0, u1 in self.pieces if kind == "blend"}
+        blended = {}
+        for i, blend in enumerate(self.blends):
+            u0, u1 = blend_pieces[i]
+            blended.setdefault(blend.waypoint, (u0 + u1) / 2.0 / self.total)
+        inner = {}
+        for k, piece in enumerate(self.pieces):
+            if piece[0] == "segment":
+                for end, s in zip(*self._inner_passages(k)):
+                    inner.setdefault(end, float(s))
+        return [blended[end] if end in blended else 1.0 if end == self.last else inner.get(end, 1.0)
+                for end in range(self.first + 1, self.last + 1)]
 
-    def _inner_passage(self, end: int) -> float:
-        """s of a waypoint inside a segment (a joint path through several targets, a track's corner)."""
-        for k, (kind, i, u0, u1) in enumerate(self.pieces):
-            segment = self.segments[i] if kind == "segment" else None
-            if segment is None or end not in [m.end for m in segment.moves]:
-                continue
-            if segment.kind == "track":
-                tool_path = segment.moves[0].track.along.tool_path
-                x = tool_path.starts[[m.end for m in segment.moves].index(end) + 1] / tool_path.length
-            else:
-                x = segment.path.s_waypoints[min([m.end for m in segment.moves].index(end) + 1,
-                                                 len(segment.path.s_waypoints) - 1)]
-            return float(np.clip(self.s_of(k, x * segment.length), u0 / self.total, u1 / self.total))
-        return 1.0
+    def _inner_passages(self, k: int) -> tuple[list[int], np.ndarray]:
+        """The waypoints inside piece k's segment (the ends of its moves but the last, which ends the segment)
+        and the s at which the stretch passes each, within the piece: on a track its tool path's corner (as the
+        track's schedule rows place it), on a joint run its path's waypoint (a waypoint merged into the one
+        before as a duplicate: that one's), to the last bit the path's breakpoint there."""
+        _, i, u0, u1 = self.pieces[k]
+        segment = self.segments[i]
+        ends = [m.end for m in segment.moves[:-1]]
+        if not ends or segment.kind not in ("track", "joint"):
+            return [], np.empty(0)
+        count = np.arange(1, len(ends) + 1)
+        if segment.kind == "track":
+            tool_path = segment.moves[0].track.along.tool_path
+            s = self.s_of(k, tool_path.starts[count] / tool_path.length * segment.length)
+        else:
+            points = self.program.targets[ends[0] - 1: ends[-1] + 2]          # the run's start and targets
+            x = segment.path.s_waypoints[np.searchsorted(kept_indices(points), count, side="right") - 1]
+            s = x if len(self.segments) == 1 else self._stretch_u(k, x) / self.total
+        return ends, np.clip(s, u0 / self.total, u1 / self.total)
 
 
 def _smooth_plan(planned, robot, scene, tilt) -> JointPath | None:
@@ -344,12 +364,13 @@ def _segments(program: Program, first: int, last: int, scene=None) -> tuple[list
     """The segments of the stretch and the blends between them (see the module docstring)."""
     moves = program.moves[first: last]
     limits = program.robot.limits
+    targets = program.targets
     segments: list[Segment] = []
     blends: list[Blend] = []
     k = 0
     while k < len(moves):
         move = moves[k]
-        start = program.targets[move.end - 1]
+        start = targets[move.end - 1]
         if move.track is not None:
             run = [m for m in moves[k:] if m.track is move.track]
             segments.append(Segment(move.track.along.path, tuple(run), "track"))

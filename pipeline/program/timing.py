@@ -109,7 +109,7 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
         if path is None:
             times = [offset + t for t in _ruckig_passages(program, first, last, profile)]
         else:
-            times = [offset + _passage_time(path, profile, s) for s in path.passages]
+            times = (offset + _passage_times(path, profile)).tolist()
         passages += times
         stretches.append({"first": first, "last": last, "duration_s": profile.duration,
                           "timing": profile.details.to_dict() if profile.details else None,
@@ -132,19 +132,22 @@ def _after_stop(schedule: LimitSchedule, before: LimitSchedule) -> LimitSchedule
                                    zip(last, (schedule.joint_speed, schedule.tcp_speed, schedule.tcp_accel))))
 
 
-def _passage_time(path: StretchPath, profile: Profile, s: float) -> float:
-    """When the stretch's profile passes its path's ``s`` [s]: between the times of the schedule bounds
-    around s (exact at a bound), the sample nearest the path's configuration there."""
+def _passage_times(path: StretchPath, profile: Profile) -> np.ndarray:
+    """When the stretch's profile passes its path's ``passages`` [s] (each s between the times of the schedule
+    bounds around it): at a bound (every waypoint a joint run or a track passes) its time, else (the middle of
+    a zone's blend) the sample there nearest the path's configuration."""
+    s = np.asarray(path.passages, dtype=float)
     bounds = path.schedule.bounds
-    k = int(np.clip(np.searchsorted(bounds, s, side="right") - 1, 0, len(bounds) - 2))
+    k = np.clip(np.searchsorted(bounds, s, side="right") - 1, 0, len(bounds) - 2)
     t0, t1 = profile.schedule.bounds[k], profile.schedule.bounds[k + 1]
-    if s <= bounds[k] or s >= bounds[k + 1]:
-        return float(t0 if s <= bounds[k] else t1)
-    inside = np.flatnonzero((profile.t >= t0) & (profile.t <= t1))
-    if inside.size == 0:
-        return float((t0 + t1) / 2.0)
-    q = path.path(np.array([s]))[0]
-    return float(profile.t[inside[np.argmin(np.linalg.norm(profile.q[inside] - q, axis=1))]])
+    times = np.where(s <= bounds[k], t0, t1)
+    between = np.flatnonzero((s > bounds[k]) & (s < bounds[k + 1]))
+    if between.size:
+        lo, hi = np.searchsorted(profile.t, t0[between], side="left"), np.searchsorted(profile.t, t1[between], "right")
+        for j, q, a, b in zip(between, path.path(s[between]), lo, hi):
+            nearest = a + np.argmin(np.linalg.norm(profile.q[a:b] - q, axis=1)) if b > a else None
+            times[j] = (t0[j] + t1[j]) / 2.0 if nearest is None else profile.t[nearest]
+    return times
 
 
 def _ruckig_passages(program: Program, first: int, last: int, profile: Profile) -> list[float]:

@@ -41,8 +41,9 @@ DEFAULT_BLEND = 0.2
 #: Each shape's smoothness: the highest derivative of q(s) that is continuous (``samples``: the C2 spline
 #: through dense IK samples of a tool move, ``path_through_samples``).
 CONTINUITY = {"monotone": 3, "spline": 2, "linear": 1, "samples": 2}
-#: Samples per segment when checking that a spline stays inside the joint limits.
+#: Samples per segment when checking that a spline stays inside the joint limits, and segments checked at once.
 LIMIT_CHECK_SAMPLES = 200
+LIMIT_CHECK_SEGMENTS = 500
 #: Waypoints closer than this (joint-space norm) to the last one kept are one waypoint [rad or m]:
 #: far below any controller resolution, and a curve through two such knots would swing wildly between
 #: them. The last waypoint is always kept (it replaces the last one kept when they are that close).
@@ -94,18 +95,28 @@ class JointPath:
 def kept_indices(waypoints: np.ndarray) -> np.ndarray:
     """The indices of the waypoints duplicate merging keeps: those beyond DUPLICATE_DISTANCE of the last
     one kept, and always the last waypoint (replacing the last one kept when they are that close, unless
-    that is the first; then kept beside it unless within NO_MOTION_DISTANCE)."""
-    keep = [0]
-    for i in range(1, len(waypoints)):
-        if np.linalg.norm(waypoints[i] - waypoints[keep[-1]]) > DUPLICATE_DISTANCE:
-            keep.append(i)
-    last = len(waypoints) - 1
-    if keep[-1] != last:
-        if len(keep) > 1:
-            keep[-1] = last
-        elif np.linalg.norm(waypoints[last] - waypoints[0]) > NO_MOTION_DISTANCE:
-            keep.append(last)
-    return np.array(keep)
+    that is the first; then kept beside it unless within NO_MOTION_DISTANCE). A waypoint beyond that distance
+    of the one before, itself kept, is kept: only the runs that start with a shorter step are looked at one
+    by one, each up to its first waypoint kept."""
+    count = len(waypoints)
+    keep = np.ones(count, dtype=bool)
+    looked = 0
+    for start in np.flatnonzero(np.linalg.norm(np.diff(waypoints, axis=0), axis=1) <= DUPLICATE_DISTANCE) + 1:
+        if start <= looked:
+            continue
+        reference, looked = start - 1, start        # the waypoint before is kept (a run ends at one kept)
+        while looked < count:
+            keep[looked] = np.linalg.norm(waypoints[looked] - waypoints[reference]) > DUPLICATE_DISTANCE
+            if keep[looked]:
+                break
+            looked += 1
+    kept = np.flatnonzero(keep)
+    if kept[-1] != count - 1:
+        if len(kept) > 1:
+            kept[-1] = count - 1
+        elif np.linalg.norm(waypoints[-1] - waypoints[0]) > NO_MOTION_DISTANCE:
+            kept = np.append(kept, count - 1)
+    return kept
 
 
 def merge_duplicates(waypoints: np.ndarray) -> np.ndarray:
@@ -121,14 +132,16 @@ def check_waypoints(waypoints, q_min: np.ndarray, q_max: np.ndarray) -> np.ndarr
         raise PathError(f"waypoints must have shape (K, {q_min.size}), got {waypoints.shape}")
     if len(waypoints) < 2:
         raise PathError(f"a path needs at least 2 waypoints, got {len(waypoints)}")
-    for k, q in enumerate(waypoints):
-        if not np.isfinite(q).all():
+    finite = np.isfinite(waypoints).all(axis=1)
+    bad = np.flatnonzero(~finite | ((waypoints < q_min) | (waypoints > q_max)).any(axis=1))
+    if bad.size:
+        k = int(bad[0])
+        q = waypoints[k]
+        if not finite[k]:
             raise PathError(f"waypoint {k} has non-finite values: {q}")
-        outside = np.flatnonzero((q < q_min) | (q > q_max))
-        if outside.size:
-            j = int(outside[0])
-            raise PathError(f"waypoint {k}: joint {j + 1} = {q[j]:.6g} is outside its limits "
-                            f"[{q_min[j]:.6g}, {q_max[j]:.6g}]")
+        j = int(np.flatnonzero((q < q_min) | (q > q_max))[0])
+        raise PathError(f"waypoint {k}: joint {j + 1} = {q[j]:.6g} is outside its limits "
+                        f"[{q_min[j]:.6g}, {q_max[j]:.6g}]")
     return waypoints
 
 
@@ -230,12 +243,14 @@ def _blend_pieces(s_knots: np.ndarray, waypoints: np.ndarray, blend: float):
     """Linear segments with a quadratic blend of half-width b_i around each interior knot i.
 
     Inside a blend (u = s - s_i + b_i in [0, 2 b_i]) the slope turns linearly from the incoming to the
-    outgoing segment's: q = w_i - m_in b_i + m_in u + (m_out - m_in) u^2 / (4 b_i).
+    outgoing segment's: q = w_i - m_in b_i + m_in u + (m_out - m_in) u^2 / (4 b_i). The blends do not overlap
+    (b_i <= blend x the shorter neighbouring segment, blend <= 1/2), so each s is in at most one, found by
+    bisection: an evaluation costs O(n log K) for n values of s and K knots.
     """
     ds = np.diff(s_knots)
     slopes = np.diff(waypoints, axis=0) / ds[:, None]                        # dq/ds of each segment
-    interior = range(1, len(s_knots) - 1)
-    half = {i: blend * min(ds[i - 1], ds[i]) for i in interior}
+    half = blend * np.minimum(ds[:-1], ds[1:])                               # b_i of interior knot i = 1 .. K-2
+    starts = s_knots[1:-1] - half
 
     def evaluate(s, order):
         s = np.asarray(s, dtype=float)
@@ -247,21 +262,20 @@ def _blend_pieces(s_knots: np.ndarray, waypoints: np.ndarray, blend: float):
             out = slopes[k]
         else:
             out = np.zeros((flat.size, waypoints.shape[1]))
-        for i in interior:
-            b = half[i]
-            u = flat - (s_knots[i] - b)
-            inside = (u >= 0.0) & (u < 2.0 * b)          # at a breakpoint: the piece that starts there
-            if b <= 0.0 or not inside.any():
-                continue
-            m_in, m_out = slopes[i - 1], slopes[i]
-            turn = (m_out - m_in) / (2.0 * b)
-            uu = u[inside][:, None]
-            if order == 0:
-                out[inside] = waypoints[i] - m_in * b + m_in * uu + turn * uu**2 / 2.0
-            elif order == 1:
-                out[inside] = m_in + turn * uu
-            elif order == 2:
-                out[inside] = turn
+        j = np.searchsorted(starts, flat, side="right") - 1                 # the blend that starts last at or before s
+        candidate = np.flatnonzero(j >= 0)
+        b = half[j[candidate]]
+        u = flat[candidate] - starts[j[candidate]]
+        inside = (b > 0.0) & (u < 2.0 * b)                   # at a breakpoint: the piece that starts there
+        rows, i, b, uu = candidate[inside], j[candidate][inside] + 1, b[inside][:, None], u[inside][:, None]
+        m_in, m_out = slopes[i - 1], slopes[i]
+        turn = (m_out - m_in) / (2.0 * b)
+        if order == 0:
+            out[rows] = waypoints[i] - m_in * b + m_in * uu + turn * uu**2 / 2.0
+        elif order == 1:
+            out[rows] = m_in + turn * uu
+        elif order == 2:
+            out[rows] = turn
         return out[0] if s.ndim == 0 else out
 
     return evaluate
@@ -307,13 +321,18 @@ def path_through_samples(s_knots: np.ndarray, samples: np.ndarray) -> JointPath:
 
 
 def _check_spline_limits(path: JointPath, q_min: np.ndarray, q_max: np.ndarray) -> None:
-    """Reject a spline that leaves the joint limits between waypoints, naming segment and joint."""
-    for k in range(len(path.s_waypoints) - 1):
-        s = np.linspace(path.s_waypoints[k], path.s_waypoints[k + 1], LIMIT_CHECK_SAMPLES)
-        q = path(s)
-        below, above = q < q_min - 1e-12, q > q_max + 1e-12
-        if below.any() or above.any():
-            row, joint = np.argwhere(below | above)[0]
+    """Reject a spline that leaves the joint limits between waypoints (LIMIT_CHECK_SAMPLES per segment, each
+    end included; LIMIT_CHECK_SEGMENTS segments an evaluation), naming the first such segment and its joint."""
+    knots = path.s_waypoints
+    fractions = np.linspace(0.0, 1.0, LIMIT_CHECK_SAMPLES)
+    for first in range(0, len(knots) - 1, LIMIT_CHECK_SEGMENTS):
+        last = min(first + LIMIT_CHECK_SEGMENTS, len(knots) - 1)
+        start, end = knots[first: last], knots[first + 1: last + 1]
+        q = path((start[:, None] + (end - start)[:, None] * fractions).ravel())
+        outside = (q < q_min - 1e-12) | (q > q_max + 1e-12)
+        if outside.any():
+            row, joint = np.argwhere(outside)[0]
+            k = first + row // LIMIT_CHECK_SAMPLES
             raise PathError(
                 f"the spline leaves the limits of joint {joint + 1} between waypoints {k} and {k + 1} "
                 f"(reaches {q[row, joint]:.6g}, limits [{q_min[joint]:.6g}, {q_max[joint]:.6g}]); "

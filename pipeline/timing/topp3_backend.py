@@ -5,9 +5,9 @@ The joint velocity, acceleration and jerk along a path q(s) are, by the chain ru
 (Y. Wang, S. He, S. Lin, C. Hu, copp-py 0.2, MIT licence, https://github.com/TOPP-THU/copp: TOPP3
 linearised into a second-order cone programme solved by Clarabel) finds the fastest s(t) within the
 velocity, acceleration and jerk limits on a grid of stations: a TOPP2 (reachability analysis)
-profile first, then TOPP3 linearised around it, with a small penalty on the total variation of the
-joint accelerations (COPP3: without it the time-optimal jerk chatters between its limits at the
-station rate). The profile follows the geometric path exactly: every sample is q(s(t)) on the path.
+profile first, then TOPP3 linearised near it (``LINEARIZATION_SHARE``), with a small penalty on the total
+variation of the joint accelerations (COPP3: without it the time-optimal jerk chatters between its limits
+at the station rate). The profile follows the geometric path exactly: every sample is q(s(t)) on the path.
 
 The SOCP's cost grows with its stations, so they go where they matter (``stations_for``,
 ``refined_stations``): a TOPP2 on FINE_PER_STATION times as many (copp's reachability analysis, about
@@ -18,11 +18,11 @@ TOPP2 speed leaves a straight line between its ends. One COPP3 solve then does, 
 
 Between stations copp's profile has ``b = sdd`` linear in s and ``a = sd^2`` quadratic (``a' = 2 b``);
 near a stop ``s - s0`` grows like ``c t^3``. We evaluate exactly that parameterisation ourselves
-(so q, qd, qdd and qddd are consistent) and check it densely between stations; where the jerk between
-stations exceeds the limit by more than TIGHTEN_EXCESS, the stations next to it get that much tighter a
-limit and the problem is solved again (TIGHTEN_ROUNDS); what is left is removed by slowing the whole
-trajectory uniformly by the smallest factor k that brings every sample within the limits (velocity / k,
-acceleration / k^2, jerk / k^3), and k is reported.
+(so q, qd, qdd and qddd are consistent) and check it densely between stations, and between those samples
+too (``hermite.joint_peaks_between``, ``jerk_peak``); where the jerk between stations exceeds the limit by
+more than TIGHTEN_EXCESS, the stations next to it get that much tighter a limit and the problem is solved
+again (TIGHTEN_ROUNDS); what is left is removed by slowing the whole trajectory uniformly by the smallest
+factor k that brings it within the limits (velocity / k, acceleration / k^2, jerk / k^3), and k is reported.
 """
 
 from __future__ import annotations
@@ -68,9 +68,18 @@ GEOMETRY_ERROR = 0.1
 GEOMETRY_ROUNDS = 4
 #: Weight of the total variation of the joint accelerations (each over its limit, summed over the
 #: stations) against the duration, in units of the mean duration of a waypoint segment without a jerk
-#: limit: without it the time-optimal jerk flips between its limits at the station rate (on the benchmark
-#: paths: 0.05 let the jerk reverse up to 4.9 times a joint-second, 0.055 4.6, 0.06 4.2 at 2 % more time).
-SMOOTHING_SHARE = 0.05
+#: limit: without it the time-optimal jerk flips between its limits at the station rate. On bench timing's
+#: paths (seed 0, 10 a robot, LINEARIZATION_SHARE 0.7, the jerk judged on the dense check's samples only),
+#: duration over toppra's at the median and the most jerk reversals a joint-second, 10 waypoints / 6 waypoints:
+#: 0.05 1.121x, 4.60 / 1.129x, 4.42; 0.045 1.110x, 4.65 / 1.117x, 4.47; 0.04 1.102x, 5.21 (over the goal of 5) /
+#: 1.108x, 4.52.
+SMOOTHING_SHARE = 0.045
+#: The first COPP3 solve linearises its jerk rows at this share of the TOPP2's a = sd^2 [1]: copp replaces
+#: each row's bound, convex in a, by its tangent there, stricter the farther a is from it, and the jerk-limited
+#: speed is below the TOPP2's. On the paths above (SMOOTHING_SHARE 0.05) 1.0 gave 1.123x toppra's at the median,
+#: 1.218x at most / 1.135x, 1.241x; 0.7 1.121x, 1.214x / 1.129x, 1.214x; on two 6-waypoint GP7 paths 0.7 saved
+#: two thirds of what a second solve, linearised at the first one's answer, saves (at twice the cost).
+LINEARIZATION_SHARE = 0.7
 #: Clarabel's relative and absolute duality gap and its feasibility tolerance in copp's scaled units (its
 #: defaults 1e-8 took 10-60 % more iterations for durations within 5e-4) [1]; a = sd^2 is of order
 #: 1 there, so an a down to -SOLVER_FEASIBILITY is the round-off of a stop (0), and is set to 0; below it
@@ -102,6 +111,14 @@ MIN_STATION_GAP = 1e-10
 #: slow-down moves them), and how much more than the measured excess each slow-down takes [1]
 #: (certify allows 1e-6).
 CHECK_SAMPLES_PER_INTERVAL = 48
+#: How far inside a station interval the dense check's first and last samples of it are, in units of the
+#: interval [1]: the jerk jumps at a station (a'' = d2(sd^2)/ds2 and, at the stationary ends, the law of
+#: motion do), and each interval's samples see its own motion only.
+INTERVAL_EDGE = 1e-9
+#: Rounds of sampling again, REFINE_FACTOR times more densely, the station intervals where the jerk may rise
+#: above the largest sample between the dense check's samples (``jerk_peak``) [1].
+REFINE_ROUNDS = 2
+REFINE_FACTOR = 8
 OUTPUT_ROUNDS = 5
 OUTPUT_MARGIN = 1e-7
 
@@ -246,9 +263,15 @@ class PathTiming:
             sd[near], sdd[near], sddd[near] = 3.0 * c * left**2, -6.0 * c * left, 6.0 * c
         return s, sd / stretch, sdd / stretch**2, sddd / stretch**3
 
+    def interval_times(self, per_interval: int, intervals=slice(None)) -> np.ndarray:
+        """Times [s] (intervals, ``per_interval`` + 1) evenly over each of the station intervals ``intervals``
+        (indices; all by default) from its start to its end, both INTERVAL_EDGE inside."""
+        fractions = INTERVAL_EDGE + (1.0 - 2.0 * INTERVAL_EDGE) * np.arange(per_interval + 1) / per_interval
+        return self.t[:-1][intervals, None] + np.diff(self.t)[intervals, None] * fractions
+
     def dense_times(self, per_interval: int) -> np.ndarray:
-        fractions = np.arange(per_interval) / per_interval
-        return np.append((self.t[:-1, None] + np.diff(self.t)[:, None] * fractions).ravel(), self.duration)
+        """Times [s] of the dense check: ``interval_times(per_interval)``, then the end of the profile."""
+        return np.append(self.interval_times(per_interval).ravel(), self.duration)
 
 
 def joint_motion(path: JointPath, s, sd, sdd, sddd):
@@ -317,29 +340,57 @@ def _profile_timing(copp, s: np.ndarray, solved) -> PathTiming:
 
 def interval_jerk_ratios(timing: PathTiming, path: JointPath, limits: Limits) -> np.ndarray:
     """The peak |qddd| / qddd_max in each station interval, per joint (n - 1, dof), on
-    CHECK_SAMPLES_PER_INTERVAL + 1 samples each."""
-    fractions = np.arange(CHECK_SAMPLES_PER_INTERVAL + 1) / CHECK_SAMPLES_PER_INTERVAL
-    t = (timing.t[:-1, None] + np.diff(timing.t)[:, None] * fractions).ravel()
-    qddd = joint_motion(path, *timing.at(np.minimum(t, timing.duration)))[3]
-    return (np.abs(qddd) / limits.qddd_max).reshape(len(timing.s) - 1, fractions.size, -1).max(axis=1)
+    CHECK_SAMPLES_PER_INTERVAL + 1 samples each (``PathTiming.interval_times``)."""
+    t = timing.interval_times(CHECK_SAMPLES_PER_INTERVAL)
+    qddd = joint_motion(path, *timing.at(t.ravel()))[3]
+    return (np.abs(qddd) / limits.qddd_max).reshape(*t.shape, -1).max(axis=1)
+
+
+def jerk_peak(timing: PathTiming, path: JointPath, limits: Limits, jerk: np.ndarray, per_interval: int,
+              stretch: float) -> float:
+    """The largest |qddd| / qddd_max [1] of the profile slowed by ``stretch``, between its samples too, from
+    ``jerk`` (samples, dof), its qddd / qddd_max at ``timing.dense_times(per_interval)`` x ``stretch``. Inside a
+    station interval the jerk is smooth, and where its second difference over the samples is at most D it rises
+    at most D / 8 above the larger of two neighbouring samples (exactly so on a parabola); the intervals where
+    that bound exceeds the largest sample are sampled REFINE_FACTOR times more densely, up to REFINE_ROUNDS
+    times, and the bound of those still beyond it is the answer. (On the samples alone, the jerk of bench
+    timing's third GP7 path at seed 0 reached 1.00002x its limit between them, and its profile of 20,001
+    samples failed certify's mean-value test of qdd against qddd by 5e-6.)"""
+    peak = float(np.abs(jerk).max())
+    intervals = np.arange(len(timing.s) - 1)
+    inside = jerk[:-1].reshape(len(intervals), per_interval + 1, -1)
+    for done in range(REFINE_ROUNDS + 1):
+        bound = (np.abs(inside).max(axis=1) + np.abs(np.diff(inside, 2, axis=1)).max(axis=1) / 8.0).max(axis=1)
+        peak = max(peak, float(np.abs(inside).max()))
+        beyond = bound > peak
+        if not beyond.any() or done == REFINE_ROUNDS:
+            return max(peak, float(bound.max()))
+        intervals, per_interval = intervals[beyond], per_interval * REFINE_FACTOR
+        t = timing.interval_times(per_interval, intervals) * stretch
+        qddd = joint_motion(path, *timing.at(t.ravel(), stretch))[3]
+        inside = (qddd / limits.qddd_max).reshape(*t.shape, -1)
 
 
 def _slowed(timing: PathTiming, path: JointPath, t: np.ndarray, limits: PathLimits, torques,
-            stretch: float, between: bool = False) -> tuple[float, tuple]:
+            stretch: float, per_interval: int = 0) -> tuple[float, tuple]:
     """The uniform slow-down (at least ``stretch``) that keeps the motion at times t [s] of the profile
     slowed by ``stretch`` within ``limits`` (joint speeds x the schedule's factor, accelerations, jerks, and
     the TCP's speed and acceleration where limited: copp limits them at its stations, between them this
     slow-down does), torques included when ``torques`` is given; and that motion, (q, qd, qdd, qddd) (n, dof).
-    With ``between`` the joint speeds and accelerations are judged between the samples too (the cubic through
-    their values and slopes, ``hermite.joint_peaks_between``: a bulge between samples is found, not sampled)."""
+    With ``per_interval`` (t: the dense check's times, ``PathTiming.dense_times(per_interval)`` x ``stretch``)
+    they are judged between the samples too: the joint speeds and accelerations by the cubic through their
+    values and slopes (``hermite.joint_peaks_between``), the jerks by ``jerk_peak``: a bulge between samples is
+    found, not sampled."""
     state = timing.at(t, stretch)
     motion = joint_motion(path, *state)
     speed, accel = limits.peaks(state[0], *motion[:3])
-    if between:
+    jerk = motion[3] / limits.limits.qddd_max
+    peak = float(np.abs(jerk).max())
+    if per_interval:
         peaks = joint_peaks_between(state[0], *motion[1:], limits, 1, np.diff(t)[None, :] * stretch)
         speed, accel = max(speed, float(peaks[0][0])), max(accel, float(peaks[1][0]))
-    slowed = stretch_for((speed, accel, float((np.abs(motion[3]) / limits.limits.qddd_max).max())), stretch,
-                         OUTPUT_MARGIN)
+        peak = max(peak, jerk_peak(timing, path, limits.limits, jerk, per_interval, stretch))
+    slowed = stretch_for((speed, accel, peak), stretch, OUTPUT_MARGIN)
     if torques is not None:
         slowed *= torque_stretch(*joint_motion(path, *timing.at(t, slowed))[:3], limits.limits, torques)
     return slowed, motion
@@ -381,16 +432,17 @@ def _topp2(copp, robot, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> tuple[PathTiming, float]:
     """copp's TOPP2 on FINE_PER_STATION x ``station_count`` stations (where the motion spends its time:
     ``stations_for``, ``refined_stations``), then on the stations, then TOPP3 with a small total-variation penalty
-    on the joint accelerations (COPP3, an SOCP) linearised around it, then (up to TIGHTEN_ROUNDS times, when the
-    jerk between stations exceeds its limit by more than TIGHTEN_EXCESS) around its own answer with the jerk limit
-    of every station next to such an interval tightened by that excess, with the schedule's bounds among the
-    stations. ``limits`` (a PathLimits): the joint speed limits x the schedule's factor at each station; torques are
-    limited too when ``tau_max`` and ``inverse_dynamics(Q, QD, QDD) -> TAU`` (batched) are given, and the TCP's
-    speed and acceleration where they are limited (``tcp_constraint.add_copp_rows``). copp sees the path in units of
-    its length and time in ``time_unit``s (``ScaledPath``, with its path speed caps; torques through
-    ``scaled_inverse_dynamics``), and the timing is scaled back exactly. The finer TOPP2 has the joint speed and
-    acceleration limits only (it places the stations). The solves share SOLVE_BUDGET_S. Returns (timing, TOPP2
-    duration [s]); TimingError saying what to change when copp fails."""
+    on the joint accelerations (COPP3, an SOCP) linearised at LINEARIZATION_SHARE of that TOPP2's a = sd^2, then
+    (up to TIGHTEN_ROUNDS times, when the jerk between stations exceeds its limit by more than TIGHTEN_EXCESS)
+    around its own answer with the jerk limit of every station next to such an interval tightened by that excess,
+    with the schedule's bounds among the stations. ``limits`` (a PathLimits): the joint speed limits x the
+    schedule's factor at each station; torques are limited too when ``tau_max`` and ``inverse_dynamics(Q, QD, QDD)
+    -> TAU`` (batched) are given, and the TCP's speed and acceleration where they are limited
+    (``tcp_constraint.add_copp_rows``). copp sees the path in units of its length and time in ``time_unit``s
+    (``ScaledPath``, with its path speed caps; torques through ``scaled_inverse_dynamics``), and the timing is
+    scaled back exactly. The finer TOPP2 has the joint speed and acceleration limits only (it places the
+    stations). The solves share SOLVE_BUDGET_S. Returns (timing, TOPP2 duration [s]); TimingError saying what to
+    change when copp fails."""
     import copp_py as copp
 
     distance = max(path.length, 1e-300)
@@ -429,7 +481,7 @@ def solve_topp3(path: JointPath, limits: PathLimits, inverse_dynamics=None) -> t
         weight = SMOOTHING_SHARE * t2[-1] / (len(path.waypoints) - 1)
         objectives = [copp.objective.Time(1.0),
                       copp.objective.TotalVariationTorque(weight, np.append(1.0 / scaled.qdd_max[:-1], 0.0))]
-        profile = solved(a2)
+        profile = solved(LINEARIZATION_SHARE * a2)
         jerk_max = np.tile(scaled.qddd_max, (n, 1))
         for _ in range(TIGHTEN_ROUNDS):
             excess = interval_jerk_ratios(real(profile), path, limits.limits)
@@ -479,7 +531,7 @@ def retime_topp3(path: JointPath, limits: Limits, dt: float, joint_names: tuple[
     judge = PathLimits(limits, tcp, schedule)
     timing, topp2_s = solve_topp3(path, judge, torques)
     check_t = timing.dense_times(CHECK_SAMPLES_PER_INTERVAL)
-    stretch, checked = _slowed(timing, path, check_t, judge, torques, 1.0, between=True)
+    stretch, checked = _slowed(timing, path, check_t, judge, torques, 1.0, CHECK_SAMPLES_PER_INTERVAL)
     peaks = _peak_ratios(*checked[1:], limits)
     if stretch > MAX_STRETCH:
         raise TimingError(refusal(path, len(timing.s), f"its solution would need slowing down {stretch:.3g} times "

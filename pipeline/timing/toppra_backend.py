@@ -5,7 +5,8 @@ u_i on each interval are found by TOPP-RA's two passes (``reachability``: compil
 than toppra's own stepping in Python on the same grid and constraints, and the same answer). The joint
 speeds bound sd^2 at every grid point; the joint accelerations ``q'(s) u + q''(s) sd^2`` (and the torques,
 the TCP's acceleration) are limited at both ends of every interval, with the interval's own u, so between
-grid points they stray only by the path's curvature within the interval. The grid is denser where the
+grid points they stray only by the path's curvature within the interval. The grid holds every breakpoint of
+the path, however close (``grid_for``), so the path is smooth inside every interval, and is denser where the
 path bends (``bending_points``), where that curvature is large and where, on a uniform grid, toppra's
 solution strays most and is slowest. We evaluate the constant-acceleration parameterisation exactly
 (``s = s_i + sd_i tau + u_i tau^2 / 2``) and check it between grid points (``DenseCheck``: values and
@@ -58,11 +59,17 @@ POINTS_PER_PIECE = 8
 #: multiples of the grid's count (at a stop, where dq/ds vanishes, the bending length does too).
 BEND_DENSITY = 60.0
 MAX_DENSITY = 5.0
-#: Grid points closer than this in s are one point [1]: the solver meets its constraints to round-off, and
-#: on a shorter interval the path acceleration u = (x1 - x0) / (2 ds) between two such x is noise (a
-#: schedule's bound 1.4e-17 from a breakpoint of the path made a joint acceleration 2.6e8 times its limit
-#: there, and the piece was slowed 40,000 times).
+#: The points the grid adds between the path's breakpoints (``grid_for``) are at least this far apart and from
+#: every breakpoint [1]: the solver meets its constraints to round-off, and on a shorter interval the path
+#: acceleration u = (x1 - x0) / (2 ds) between two such x is noise.
 MIN_GRID_GAP = 1e-7
+#: Breakpoints of the path and a schedule's bounds closer than this in s are one grid point, a bound kept [1]:
+#: the same point but for round-off (a schedule's bound 1.4e-17 from a breakpoint of the path made a grid
+#: interval of nothing, a joint acceleration 2.6e8 times its limit there, and the piece was slowed 40,000
+#: times). Farther apart, both are grid points, however close: a path whose waypoints end in steps of 1e-6 rad
+#: (a sine's crest, 4,000 waypoints) has breakpoints 5e-8 apart in s, and a grid that dropped them jumped
+#: over a reversal of joint 1 at full speed.
+SAME_POINT_GAP = 1e-12
 #: Caps of the path speed ds/dt, acceleration and jerk in the solvers' units (``ScaledPath``,
 #: ``time_unit``: there they are about 1 on ordinary paths): they bind only where every joint nearly
 #: stands still, and cost no measurable time there (larger caps leave the solvers ill-conditioned).
@@ -128,32 +135,44 @@ class ScaledPath:
 
 
 def grid_for(path: JointPath, count: int, include=()) -> np.ndarray:
-    """Grid in s: ``count`` points (at least ``POINTS_PER_SEGMENT`` per waypoint segment), denser where
-    the path bends (``bending_points``), and every breakpoint of the path, with each smooth piece split at
-    least ``POINTS_PER_PIECE`` times: inside every interval the path is smooth and short, so the dense
-    check sees every acceleration peak; and the points ``include`` (a schedule's bounds, where the limits
-    change)."""
-    breakpoints = path.breakpoints
+    """Grid in s: every breakpoint of the path and the points ``include`` (a schedule's bounds, where the
+    limits change), however close (``SAME_POINT_GAP``): inside every interval the path is smooth, so the
+    solver's constraints at the interval's ends and the dense check between them see every change of its
+    derivatives; each smooth piece split at least ``POINTS_PER_PIECE`` times (into pieces no shorter than
+    MIN_GRID_GAP), so every interval is short and the dense check sees every acceleration peak; and
+    ``count`` points (at least ``POINTS_PER_SEGMENT`` per waypoint segment), denser where the path bends
+    (``bending_points``), those within MIN_GRID_GAP of another point left out."""
+    ends = np.concatenate([[0.0], path.breakpoints, [1.0]])
+    structural = _apart(with_points(ends, include, SAME_POINT_GAP), SAME_POINT_GAP)
     # A tool move's joint path passes through dense IK samples, not waypoints: no floor per segment.
     segments = 1 if path.shape == "samples" else len(path.waypoints) - 1
     spread = bending_points(path, max(count, POINTS_PER_SEGMENT * segments))
-    pieces = (breakpoints[:-1, None] + np.diff(breakpoints)[:, None] * np.arange(POINTS_PER_PIECE) / POINTS_PER_PIECE)
-    grid = with_points(np.concatenate([spread, pieces.ravel(), [1.0]]), include, MIN_GRID_GAP)
-    close = np.flatnonzero(np.diff(grid) < MIN_GRID_GAP)            # of two points that close, the later goes
-    return np.delete(grid, np.where(close + 2 == len(grid), close, close + 1))   # (the end, 1, stays)
+    width = np.diff(structural)
+    splits = np.clip(np.floor(width / MIN_GRID_GAP), 1, POINTS_PER_PIECE).astype(int)
+    piece = np.repeat(np.arange(len(width)), splits - 1)
+    step = np.arange(len(piece)) - np.repeat(np.cumsum(splits - 1) - (splits - 1), splits - 1) + 1
+    inside = structural[piece] + width[piece] * step / splits[piece]
+    return with_points(spread, with_points(inside, structural, MIN_GRID_GAP), MIN_GRID_GAP)
+
+
+def _apart(points: np.ndarray, gap: float) -> np.ndarray:
+    """Sorted ``points`` without those within ``gap`` after the one before (the last point, the path's end,
+    replaces the one before it instead)."""
+    close = np.flatnonzero(np.diff(points) < gap)
+    return np.delete(points, np.where(close + 2 == len(points), close, close + 1))
 
 
 def bending_points(path: JointPath, count: int) -> np.ndarray:
     """Points in s from 0 to 1, ``count`` per unit of s where the path is straight and BEND_DENSITY per
-    bending length where that is closer (up to MAX_DENSITY x ``count``): the length over which the path's
-    direction or its curvature changes, the shorter of max|dq/ds| / max|d2q/ds2| and
+    bending length where that is closer (up to MAX_DENSITY x ``count``, never closer than MIN_GRID_GAP): the
+    length over which the path's direction or its curvature changes, the shorter of max|dq/ds| / max|d2q/ds2| and
     sqrt(max|dq/ds| / max|d3q/ds3|). The limits are met at both ends of every interval; between them the
     joint accelerations stray by about (ds / bending length)^2 / 8, and the discretised timing is slower
     than the optimum by about ds times the change of the path acceleration."""
     s = np.linspace(0.0, 1.0, count + 1)
     d1 = np.maximum(np.abs(path(s, 1)).max(axis=1), 1e-300)
     bending = np.maximum(np.abs(path(s, 2)).max(axis=1) / d1, np.sqrt(np.abs(path(s, 3)).max(axis=1) / d1))
-    density = np.clip(BEND_DENSITY * bending, count, MAX_DENSITY * count)
+    density = np.minimum(np.clip(BEND_DENSITY * bending, count, MAX_DENSITY * count), 1.0 / MIN_GRID_GAP)
     cumulative = np.concatenate([[0.0], np.cumsum((density[:-1] + density[1:]) / 2.0 * np.diff(s))])
     return np.interp(np.linspace(0.0, cumulative[-1], int(np.ceil(cumulative[-1])) + 1), cumulative, s)
 

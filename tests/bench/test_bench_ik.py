@@ -30,6 +30,8 @@ from pipeline.bench.ik import (
     closed_form_answer,
     evaluate_goals,
     ours_name,
+    layout_goals,
+    layout_rows,
     run_ik_benchmark,
 )
 from pipeline.errors import ConfigurationError
@@ -82,7 +84,7 @@ def test_json_and_table(report):
     assert data["passed"] is False and len(data["goals"]) == len(report.goals)
     table = report.format_table()
     assert "strict" in table and "gp7" in table and "median" in table
-    assert "(fastest numeric peer, " in table and "Goals (issues 15, 25):" in table
+    assert "(fastest numeric peer, " in table and "Goals (issues 15, 25, 39):" in table
 
 
 def test_goals_without_our_rows_are_not_measured(report):
@@ -136,7 +138,7 @@ def test_small_run_has_every_goal_measured():
     rows = {row.name: row for row in robot.rows}
     assert {ours_name("analytic"), ours_name("jacobian"), ANALYTIC_BATCH, RTB_100, OPW, EAIK} <= set(rows)
     assert rows[ANALYTIC_BATCH].ours and rows[ANALYTIC_BATCH].targets == 4
-    assert [goal.name.split(": ", 1)[0] for goal in report.goals] == ["gp7"] * 6
+    assert [goal.name.split(": ", 1)[0] for goal in report.goals] == ["gp7"] * 9       # 3 of them array layouts
     for goal in report.goals:
         assert goal.value is not None and goal.value > 0 and "not measured" not in goal.bound, goal
     analytic_vs_opw = rows[ours_name("analytic")].median_us / rows[OPW].median_us
@@ -144,8 +146,28 @@ def test_small_run_has_every_goal_measured():
     assert any(goal.value == rows[ANALYTIC_BATCH].median_us for goal in report.goals)
     table = report.format_table()
     assert f"x {OPW} (" in table and f"x {EAIK} (" in table
-    assert table.count("PASS  ") + table.count("FAIL  ") == 6
+    assert table.count("PASS  ") + table.count("FAIL  ") == 9
     assert report.passed == all(goal.passed for goal in report.goals)
+
+
+def test_array_layouts_are_timed_beside_the_c_ordered_calls_with_the_same_answers():
+    """IK on Fortran-ordered poses, FK and the Jacobian on strided joint vectors: a row each, in the report of a
+    run with the closed form on the GP7, with a goal each."""
+    report = run_ik_benchmark(robots=("gp7",), targets=4, seed=2, methods=("analytic",))
+    calls = [row.call for row in report.layouts]
+    assert calls == ["robot.ik(X)", "robot.fk(q)", "robot.jacobian(q)"]
+    for row in report.layouts:
+        assert row.identical and row.targets == 4 and row.ratio == row.other_us / row.c_us
+    layout = [goal for goal in report.goals if "C-ordered" in goal.name]
+    assert [goal.value for goal in layout] == [row.ratio for row in report.layouts]
+    assert "array layouts (gp7, 4 calls each" in report.format_table()
+    assert run_ik_benchmark(robots=("gp7",), targets=2, seed=2, methods=("drake",)).layouts == ()
+
+
+def test_a_different_answer_fails_the_layout_goal_whatever_the_time():
+    (row, *_) = layout_rows(load_robot("gp7"), load_robot("gp7").random_configurations(np.random.default_rng(1), 3))
+    (goal,) = layout_goals((dataclasses.replace(row, ratio=0.5, identical=False),))
+    assert not goal.passed and "they differ" in goal.bound
 
 
 # -- goals, on rows made up here --------------------------------------------------------------------

@@ -96,9 +96,17 @@ def test_drake_path_is_our_path():
     assert max(drake_geometry_error(path, drake_path(path)).values()) < GEOMETRY_TOLERANCE
 
 
+def test_paths_through_other_numbers_of_waypoints():
+    robot = load_robot("gp7")
+    (path, _), = random_paths(robot, 1, np.random.default_rng(1), 6)
+    assert path.waypoints.shape == (6, 6)
+
+
 def test_bad_arguments():
     with pytest.raises(ConfigurationError, match="paths"):
         run_timing_benchmark(robots=("gp7",), paths=0)
+    with pytest.raises(ConfigurationError, match="waypoints"):
+        run_timing_benchmark(robots=("gp7",), waypoints=1)
 
 
 @pytest.mark.slow                                  # the suite through the CLI: about 5 s

@@ -247,3 +247,113 @@ def test_sincos_of_nan_and_infinity_is_nan():
 
     for angle in (np.nan, np.inf, -np.inf):
         assert all(np.isnan(value) for value in of(angle))
+
+
+# -- array layouts and what compiles (issue 39) ------------------------------------------------------------------------
+def test_a_fortran_ordered_pose_takes_the_compiled_fast_path_with_the_same_answer(monkeypatch):
+    """A pose from Drake's GetAsMatrix4() is Fortran-ordered: the closed form's kernel takes it as it is (one
+    specialisation, no re-typing), not the checked slow path."""
+    import pipeline.model.ik as ik
+    from pipeline.model.ik import closed_form
+
+    robot = load_robot("gp7")
+    rng = np.random.default_rng(5)
+    poses = robot.fk_batch(robot.random_configurations(rng, 20))
+    expected = [robot.ik(X) for X in poses]
+
+    def slow_path(*args, **kws):
+        raise AssertionError("the pose went to the checked slow path")
+
+    monkeypatch.setattr(ik, "make_target", slow_path)
+    for X, result in zip(poses, expected):
+        fortran = np.asfortranarray(X)
+        assert not fortran.flags.c_contiguous
+        answer = robot.ik(fortran)
+        assert answer.success and np.array_equal(answer.q, result.q)
+        assert [s.q.tolist() for s in answer.solutions] == [s.q.tolist() for s in result.solutions]
+    assert len(closed_form.solve_one.overloads) == 1
+
+
+def test_fk_and_the_jacobian_take_strided_joint_vectors_as_they_are(monkeypatch):
+    """Strided and Fortran-ordered joint values enter the compiled kernels without a copy (no ``_checked``), one
+    specialisation each, with the answers of C-ordered ones."""
+    from pipeline.model.chain import compiled
+
+    robot = load_robot("gp7")
+    Q = robot.random_configurations(np.random.default_rng(6), 20)
+    expected = [(robot.fk(q), robot.jacobian(q), *robot.fk_and_jacobian(q)) for q in Q]
+    expected_batches = robot.fk_batch(Q), robot.jacobian_batch(Q)
+
+    def copy(*args, **kws):
+        raise AssertionError("the joint values were copied before the kernel took them")
+
+    monkeypatch.setattr(Robot, "_checked", copy)
+    strided = np.asfortranarray(Q)
+    for q, (X, J, X_both, J_both) in zip(strided, expected):
+        assert not q.flags.c_contiguous
+        assert np.array_equal(robot.fk(q), X) and np.array_equal(robot.jacobian(q), J)
+        assert all(np.array_equal(a, b) for a, b in zip(robot.fk_and_jacobian(q), (X_both, J_both)))
+    assert np.array_equal(robot.fk_batch(strided), expected_batches[0])
+    assert np.array_equal(robot.jacobian_batch(strided), expected_batches[1])
+    for kernel in (compiled.fk_into, compiled.jacobian_into, compiled.fk_and_jacobian_into, compiled.fk_batch_into,
+                   compiled.jacobian_batch_into):
+        assert len(kernel.overloads) == 1, kernel
+
+
+def test_inner_functions_refuse_python_calls():
+    """A function compiled for kernels only has no entry point for Python: a TypeError, not a crash."""
+    from pipeline.model.chain import compiled
+
+    with pytest.raises(TypeError, match="compiled for kernels only"):
+        compiled.cross((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+
+
+#: Which kernels a fresh process has compiled (or loaded from its cache), as JSON: after importing the IK, and
+#: after load_robot('gp7') and one robot.ik(pose); the specialisations of some functions the closed form calls.
+_COMPILED_SCRIPT = """
+import json
+import numpy as np
+from pipeline.model.chain import compiled
+from pipeline.model.ik import closed_form, descent, three_parallel
+from pipeline import load_robot
+
+kernels = {"fk_into": compiled.fk_into, "fk_batch_into": compiled.fk_batch_into,
+           "jacobian_into": compiled.jacobian_into, "jacobian_batch_into": compiled.jacobian_batch_into,
+           "fk_and_jacobian_into": compiled.fk_and_jacobian_into, "solve_one": closed_form.solve_one,
+           "solve_batch": closed_form.solve_batch, "ur_solve_one": three_parallel.solve_one,
+           "ur_solve_batch": three_parallel.solve_batch, "descend": descent.descend}
+inner = {"relative": compiled._relative, "moved": compiled._moved, "write_variants": closed_form._write_variants,
+         "sort_distinct": closed_form._sort_distinct, "finish": closed_form.finish}
+imported = {name: len(kernel.overloads) for name, kernel in kernels.items()}
+X = np.array([[0.0, 0.0, 1.0, 0.5], [0.0, 1.0, 0.0, 0.1], [-1.0, 0.0, 0.0, 0.4], [0.0, 0.0, 0.0, 1.0]])
+assert load_robot("gp7").ik(X).success
+after_ik = {name: len(kernel.overloads) for name, kernel in kernels.items()}
+print(json.dumps({"imported": imported, "after_ik": after_ik,
+                  "inner": {name: len(function.overloads) for name, function in inner.items()}}))
+"""
+
+
+def _compiled_in_a_fresh_process(cache) -> dict:
+    import json
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PIPELINE_PROGRESS": "0"}
+    done = subprocess.run([sys.executable, "-c", _COMPILED_SCRIPT], env=env, capture_output=True, text=True,
+                          timeout=600, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_the_first_closed_form_call_compiles_only_the_kernel_it_uses(tmp_path):
+    """Importing compiles nothing; the first IK call of a GP7 (an empty Numba cache) compiles the spherical
+    wrist's single-call kernel, once, and none of FK, the batches, the UR family's or damped least squares'; its
+    helpers once each (a constant argument is no specialisation of its own)."""
+    first = _compiled_in_a_fresh_process(tmp_path)
+    assert set(first["imported"].values()) == {0}
+    assert {name for name, count in first["after_ik"].items() if count} == {"solve_one"}
+    assert first["after_ik"]["solve_one"] == 1
+    assert set(first["inner"].values()) == {1}
+    cached = _compiled_in_a_fresh_process(tmp_path)            # the second process loads it from the cache
+    assert cached["after_ik"] == first["after_ik"] and set(cached["inner"].values()) == {0}

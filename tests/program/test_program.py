@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import pipeline.cell.clear_motion
+import pipeline.program.report
 import pipeline.program.stretch
 import pipeline.program.timing
 import pipeline.runner
@@ -372,6 +373,25 @@ def test_the_schedule_changes_limits_at_breakpoints_of_the_path_or_apart_from_th
     for bound in stretch.schedule.bounds:
         gaps = np.abs(breakpoints - bound)
         assert gaps.min() == 0.0 or gaps.min() > BREAKPOINT_GAP, (bound, breakpoints[np.argmin(gaps)])
+
+
+def test_a_joint_run_that_turns_back_passes_its_waypoints_in_order():
+    """Out to S = 90 deg and back, twice, through zone-less joint waypoints (one stretch that passes them all):
+    each waypoint the run passes is a bound of the stretch's schedule and a breakpoint of its path, so its
+    passage time is the timing's own there: the passages increase, and every move lasts a quarter of the
+    cycle. The sample nearest each waypoint anywhere in the stretch, as before issue 39, was t = 0 for the
+    return to the start (passages 0, 1.61, 0, 1.61, 2.15 s: moves of -1.61 s in the cycle report), and was
+    looked for once per waypoint over the whole profile."""
+    out = [90, 10, 0, 0, -60, 0]
+    program, profile = timed([J0, out, J0, out, J0], tcp_speed_max=None)
+    assert program.stops == (0, 4)
+    stretch = StretchPath(program, 0, 4)
+    inner = stretch.passages[:-1]
+    assert np.isin(inner, stretch.schedule.bounds).all() and np.isin(inner, stretch.path.breakpoints).all()
+    passages = np.array(profile.details.passages_s)
+    np.testing.assert_allclose(np.diff(passages), profile.duration / 4.0, rtol=1e-3)
+    moves = pipeline.program.report.cycle_report(program, profile)["moves"]
+    np.testing.assert_allclose([m["duration_s"] for m in moves], np.diff(passages))
 
 
 def test_the_stops_are_the_zoneless_waypoints_but_those_a_joint_path_passes():

@@ -12,10 +12,13 @@ three rows, row by row, then (rows 1 to dof) joint i's sign and kind (1.0 revolu
 Poses travel between kernels as ``Pose`` tuples: the 12 entries of the top three rows of a 4x4
 transform, row by row (the last row is always 0 0 0 1), so no kernel allocates on the way.
 
-The kernels Python calls write into arrays the caller allocates (returning a new array from a kernel
-costs more than the FK itself) and have explicit signatures: C-contiguous float64 arrays only, compiled
-once on a machine and cached on disk beside this file. Any other input raises TypeError, a bad
-length or value ValueError; ``pipeline.model.robot.Robot`` then checks it for the typed error that names it.
+The kernels Python calls (``kernel``) write into arrays the caller allocates (returning a new array from a
+kernel costs more than the FK itself) and have one signature each, compiled on their first call (not on
+import: a process compiles only the kernels it uses) and cached on disk beside this file. The arrays a
+caller brings (joint values, target poses, seeds) are declared with any layout, so C-ordered, Fortran-ordered
+(Drake's ``GetAsMatrix4()``) and strided float64 arrays all enter the same machine code; the arrays ``Robot``
+allocates are C-contiguous. Any other input raises TypeError, a bad length or value ValueError;
+``pipeline.model.robot.Robot`` then checks it for the typed error that names it.
 """
 
 from __future__ import annotations
@@ -24,16 +27,67 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.core.compiler_lock import global_compiler_lock
+from numba.core.registry import CPUDispatcher
 
 from ...files.arrays import MAX_MAGNITUDE
 
-#: Types of the kernels Python calls: 1-, 2- and 3-d C-contiguous float64 arrays.
-_V, _M, _T = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
+#: Array types of kernel signatures: float64 arrays the pipeline allocates (C-contiguous, 2- and 3-d) and
+#: float64 arrays a caller brings (any layout, 1-, 2- and 3-d).
+MATRIX, STACK = "float64[:, ::1]", "float64[:, :, ::1]"
+ANY_VECTOR, ANY_MATRIX, ANY_STACK = "float64[:]", "float64[:, :]", "float64[:, :, :]"
 #: Kernels whose products and sums may fuse into FMA instructions (as exact or more; never reordered).
 FUSED = {"contract"}
 #: Columns of a chain row: K_i (12), then joint i's sign and kind.
 SIGN, REVOLUTE = 12, 13
 CHAIN_COLUMNS = 14
+
+
+class _InnerDispatcher(CPUDispatcher):
+    """The dispatcher of an ``inner`` function: called from Python it raises TypeError (its machine code has no
+    entry point for Python: Numba would jump to none)."""
+
+    def __call__(self, *args, **kws):
+        raise TypeError(f"{self.py_func.__qualname__} is compiled for kernels only: call it from compiled code")
+
+
+def inner(**options):
+    """Decorator of the functions only compiled code calls: ``njit(cache=True, **options)`` without the entry
+    points Python would call them through (building those is most of a small function's compile time: a few
+    hundredths of a second rather than about a tenth)."""
+    def decorate(function):
+        dispatcher = _InnerDispatcher(py_func=function, locals={}, targetoptions={
+            "nopython": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True, **options})
+        dispatcher.enable_caching()
+        return dispatcher
+
+    return decorate
+
+
+def kernel(signature: str, **options):
+    """Decorator: ``njit(cache=True, **options)`` compiled for ``signature`` alone, when it is first called
+    (from Python or from another kernel; loaded from the disk cache when it is there) rather than on
+    import, and never again for other argument types: they are converted to the signature's (a
+    C-ordered array to an any-layout one) or refused with TypeError. One specialisation, whatever layouts
+    the callers bring. (Numba's own ``njit(signature)`` compiles on import; its lazy ``njit`` compiles one
+    specialisation per layout it meets.)"""
+    def decorate(function):
+        dispatcher = njit(cache=True, **options)(function)
+        compile_signature = dispatcher.compile
+
+        def compile_once(*_requested):
+            with global_compiler_lock:                 # one compile when threads call it first together
+                if not dispatcher.signatures:
+                    compile_signature(signature)
+                    dispatcher.disable_compile()
+
+        # Numba asks these two for a new specialisation: ``compile`` when a kernel calling this one is
+        # typed, ``_compile_for_args`` (then calls what it returns) when Python's arguments match none.
+        dispatcher.compile = compile_once
+        dispatcher._compile_for_args = lambda *args, **kws: compile_once() or dispatcher
+        return dispatcher
+
+    return decorate
 
 
 def pack_chain(K: np.ndarray, sign: np.ndarray, revolute: np.ndarray) -> np.ndarray:
@@ -87,13 +141,13 @@ def sincos(angle):
     return (1.0 - (quadrant & 2)) * (cos if odd else sin), (1.0 - ((quadrant + 1) & 2)) * (sin if odd else cos)
 
 
-@njit(cache=True)
+@inner()
 def cross(a, b):
     """a x b of two 3-vectors (tuples or arrays) -> tuple."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True)
+@inner()
 def unit(v):
     """The 3-vector v (tuple or array) divided by its length -> tuple."""
     norm = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
@@ -110,14 +164,14 @@ def check_configuration(q, dof):
             raise ValueError("joint value not finite or too large")
 
 
-@njit(cache=True)
+@inner()
 def _constant(chain, i):
     """The Pose of K_i."""
     return (chain[i, 0], chain[i, 1], chain[i, 2], chain[i, 3], chain[i, 4], chain[i, 5], chain[i, 6], chain[i, 7],
             chain[i, 8], chain[i, 9], chain[i, 10], chain[i, 11])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _moved(chain, i, x, value):
     """The Pose x M_i K_i (i from 1) at joint i's value [rad or m]."""
     v = chain[i, SIGN] * value
@@ -130,7 +184,7 @@ def _moved(chain, i, x, value):
     return compose(x, _constant(chain, i))
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def compose(x, a):
     """The Pose x a."""
     return (x[0] * a[0] + x[1] * a[4] + x[2] * a[8], x[0] * a[1] + x[1] * a[5] + x[2] * a[9],
@@ -141,19 +195,19 @@ def compose(x, a):
             x[8] * a[2] + x[9] * a[6] + x[10] * a[10], x[8] * a[3] + x[9] * a[7] + x[10] * a[11] + x[11])
 
 
-@njit(cache=True)
+@inner()
 def end_pose(chain, q):
     """The Pose X_BE(q) [m]; q already checked."""
     return moved_pose(chain, base_pose(chain), q, 0, q.shape[0])
 
 
-@njit(cache=True)
+@inner()
 def base_pose(chain):
     """The Pose K_0: where the chain starts."""
     return _constant(chain, 0)
 
 
-@njit(cache=True)
+@inner()
 def moved_pose(chain, x, q, first, stop):
     """The Pose x carried through joints first to stop - 1 (counted from 0) at their values in q (an
     array or tuple): the end pose from a pose part way along the chain."""
@@ -162,7 +216,7 @@ def moved_pose(chain, x, q, first, stop):
     return x
 
 
-@njit(cache=True)
+@inner()
 def _write_pose(x, X):
     """X (4, 4) = the Pose x."""
     for k in range(12):
@@ -170,7 +224,7 @@ def _write_pose(x, X):
     X[3, 0], X[3, 1], X[3, 2], X[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def pose_and_jacobian(chain, q, J):
     """The Pose X_BE(q) [m], with J (6, dof) set to its geometric Jacobian, rows [v; w], base frame, at
     E's origin; q already checked."""
@@ -195,13 +249,21 @@ def pose_and_jacobian(chain, q, J):
 POSE, POSITION_AND_AXIS, POSITION = 0, 1, 2
 
 
-@njit(cache=True)
-def _relative(x, X_target, i, j):
-    """Entry (i, j) of R^T R_target, R the rotation of the Pose x and R_target that of X_target (4, 4)."""
-    return x[i] * X_target[0, j] + x[4 + i] * X_target[1, j] + x[8 + i] * X_target[2, j]
+@inner()
+def _relative(x, X_target):
+    """E = R^T R_target (row-major 9-tuple), R the rotation of the Pose x and R_target that of X_target (4, 4)."""
+    return (x[0] * X_target[0, 0] + x[4] * X_target[1, 0] + x[8] * X_target[2, 0],
+            x[0] * X_target[0, 1] + x[4] * X_target[1, 1] + x[8] * X_target[2, 1],
+            x[0] * X_target[0, 2] + x[4] * X_target[1, 2] + x[8] * X_target[2, 2],
+            x[1] * X_target[0, 0] + x[5] * X_target[1, 0] + x[9] * X_target[2, 0],
+            x[1] * X_target[0, 1] + x[5] * X_target[1, 1] + x[9] * X_target[2, 1],
+            x[1] * X_target[0, 2] + x[5] * X_target[1, 2] + x[9] * X_target[2, 2],
+            x[2] * X_target[0, 0] + x[6] * X_target[1, 0] + x[10] * X_target[2, 0],
+            x[2] * X_target[0, 1] + x[6] * X_target[1, 1] + x[10] * X_target[2, 1],
+            x[2] * X_target[0, 2] + x[6] * X_target[1, 2] + x[10] * X_target[2, 2])
 
 
-@njit(cache=True)
+@inner()
 def pose_errors(x, X_target, kind):
     """(position error [m], rotation error [rad]) of the Pose x against X_target (4, 4) for the target
     kind: the rotation angle between them (POSE), the angle between their z axes (POSITION_AND_AXIS),
@@ -209,10 +271,9 @@ def pose_errors(x, X_target, kind):
     dx, dy, dz = x[3] - X_target[0, 3], x[7] - X_target[1, 3], x[11] - X_target[2, 3]
     position_error = math.sqrt(dx * dx + dy * dy + dz * dz)
     if kind == POSE:                                   # E = R^T R_target: its angle, accurate near 0
-        sx = _relative(x, X_target, 2, 1) - _relative(x, X_target, 1, 2)
-        sy = _relative(x, X_target, 0, 2) - _relative(x, X_target, 2, 0)
-        sz = _relative(x, X_target, 1, 0) - _relative(x, X_target, 0, 1)
-        trace = _relative(x, X_target, 0, 0) + _relative(x, X_target, 1, 1) + _relative(x, X_target, 2, 2)
+        E = _relative(x, X_target)
+        sx, sy, sz = E[7] - E[5], E[2] - E[6], E[3] - E[1]
+        trace = E[0] + E[4] + E[8]
         return position_error, math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (trace - 1.0))
     if kind == POSITION_AND_AXIS:
         z, z_target = (x[2], x[6], x[10]), (X_target[0, 2], X_target[1, 2], X_target[2, 2])
@@ -222,14 +283,14 @@ def pose_errors(x, X_target, kind):
     return position_error, 0.0
 
 
-@njit(f"void({_M}, {_V}, {_M})", cache=True)
+@kernel(f"void({MATRIX}, {ANY_VECTOR}, {MATRIX})")
 def fk_into(chain, q, X):
     """X (4, 4) = X_BE [m] at one configuration q (dof,)."""
     check_configuration(q, chain.shape[0] - 1)
     _write_pose(end_pose(chain, q), X)
 
 
-@njit(f"void({_M}, {_M}, {_T})", cache=True)
+@kernel(f"void({MATRIX}, {ANY_MATRIX}, {STACK})")
 def fk_batch_into(chain, Q, out):
     """out (N, 4, 4) = X_BE [m] for configurations Q (N, dof)."""
     for n in range(Q.shape[0]):
@@ -237,21 +298,21 @@ def fk_batch_into(chain, Q, out):
         _write_pose(end_pose(chain, Q[n]), out[n])
 
 
-@njit(f"void({_M}, {_V}, {_M})", cache=True)
+@kernel(f"void({MATRIX}, {ANY_VECTOR}, {MATRIX})")
 def jacobian_into(chain, q, J):
     """J (6, dof) = the geometric Jacobian at one configuration q (dof,)."""
     check_configuration(q, chain.shape[0] - 1)
     pose_and_jacobian(chain, q, J)
 
 
-@njit(f"void({_M}, {_V}, {_M}, {_M})", cache=True)
+@kernel(f"void({MATRIX}, {ANY_VECTOR}, {MATRIX}, {MATRIX})")
 def fk_and_jacobian_into(chain, q, X, J):
     """X (4, 4) = X_BE [m] and J (6, dof) its Jacobian, from one pass along the chain."""
     check_configuration(q, chain.shape[0] - 1)
     _write_pose(pose_and_jacobian(chain, q, J), X)
 
 
-@njit(f"void({_M}, {_M}, {_T})", cache=True)
+@kernel(f"void({MATRIX}, {ANY_MATRIX}, {STACK})")
 def jacobian_batch_into(chain, Q, out):
     """out (N, 6, dof) = the geometric Jacobians at configurations Q (N, dof)."""
     for n in range(Q.shape[0]):

@@ -171,10 +171,11 @@ def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
 
 
 def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
-    """``solve_analytic`` of a full pose straight from the caller's arrays, which the kernel checks
-    itself: the fast path of single calls. None when the closed form does not fit the arm, or when
-    the pose or seed is not one the kernel takes (not a C-contiguous float64 array, or refused): the
-    caller then checks them and words the error."""
+    """``solve_analytic`` of a full pose straight from the caller's arrays (float64 of any layout: a
+    pose from Drake's ``GetAsMatrix4()`` is Fortran-ordered), which the kernel checks itself: the fast
+    path of single calls. None when the closed form does not fit the arm, or when the pose or seed is
+    not one the kernel takes (not a writable float64 array, or refused): the caller then checks them and
+    words the error."""
     solver = analytic_solver_for(robot)
     if not solver.applicable:
         return None
@@ -194,10 +195,10 @@ def _solve_one(robot, solver: AnalyticSolver, X: np.ndarray, seed: np.ndarray) -
 
 
 def _for_kernel(array: np.ndarray) -> np.ndarray:
-    """The array as the kernels take it: C-contiguous, writable float64 (a copy only when it is not)."""
-    if array.dtype == np.float64 and array.flags.c_contiguous and array.flags.writeable:
+    """The array as the kernels take it: writable float64 of any layout (a copy only when it is not)."""
+    if array.dtype == np.float64 and array.flags.writeable:
         return array
-    return np.array(array, dtype=np.float64, order="C")
+    return np.array(array, dtype=np.float64)
 
 
 #: Rows of the solution buffer of one target: enough for every branch and its 2 pi variants on most

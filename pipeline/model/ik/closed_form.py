@@ -40,8 +40,8 @@ import numpy as np
 from numba import njit
 
 from ...files.poses import ROTATION_TOLERANCE as POSE_TOLERANCE, is_pose
-from ..chain.compiled import (FUSED, POSE, base_pose, check_configuration, cross, end_pose, moved_pose, pose_errors,
-                              sincos)
+from ..chain.compiled import (ANY_MATRIX, ANY_STACK, ANY_VECTOR, FUSED, MATRIX, POSE, STACK, base_pose,
+                              check_configuration, cross, end_pose, inner, kernel, moved_pose, pose_errors, sincos)
 from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERANCE
 
 #: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
@@ -78,39 +78,39 @@ FIRST_POSITION_ERROR, FIRST_ROTATION_ERROR, FIRST_CODE = range(5, 8)
 INFO = 8
 TWO_PI = 2.0 * math.pi
 
-SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})(float64[:, ::1], float64[:, ::1], float64[:, ::1], " \
-                  "float64[:, ::1], float64[::1], float64[:, ::1])"
-BATCH_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], " \
-                  "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])"
+#: The solvers' signatures (``kernel``): geometry, chain, limits, then the target(s) and seed(s) of any
+#: layout, then ``out`` (and ``info``).
+SOLVE_SIGNATURE = f"UniTuple(float64, {INFO})({MATRIX}, {MATRIX}, {MATRIX}, {ANY_MATRIX}, {ANY_VECTOR}, {MATRIX})"
+BATCH_SIGNATURE = f"void({MATRIX}, {MATRIX}, {MATRIX}, {ANY_STACK}, {ANY_MATRIX}, {STACK}, {MATRIX})"
 
 
 # -- 3-vectors and rotations (row-major 9-tuples) --------------------------------------------------------
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _row(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _scale(k, a):
     return (k * a[0], k * a[1], k * a[2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _rotate(w, angle, v):
     """Rodrigues: v rotated about the unit axis w by angle [rad]."""
     wv = cross(w, v)
@@ -118,7 +118,7 @@ def _rotate(w, angle, v):
     return _add(_add(v, _scale(s, wv)), _scale(1.0 - c, cross(w, wv)))
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _mm(A, B):
     return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
             A[0] * B[2] + A[1] * B[5] + A[2] * B[8], A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
@@ -127,37 +127,37 @@ def _mm(A, B):
             A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _t(A):
     return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _mv(A, v):
     return (A[0] * v[0] + A[1] * v[1] + A[2] * v[2], A[3] * v[0] + A[4] * v[1] + A[5] * v[2],
             A[6] * v[0] + A[7] * v[1] + A[8] * v[2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _rotation_of(X):
     """The rotation of a 4x4 array."""
     return (X[0, 0], X[0, 1], X[0, 2], X[1, 0], X[1, 1], X[1, 2], X[2, 0], X[2, 1], X[2, 2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _angle(w, u, v):
     """Subproblem 1: the rotation about w taking u's projection onto v's [rad]."""
     return math.atan2(_dot(w, cross(u, v)), _dot(u, v) - _dot(u, w) * _dot(v, w))
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _wrap(angle):
     """An angle into (-pi, pi]."""
     return angle - TWO_PI * math.ceil((angle - math.pi) / TWO_PI)
 
 
 # -- the branches ----------------------------------------------------------------------------------------
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _home_rotation(geometry):
     """The rotation of X0, the end pose at q = 0."""
     return (geometry[R0, 0], geometry[R0, 1], geometry[R0, 2], geometry[R0 + 1, 0], geometry[R0 + 1, 1],
@@ -171,7 +171,7 @@ def wrist_centre(geometry, X):
     return _add(_mv(_rotation_of(X), c_in_end), (X[0, 3], X[1, 3], X[2, 3]))
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def label_code(geometry, p_wrist, q):
     """FRONT | UP | FLIP bits of configuration q (wrapped into (-pi, pi]) whose wrist centre is at p_wrist.
 
@@ -196,7 +196,7 @@ def label_code(geometry, p_wrist, q):
     return code
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _shoulder(geometry, p_wrist):
     """(phi, spread, reach): q1 = phi +- spread are the two roots, reach whether they reach the wrist
     centre; spread < 0 at a shoulder singularity (q1 is free)."""
@@ -212,12 +212,12 @@ def _shoulder(geometry, p_wrist):
     return math.atan2(B, A), math.acos(min(max(ratio, -1.0), 1.0)), abs(ratio) <= 1.0 + REACH_SLACK
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _q1_count(spread):
     return SHOULDER_SAMPLES + 1 if spread < 0.0 else 2
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _q1_value(i, phi, spread, seed1, q1_min, q1_max):
     """The i-th q1 candidate: a root, or (shoulder singularity) the seed's and then SHOULDER_SAMPLES
     values spread over the limits within half a turn of it."""
@@ -261,7 +261,7 @@ def _derived_rows(geometry):
             geometry[N6 + k, j] = rows[k][j]
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _goal_axes(geometry, X):
     """Where the joints must turn axis 6 and n6 (``_wrist_reference``) for target X (4, 4): R_goal w6
     and R_goal n6, with R_goal = R_target R0^T the rotation of all six joints together."""
@@ -269,7 +269,7 @@ def _goal_axes(geometry, X):
     return _mv(R_goal, _row(geometry, AXES + 5)), _mv(R_goal, _row(geometry, N6))
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _elbow(geometry, goal_axes, p_wrist, q1):
     """What one q1 leaves to the elbow: (theta0, spread3: q3 = theta0 -+ spread3 for elbow down/up,
     whether the elbow reaches, p' (the wrist centre turned back by q1), R1^T R_goal w6 and
@@ -284,7 +284,7 @@ def _elbow(geometry, goal_axes, p_wrist, q1):
     return theta0, spread3, abs(kappa) <= 1.0 + REACH_SLACK, p_prime, after1
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _arm(geometry, after1, p_prime, q1, q3):
     """The arm (q1, q2, q3) wrapped into (-pi, pi] for one q1 and q3, and what the wrist must do: d and
     m (where axis 6 and n6 must go, R_wrist w6 and R_wrist n6 with R_wrist = R_arm^T R_goal), axis 5's
@@ -306,14 +306,14 @@ def _arm(geometry, after1, p_prime, q1, q3):
             singular)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _branch(geometry, arm, d, m, z_centre, z_offset, singular, flip, seed):
     """The branch (noflip: flip 0, flip: 1) of one arm, of ``_arm``: q as a 6-tuple in (-pi, pi]."""
     z = _add(z_centre, z_offset) if flip == 0 else _sub(z_centre, z_offset)
     return _wrist_branch(geometry, arm, d, m, z, singular, _row(geometry, N6), seed)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _wrist_branch(geometry, arm, d, m, z, singular, n6, seed):
     """One branch: the arm's (q1, q2, q3) and the wrist's q4, q5, q6 that put axis 6 along d with axis
     5 along z (m: where n6 must go); at a wrist singularity, the split of q4 +- q6 nearest the seed."""
@@ -351,13 +351,13 @@ def raw_branches(geometry, X, seed, q1_min, q1_max):
     return Q, reachable
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _pose_error(chain, q, X):
     """(position error [m], rotation error [rad]) of FK(q) against X (4, 4)."""
     return pose_errors(end_pose(chain, q), X, POSE)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _joint_values(value, seed, low, high, out):
     """The in-limit 2 pi variants of one revolute joint's value [rad] into out; returns (how many were
     written, the violation [rad] when there is none)."""
@@ -382,7 +382,7 @@ def _joint_values(value, seed, low, high, out):
     return 0, min(below, above)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _variant_count(q, limits):
     """How many in-limit 2 pi variants configuration q has in all (a float: inf with a continuous joint)."""
     total = 1.0
@@ -395,17 +395,18 @@ def _variant_count(q, limits):
     return total
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _start(out, info):
     """Clear ``info`` for a new target; returns the per-target scratch: a joint's in-limit variants
     (6, 5: at most 5 below WIDE_RANGE), their counts (6,), a configuration (6,) and the nearest
     branch so far (6,) with its error (of ``_keep_nearest``)."""
-    info[:] = 0.0
+    for k in range(INFO):                    # element by element: a slice assignment compiles its shape check
+        info[k] = 0.0
     info[VIOLATING_JOINT] = -1.0
     return np.empty((6, 5)), np.zeros(6, dtype=np.int64), np.empty(6), np.zeros(6), np.full(1, np.inf)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _keep_nearest(raw, e_p, e_r, best, best_error):
     """Remember the branch raw (a 6-tuple) as the one nearest the target when its errors are the smallest yet."""
     if e_p + e_r < best_error[0]:
@@ -414,7 +415,7 @@ def _keep_nearest(raw, e_p, e_r, best, best_error):
             best[j] = raw[j]
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _limit_values(raw, seed, limits, values, counts, info):
     """Each joint's in-limit 2 pi variants of the verified branch raw (a 6-tuple) into values and
     counts; returns how many configurations they make (0: none in the limits, the smallest violation
@@ -442,7 +443,7 @@ def _limit_values(raw, seed, limits, values, counts, info):
     return total
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _write_variants(chain, limits, X, values, counts, total, e_p, e_r, code, variants, q, out, m):
     """The ``total`` configurations of ``_limit_values`` (a branch with errors e_p [m], e_r [rad], its
     label code and variant count) into out from row m on (rows past its capacity only counted); a
@@ -458,62 +459,29 @@ def _write_variants(chain, limits, X, values, counts, total, e_p, e_r, code, var
         if errors[0] > POSITION_TOLERANCE or errors[1] > ROTATION_TOLERANCE:
             continue                                          # put on a limit and no longer exact
         if m < capacity:
-            out[m, :6] = q
+            for j in range(6):
+                out[m, j] = q[j]
             out[m, POSITION_ERROR], out[m, ROTATION_ERROR] = errors
             out[m, CODE], out[m, VARIANTS] = code, variants
         m += 1
     return m
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def finish(out, info, m, seed, best):
     """Close a target's ``info`` after m rows were written: sorted and distinct (nearest the seed
     first) with the first one's numbers, or with no solution the nearest branch in ``out[0, :6]``."""
     info[COUNT] = m
     if m == 0:
-        out[0, :6] = best
+        for j in range(6):
+            out[0, j] = best[j]
     elif m <= out.shape[0]:
         info[COUNT] = _sort_distinct(out, m, seed)
         info[FIRST_POSITION_ERROR], info[FIRST_ROTATION_ERROR] = out[0, POSITION_ERROR], out[0, ROTATION_ERROR]
         info[FIRST_CODE] = out[0, CODE]
 
 
-@njit(cache=True, fastmath=FUSED)
-def _solve(geometry, chain, limits, X, seed, out, info):
-    """The solutions of one target X into out, its numbers into info (see the module's layouts)."""
-    values, counts, q, best, best_error = _start(out, info)
-    goal_axes = _goal_axes(geometry, X)
-    p_wrist = wrist_centre(geometry, X)
-    phi, spread, reach1 = _shoulder(geometry, p_wrist)
-    m = 0
-    for i in range(_q1_count(spread)):
-        q1 = _q1_value(i, phi, spread, seed[0], limits[0, 0], limits[1, 0])
-        theta0, spread3, reach3, p_prime, after1 = _elbow(geometry, goal_axes, p_wrist, q1)
-        if not (reach1 and reach3):
-            continue
-        for k in range(4):                     # elbow down, up (k // 2), each wrist noflip, flip (k % 2)
-            if k % 2 == 0:                     # the two wrist branches of an elbow share q1, q2 and q3
-                arm, d, m6, z_centre, z_offset, singular = _arm(geometry, after1, p_prime, q1,
-                                                                theta0 + (spread3 if k >= 2 else -spread3))
-                arm_pose, arm_code = moved_pose(chain, base_pose(chain), arm, 0, 3), -1
-            raw = _branch(geometry, arm, d, m6, z_centre, z_offset, singular, k % 2, seed)
-            info[REACHABLE] += 1
-            e_p, e_r = pose_errors(moved_pose(chain, arm_pose, raw, 3, 6), X, POSE)
-            _keep_nearest(raw, e_p, e_r, best, best_error)
-            if e_p > POSITION_TOLERANCE or e_r > ROTATION_TOLERANCE:
-                continue
-            info[VERIFIED] += 1
-            total = _limit_values(raw, seed, limits, values, counts, info)
-            if total == 0:
-                continue
-            if arm_code < 0:                   # shoulder and elbow bits: the same for both wrists
-                arm_code = label_code(geometry, p_wrist, raw) & (FRONT | UP)
-            m = _write_variants(chain, limits, X, values, counts, total, e_p, e_r,
-                                arm_code | (FLIP if raw[4] < 0.0 else 0), _variant_count(raw, limits), q, out, m)
-    finish(out, info, m, seed, best)
-
-
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _is_duplicate(out, i, k):
     """Whether rows i and k of out are one solution (largest joint difference <= DUPLICATE_TOLERANCE)."""
     for j in range(6):
@@ -522,7 +490,7 @@ def _is_duplicate(out, i, k):
     return True
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _sort_distinct(out, m, seed):
     """Sort the first m rows of out by distance to the seed (stable, in place) and drop duplicates;
     returns how many rows are left."""
@@ -550,12 +518,14 @@ def _sort_distinct(out, m, seed):
                 break
         if not duplicate:
             if n != i:
-                out[n], distance[n] = out[i], distance[i]
+                for j in range(out.shape[1]):
+                    out[n, j] = out[i, j]
+                distance[n] = distance[i]
             n += 1
     return n
 
 
-@njit(cache=True)
+@inner()
 def check_target(X, seed):
     """ValueError unless X is a pose (``pipeline.files.poses.check_pose``, within MAX_TARGET_COORDINATE_M) and
     the seed 6 finite joint values (the caller then words the error)."""
@@ -564,30 +534,61 @@ def check_target(X, seed):
     check_configuration(seed, 6)
 
 
-@njit(cache=True)
+@inner()
 def info_entries(info):
     """The INFO entries of ``info`` as a tuple (no array for Python to unpack)."""
     return (info[0], info[1], info[2], info[3], info[4], info[5], info[6], info[7])
 
 
-@njit(SOLVE_SIGNATURE, cache=True)
+@kernel(SOLVE_SIGNATURE, fastmath=FUSED)
 def solve_one(geometry, chain, limits, X, seed, out):
     """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
-    returns the target's ``info`` entries (a tuple: no array to unpack).
+    returns the target's ``info`` entries (a tuple: no array to unpack; see the module's layouts).
 
     X and the seed come unchecked: ``check_target``."""
     check_target(X, seed)
-    info = np.zeros(INFO)
-    _solve(geometry, chain, limits, X, seed, out, info)
+    info = np.empty(INFO)
+    values, counts, q, best, best_error = _start(out, info)
+    goal_axes = _goal_axes(geometry, X)
+    p_wrist = wrist_centre(geometry, X)
+    phi, spread, reach1 = _shoulder(geometry, p_wrist)
+    m = np.int64(0)                          # not the literal 0: the helpers m goes to would compile twice
+    for i in range(_q1_count(spread)):
+        q1 = _q1_value(i, phi, spread, seed[0], limits[0, 0], limits[1, 0])
+        theta0, spread3, reach3, p_prime, after1 = _elbow(geometry, goal_axes, p_wrist, q1)
+        if not (reach1 and reach3):
+            continue
+        for k in range(4):                     # elbow down, up (k // 2), each wrist noflip, flip (k % 2)
+            if k % 2 == 0:                     # the two wrist branches of an elbow share q1, q2 and q3
+                arm, d, m6, z_centre, z_offset, singular = _arm(geometry, after1, p_prime, q1,
+                                                                theta0 + (spread3 if k >= 2 else -spread3))
+                arm_pose, arm_code = moved_pose(chain, base_pose(chain), arm, 0, 3), -1
+            raw = _branch(geometry, arm, d, m6, z_centre, z_offset, singular, k % 2, seed)
+            info[REACHABLE] += 1
+            e_p, e_r = pose_errors(moved_pose(chain, arm_pose, raw, 3, 6), X, POSE)
+            _keep_nearest(raw, e_p, e_r, best, best_error)
+            if e_p > POSITION_TOLERANCE or e_r > ROTATION_TOLERANCE:
+                continue
+            info[VERIFIED] += 1
+            total = _limit_values(raw, seed, limits, values, counts, info)
+            if total == 0:
+                continue
+            if arm_code < 0:                   # shoulder and elbow bits: the same for both wrists
+                arm_code = label_code(geometry, p_wrist, raw) & (FRONT | UP)
+            m = _write_variants(chain, limits, X, values, counts, total, e_p, e_r,
+                                arm_code | (FLIP if raw[4] < 0.0 else 0), _variant_count(raw, limits), q, out, m)
+    finish(out, info, m, seed, best)
     return info_entries(info)
 
 
-@njit(BATCH_SIGNATURE, cache=True)
+@kernel(BATCH_SIGNATURE)
 def solve_batch(geometry, chain, limits, X, seeds, out, info):
     """``solve_one`` for targets X (N, 4, 4) and seeds (N, 6), into out (N, capacity, SOLUTION_COLUMNS)
     and info (N, INFO)."""
     for n in range(X.shape[0]):
-        _solve(geometry, chain, limits, X[n], seeds[n], out[n], info[n])
+        numbers = solve_one(geometry, chain, limits, X[n], seeds[n], out[n])
+        for k in range(INFO):
+            info[n, k] = numbers[k]
 
 
 @njit(cache=True, fastmath=FUSED)

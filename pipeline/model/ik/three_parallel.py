@@ -56,7 +56,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..chain.compiled import FUSED, POSE, cross, end_pose, pose_errors, sincos
+from ..chain.compiled import FUSED, POSE, cross, end_pose, inner, kernel, pose_errors, sincos
 from . import closed_form
 from .closed_form import (AXES, BATCH_SIGNATURE, CENTRE, INFO, N6, POINTS, REACH_SLACK, REACHABLE, SHOULDER_SAMPLES,
                           SINGULAR_TOLERANCE, SOLVE_SIGNATURE, VERIFIED, _add, _angle, _dot, _home_rotation,
@@ -81,7 +81,7 @@ def pack_geometry(axes: np.ndarray, points: np.ndarray, centre: np.ndarray, X_BE
     return closed_form.pack_geometry(axes, points, centre, X_BE0, GEOMETRY_ROWS, _derived_rows)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _normal(w):
     """A unit vector normal to the unit vector w."""
     n = cross(w, (1.0, 0.0, 0.0) if abs(w[0]) < 0.9 else (0.0, 1.0, 0.0))
@@ -109,7 +109,7 @@ def _derived_rows(geometry):
             geometry[N6 + k, j] = rows[k][j]
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _axis_rotation(w, angle):
     """The rotation (row-major 9-tuple) about the unit axis w by angle [rad]."""
     s, c = sincos(angle)
@@ -119,7 +119,7 @@ def _axis_rotation(w, angle):
             t * w[2] * w[0] - s * w[1], t * w[2] * w[1] + s * w[0], c + t * w[2] * w[2])
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _wrist_roots(geometry, G):
     """q5 = phi5 +- spread5 for G = R1^T R_goal (9-tuple), and whether they exist: n . R5 w6 = n . G w6."""
     a, b, c = _row(geometry, WRIST)
@@ -128,7 +128,7 @@ def _wrist_roots(geometry, G):
     return math.atan2(b, a), math.acos(min(max(ratio, -1.0), 1.0)), abs(ratio) <= 1.0 + REACH_SLACK
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _wrist(geometry, G, p_prime, q5, seed6):
     """For one q1 (G = R1^T R_goal, p' the wrist point turned back by q1) and q5: (q6 [rad], theta
     [rad], p4: the wrist 1 point turned back by q1 [m]). With axes 4 and 6 aligned, q6 is the seed's."""
@@ -144,7 +144,7 @@ def _wrist(geometry, G, p_prime, q5, seed6):
     return q6, theta, _sub(p_prime, _rotate(n, theta, _sub(c, r4)))
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _elbow_roots(geometry, p4):
     """q3 = theta0 -+ spread3 (elbow roots) putting wrist 1 at p4 (turned back by q1), and whether they exist."""
     theta0, squares, twice_product = _row(geometry, ELBOW)
@@ -155,7 +155,7 @@ def _elbow_roots(geometry, p4):
     return theta0, math.acos(min(max(kappa, -1.0), 1.0)), abs(kappa) <= 1.0 + REACH_SLACK
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _arm(geometry, p4, q3, theta):
     """(q2, q4) for q3, putting wrist 1 at p4 with joints 2-4 turned by theta about n [rad]."""
     w2, w3 = _row(geometry, AXES + 1), _row(geometry, AXES + 2)
@@ -166,7 +166,7 @@ def _arm(geometry, p4, q3, theta):
     return q2, s4 * (theta - s2 * q2 - s3 * q3)
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def label_code(geometry, p_wrist, q):
     """RIGHT | UP | WRIST_UP bits (the module's definitions) of configuration q whose wrist point is at
     p_wrist [m]; the tests are made with the arm turned back by q1 (axis 1 keeps its place)."""
@@ -186,7 +186,7 @@ def label_code(geometry, p_wrist, q):
     return code
 
 
-@njit(cache=True, fastmath=FUSED)
+@inner(fastmath=FUSED)
 def _branches(geometry, X, seed, q1_min, q1_max, Q, reachable):
     """Every branch of target X (4, 4) into Q (8 per q1 value, 6) wrapped into (-pi, pi] and reachable;
     returns how many rows were written. Order per q1: wrist roots, each with elbow roots."""
@@ -226,15 +226,18 @@ def raw_branches(geometry, X, seed, q1_min, q1_max):
     return Q, reachable
 
 
-@njit(cache=True, fastmath=FUSED)
-def _solve(geometry, chain, limits, X, seed, out, info):
-    """The solutions of one target X into out, its numbers into info (``closed_form``'s layouts)."""
+@kernel(SOLVE_SIGNATURE, fastmath=FUSED)
+def solve_one(geometry, chain, limits, X, seed, out):
+    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
+    returns the target's ``info`` entries (``closed_form.solve_one``'s contract)."""
+    check_target(X, seed)
+    info = np.empty(INFO)
     values, counts, q, best, best_error = _start(out, info)
     Q = np.empty((8 * (SHOULDER_SAMPLES + 1), 6))
     reachable = np.zeros(Q.shape[0], dtype=np.bool_)
     branches = _branches(geometry, X, seed, limits[0, 0], limits[1, 0], Q, reachable)
     p_wrist = wrist_centre(geometry, X)
-    m = 0
+    m = np.int64(0)                          # not the literal 0: the helpers m goes to would compile twice
     for b in range(branches):
         if not reachable[b]:
             continue
@@ -250,24 +253,17 @@ def _solve(geometry, chain, limits, X, seed, out, info):
             m = _write_variants(chain, limits, X, values, counts, total, e_p, e_r, label_code(geometry, p_wrist, raw),
                                 _variant_count(raw, limits), q, out, m)
     finish(out, info, m, seed, best)
-
-
-@njit(SOLVE_SIGNATURE, cache=True)
-def solve_one(geometry, chain, limits, X, seed, out):
-    """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
-    returns the target's ``info`` entries (``closed_form.solve_one``'s contract)."""
-    check_target(X, seed)
-    info = np.zeros(INFO)
-    _solve(geometry, chain, limits, X, seed, out, info)
     return info_entries(info)
 
 
-@njit(BATCH_SIGNATURE, cache=True)
+@kernel(BATCH_SIGNATURE)
 def solve_batch(geometry, chain, limits, X, seeds, out, info):
     """``solve_one`` for targets X (N, 4, 4) and seeds (N, 6), into out (N, capacity, SOLUTION_COLUMNS)
     and info (N, INFO)."""
     for n in range(X.shape[0]):
-        _solve(geometry, chain, limits, X[n], seeds[n], out[n], info[n])
+        numbers = solve_one(geometry, chain, limits, X[n], seeds[n], out[n])
+        for k in range(INFO):
+            info[n, k] = numbers[k]
 
 
 @njit(cache=True, fastmath=FUSED)
