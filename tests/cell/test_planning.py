@@ -41,7 +41,7 @@ def test_ompl_gives_the_same_path_after_other_plans_and_another_seed_another(she
 def test_ompl_gives_the_same_path_in_a_fresh_process(shelf):
     model, queries = shelf
     here = _search(model, queries[HARD[0]], seed=3)
-    code = ("import numpy as np, sys; sys.path.insert(0, '.'); from .test_planning import _search; "
+    code = ("import numpy as np, sys; sys.path.insert(0, '.'); from tests.cell.test_planning import _search; "
             "from pipeline.bench.plan_sets import problem_set, set_model; m = set_model('irb1600_bookshelf'); "
             f"q = problem_set('irb1600_bookshelf', m, count=10, seed=0).queries[{HARD[0]}]; "
             "sys.stdout.write(_search(m, q, 3).tobytes().hex())")
