@@ -1,6 +1,6 @@
 """Command line: ``python -m pipeline VERB ...``, VERB one of
-{run,program,read-program,show,fk,ik,check,check-cell,bench,export,import-urdf,batch,reach,ui}. The only place that
-configures logging.
+{run,program,read-program,show,fk,ik,check,check-cell,bench,build-kernels,export,import-urdf,batch,reach,ui}.
+The only place that configures logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
 cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
@@ -447,6 +447,13 @@ def _robot_or_cell(name_or_path: str):
     return resolve_cell_path(name_or_path) if name_or_path in cell_names() else name_or_path
 
 
+def cmd_build_kernels(args) -> int:
+    """Build the IK kernels ahead of time (``make`` does it at install); exit 1 with the reason when it cannot."""
+    from .model.ik.prebuilt import main as build_prebuilt
+
+    return build_prebuilt()
+
+
 def cmd_bench(args) -> int:
     """Benchmarks beside the peers measured in the same run."""
     if args.out:
@@ -788,6 +795,15 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     bench.add_argument("--out", help="JSON file for the results")
     _add_force_option(bench)
     bench.set_defaults(func=cmd_bench)
+
+    build_kernels = _verb(sub, prog, "build-kernels", "build the IK kernels as machine code for this CPU, so "
+                          "that no first IK call compiles (make does it at install)",
+                          "Compile the IK kernels (both closed forms, single and batch, and damped least squares)\n"
+                          "ahead of time for this CPU into pipeline/model/ik/ (about a minute; needs a C compiler).\n"
+                          "A process uses them while its sources, versions and CPU match the build; otherwise IK\n"
+                          "compiles just in time (about 15 s on the first call). DH_PIPELINE_PREBUILT=0 switches\n"
+                          "them off.", [""])
+    build_kernels.set_defaults(func=cmd_build_kernels)
 
     batch = _verb(sub, prog, "batch", "run many job files on Dask workers, each into DIR/<job name>/, with "
                   "summary.csv and summary.json (exit 1 when a job failed)",

@@ -13,9 +13,9 @@ from numba.core import event
 
 #: Redraw at most this often [s].
 REDRAW_INTERVAL = 0.2
-#: What compiling takes on this machine kind for the first call that needs the most: the closed form's IK kernel,
-#: compiled when first called (measured with an empty NUMBA_CACHE_DIR, ``bench job``: 15-18 s; FK alone takes a
-#: few seconds); a burst of compiling that takes longer than COMPILE_REPORT_S says how long.
+#: What compiling takes on this machine kind for the first call that needs the most, the closed form's IK kernel
+#: (each kernel compiles when first called; measured with an empty NUMBA_CACHE_DIR, ``bench job``: 15-18 s; FK
+#: alone about 2 s); a burst of compiling that takes longer than COMPILE_REPORT_S says how long.
 FIRST_COMPILE_S = 16
 COMPILE_REPORT_S = 1.0
 

@@ -230,7 +230,8 @@ class IkBenchReport(GoalReport):
             lines += ["", (f"array layouts ({self.layouts[0].robot_name}, {self.layouts[0].targets} calls each, in "
                            "turns with the C-ordered call; median µs)")]
             lines += [f"  {row.call} on a {row.layout}: {row.other_us:.2f} µs, C-ordered {row.c_us:.2f} µs: "
-                      f"{row.ratio:.3g}x, answers {'identical' if row.identical else 'DIFFERENT'}" for row in self.layouts]
+                      f"{row.ratio:.3g}x, answers {'identical' if row.identical else 'DIFFERENT'}"
+                      for row in self.layouts]
         lines += goal_lines("Goals (issues 15, 25, 39):", self.goals, self.versions)
         return "\n".join(lines)
 

@@ -271,7 +271,14 @@ def test_a_fortran_ordered_pose_takes_the_compiled_fast_path_with_the_same_answe
         answer = robot.ik(fortran)
         assert answer.success and np.array_equal(answer.q, result.q)
         assert [s.q.tolist() for s in answer.solutions] == [s.q.tolist() for s in result.solutions]
-    assert len(closed_form.solve_one.overloads) == 1
+    assert len(closed_form.solve_one.overloads) == _just_in_time_specialisations()
+
+
+def _just_in_time_specialisations() -> int:
+    """How many specialisations an IK kernel Python has called gets: none while the prebuilt ones serve, else one."""
+    from pipeline.model.ik.prebuilt import prebuilt_status
+
+    return 0 if prebuilt_status().module is not None else 1
 
 
 def test_fk_and_the_jacobian_take_strided_joint_vectors_as_they_are(monkeypatch):
@@ -300,6 +307,22 @@ def test_fk_and_the_jacobian_take_strided_joint_vectors_as_they_are(monkeypatch)
         assert len(kernel.overloads) == 1, kernel
 
 
+def test_damped_least_squares_takes_any_layout_and_read_only_arrays_in_one_specialisation():
+    from pipeline.model.ik import descent
+
+    robot = load_robot("gp7")
+    rng = np.random.default_rng(8)
+    poses = robot.fk_batch(robot.random_configurations(rng, 5))
+    seeds = robot.random_configurations(rng, 5)
+    for X, seed in zip(poses, seeds):
+        expected = robot.ik(X, seed, method="jacobian")
+        read_only = seed.copy()
+        read_only.flags.writeable = False
+        answer = robot.ik(np.asfortranarray(X), read_only, method="jacobian")
+        assert answer.success and np.array_equal(answer.q, expected.q)
+    assert len(descent.descend.overloads) == _just_in_time_specialisations()
+
+
 def test_inner_functions_refuse_python_calls():
     """A function compiled for kernels only has no entry point for Python: a TypeError, not a crash."""
     from pipeline.model.chain import compiled
@@ -309,9 +332,10 @@ def test_inner_functions_refuse_python_calls():
 
 
 #: Which kernels a fresh process has compiled (or loaded from its cache), as JSON: after importing the IK, and
-#: after load_robot('gp7') and one robot.ik(pose); the specialisations of some functions the closed form calls.
+#: (argument "ik") after load_robot('gp7') and one robot.ik(pose), with the specialisations of some functions the
+#: closed form calls.
 _COMPILED_SCRIPT = """
-import json
+import json, sys
 import numpy as np
 from pipeline.model.chain import compiled
 from pipeline.model.ik import closed_form, descent, three_parallel
@@ -324,36 +348,44 @@ kernels = {"fk_into": compiled.fk_into, "fk_batch_into": compiled.fk_batch_into,
            "ur_solve_batch": three_parallel.solve_batch, "descend": descent.descend}
 inner = {"relative": compiled._relative, "moved": compiled._moved, "write_variants": closed_form._write_variants,
          "sort_distinct": closed_form._sort_distinct, "finish": closed_form.finish}
-imported = {name: len(kernel.overloads) for name, kernel in kernels.items()}
-X = np.array([[0.0, 0.0, 1.0, 0.5], [0.0, 1.0, 0.0, 0.1], [-1.0, 0.0, 0.0, 0.4], [0.0, 0.0, 0.0, 1.0]])
-assert load_robot("gp7").ik(X).success
-after_ik = {name: len(kernel.overloads) for name, kernel in kernels.items()}
-print(json.dumps({"imported": imported, "after_ik": after_ik,
-                  "inner": {name: len(function.overloads) for name, function in inner.items()}}))
+report = {"imported": {name: len(kernel.overloads) for name, kernel in kernels.items()}}
+if sys.argv[1:] == ["ik"]:
+    X = np.array([[0.0, 0.0, 1.0, 0.5], [0.0, 1.0, 0.0, 0.1], [-1.0, 0.0, 0.0, 0.4], [0.0, 0.0, 0.0, 1.0]])
+    assert load_robot("gp7").ik(X).success
+    report["after_ik"] = {name: len(kernel.overloads) for name, kernel in kernels.items()}
+    report["inner"] = {name: len(function.overloads) for name, function in inner.items()}
+print(json.dumps(report))
 """
 
 
-def _compiled_in_a_fresh_process(cache) -> dict:
+def _compiled_in_a_fresh_process(cache, *arguments: str) -> dict:
     import json
     import os
     import subprocess
     import sys
 
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PIPELINE_PROGRESS": "0"}
-    done = subprocess.run([sys.executable, "-c", _COMPILED_SCRIPT], env=env, capture_output=True, text=True,
-                          timeout=600, check=False)
+    from pipeline.model.ik.prebuilt import SWITCH
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PIPELINE_PROGRESS": "0", SWITCH: "0"}   # just in time
+    done = subprocess.run([sys.executable, "-c", _COMPILED_SCRIPT, *arguments], env=env, capture_output=True,
+                          text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.splitlines()[-1])
 
 
+def test_importing_the_kinematics_and_ik_compiles_nothing(tmp_path):
+    """No kernel compiles (or loads from the cache) on import: only when a call needs it."""
+    assert set(_compiled_in_a_fresh_process(tmp_path)["imported"].values()) == {0}
+
+
+@pytest.mark.slow
 def test_the_first_closed_form_call_compiles_only_the_kernel_it_uses(tmp_path):
-    """Importing compiles nothing; the first IK call of a GP7 (an empty Numba cache) compiles the spherical
-    wrist's single-call kernel, once, and none of FK, the batches, the UR family's or damped least squares'; its
-    helpers once each (a constant argument is no specialisation of its own)."""
-    first = _compiled_in_a_fresh_process(tmp_path)
-    assert set(first["imported"].values()) == {0}
+    """The first IK call of a GP7 (an empty Numba cache) compiles the spherical wrist's single-call kernel, once,
+    and none of FK, the batches, the UR family's or damped least squares'; its helpers once each (a constant
+    argument is no specialisation of its own). A second process loads the kernel from the cache."""
+    first = _compiled_in_a_fresh_process(tmp_path, "ik")
     assert {name for name, count in first["after_ik"].items() if count} == {"solve_one"}
     assert first["after_ik"]["solve_one"] == 1
     assert set(first["inner"].values()) == {1}
-    cached = _compiled_in_a_fresh_process(tmp_path)            # the second process loads it from the cache
+    cached = _compiled_in_a_fresh_process(tmp_path, "ik")
     assert cached["after_ik"] == first["after_ik"] and set(cached["inner"].values()) == {0}

@@ -57,10 +57,11 @@ def test_jacobian_round_trip(name):
 
 
 #: Seeded targets (robot, seed, index: ``bench ik``'s draw of 300 targets and 300 seeds) whose wrist centre lies
-#: 0.03-1 mm from axis 1, near a shoulder singularity, that damped least squares missed in every restart (it
-#: crawled along q1, almost free there): found by running seeds 0-319 of every preset.
-NEAR_SHOULDER_SINGULARITY = [("lrmate200id", 11, 81), ("lrmate200id", 21, 201), ("lrmate200id", 201, 197),
-                             ("gp7", 33, 92), ("irb1600", 93, 42), ("arm6", 102, 239)]
+#: 0.03-1 mm from axis 1, near a shoulder singularity: damped least squares missed the first five in every restart
+#: (it crawled along q1, almost free there), found by running seeds 0-319 of every preset; the last one its
+#: second-order step solves only with the 200 iterations a descent now has.
+NEAR_SHOULDER_SINGULARITY = [("lrmate200id", 11, 81), ("lrmate200id", 21, 201), ("gp7", 33, 92), ("irb1600", 93, 42),
+                             ("arm6", 102, 239), ("lrmate200id", 201, 197)]
 
 
 @pytest.mark.parametrize("name, seed, index", NEAR_SHOULDER_SINGULARITY)

@@ -15,10 +15,10 @@ transform, row by row (the last row is always 0 0 0 1), so no kernel allocates o
 The kernels Python calls (``kernel``) write into arrays the caller allocates (returning a new array from a
 kernel costs more than the FK itself) and have one signature each, compiled on their first call (not on
 import: a process compiles only the kernels it uses) and cached on disk beside this file. The arrays a
-caller brings (joint values, target poses, seeds) are declared with any layout, so C-ordered, Fortran-ordered
-(Drake's ``GetAsMatrix4()``) and strided float64 arrays all enter the same machine code; the arrays ``Robot``
-allocates are C-contiguous. Any other input raises TypeError, a bad length or value ValueError;
-``pipeline.model.robot.Robot`` then checks it for the typed error that names it.
+caller brings (joint values, target poses, seeds) are declared with any layout and read-only, so C-ordered,
+Fortran-ordered (Drake's ``GetAsMatrix4()``), strided and read-only float64 arrays all enter the same machine
+code; the arrays ``Robot`` allocates are C-contiguous. Any other input raises TypeError, a bad length or value
+ValueError; ``pipeline.model.robot.Robot`` then checks it for the typed error that names it.
 """
 
 from __future__ import annotations
@@ -27,15 +27,16 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.core import config
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.registry import CPUDispatcher
 
 from ...files.arrays import MAX_MAGNITUDE
 
 #: Array types of kernel signatures: float64 arrays the pipeline allocates (C-contiguous, 2- and 3-d) and
-#: float64 arrays a caller brings (any layout, 1-, 2- and 3-d).
+#: float64 arrays a caller brings, which the kernels only read (any layout, read-only or not; 1-, 2- and 3-d).
 MATRIX, STACK = "float64[:, ::1]", "float64[:, :, ::1]"
-ANY_VECTOR, ANY_MATRIX, ANY_STACK = "float64[:]", "float64[:, :]", "float64[:, :, :]"
+ANY_VECTOR, ANY_MATRIX, ANY_STACK = (f"Array(float64, {ndim}, 'A', readonly=True)" for ndim in (1, 2, 3))
 #: Kernels whose products and sums may fuse into FMA instructions (as exact or more; never reordered).
 FUSED = {"contract"}
 #: Columns of a chain row: K_i (12), then joint i's sign and kind.
@@ -56,6 +57,8 @@ def inner(**options):
     points Python would call them through (building those is most of a small function's compile time: a few
     hundredths of a second rather than about a tenth)."""
     def decorate(function):
+        if config.DISABLE_JIT:                         # as njit does: the function runs as written
+            return function
         dispatcher = _InnerDispatcher(py_func=function, locals={}, targetoptions={
             "nopython": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True, **options})
         dispatcher.enable_caching()
@@ -73,6 +76,9 @@ def kernel(signature: str, **options):
     specialisation per layout it meets.)"""
     def decorate(function):
         dispatcher = njit(cache=True, **options)(function)
+        if config.DISABLE_JIT:                         # njit gave the function back: it runs as written
+            return dispatcher
+        dispatcher.kernel_signature = signature        # what ``pipeline.model.ik.prebuilt`` builds ahead of time
         compile_signature = dispatcher.compile
 
         def compile_once(*_requested):

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...files.branch_names import SPHERICAL_WRIST, THREE_PARALLEL
 from . import closed_form, three_parallel
+from .prebuilt import python_entry
 from .result import FULL_POSE, TWO_PI, IkResult, IkTarget, Solutions, pose_errors
 
 #: Axes closer than this [m] meet; directions closer than this [1] are parallel.
@@ -167,15 +168,15 @@ def solve_analytic(robot, target: IkTarget, q_seed: np.ndarray) -> IkResult:
     solver = analytic_solver_for(robot)
     if not solver.applicable or target.kind != FULL_POSE:
         return solve_analytic_batch(robot, target.X_BE[None], q_seed[None], target.kind)[0]
-    return _solve_one(robot, solver, _for_kernel(target.X_BE), _for_kernel(q_seed))
+    return _solve_one(robot, solver, target.X_BE, q_seed)
 
 
 def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
     """``solve_analytic`` of a full pose straight from the caller's arrays (float64 of any layout: a
     pose from Drake's ``GetAsMatrix4()`` is Fortran-ordered), which the kernel checks itself: the fast
     path of single calls. None when the closed form does not fit the arm, or when the pose or seed is
-    not one the kernel takes (not a writable float64 array, or refused): the caller then checks them and
-    words the error."""
+    not one the kernel takes (not a float64 array, or refused): the caller then checks them and words the
+    error."""
     solver = analytic_solver_for(robot)
     if not solver.applicable:
         return None
@@ -187,18 +188,12 @@ def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
 
 def _solve_one(robot, solver: AnalyticSolver, X: np.ndarray, seed: np.ndarray) -> IkResult:
     out = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS))
-    numbers = solver.kernels.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
+    solve_one = python_entry(solver.kernels.solve_one)
+    numbers = solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
     if numbers[closed_form.COUNT] > SINGLE_CAPACITY:
         out = np.empty((int(numbers[closed_form.COUNT]), closed_form.SOLUTION_COLUMNS))
-        numbers = solver.kernels.solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
+        numbers = solve_one(solver.geometry, robot._chain, robot._limit_rows, X, seed, out)
     return _result(robot, solver.labels, out, numbers, X)
-
-
-def _for_kernel(array: np.ndarray) -> np.ndarray:
-    """The array as the kernels take it: writable float64 of any layout (a copy only when it is not)."""
-    if array.dtype == np.float64 and array.flags.writeable:
-        return array
-    return np.array(array, dtype=np.float64)
 
 
 #: Rows of the solution buffer of one target: enough for every branch and its 2 pi variants on most
@@ -213,10 +208,10 @@ def solve_analytic_batch(robot, X_targets: np.ndarray, seeds: np.ndarray, kind: 
     if not solver.applicable or kind != FULL_POSE:
         reason = solver.reason or f"the closed form solves full poses only, not {kind!r} targets"
         return [_failure(robot, X_targets[i], seeds[i], reason) for i in range(X_targets.shape[0])]
-    X_targets, seeds = _for_kernel(X_targets), _for_kernel(seeds)
     out = np.empty((len(X_targets), BATCH_CAPACITY, closed_form.SOLUTION_COLUMNS))
     info = np.empty((len(X_targets), closed_form.INFO))
-    solver.kernels.solve_batch(solver.geometry, robot._chain, robot._limit_rows, X_targets, seeds, out, info)
+    python_entry(solver.kernels.solve_batch)(solver.geometry, robot._chain, robot._limit_rows, X_targets, seeds, out,
+                                             info)
     results = []
     for n, X in enumerate(X_targets):
         if info[n, closed_form.COUNT] > BATCH_CAPACITY:

@@ -545,7 +545,8 @@ def solve_one(geometry, chain, limits, X, seed, out):
     """Every in-limit, FK-verified solution of target X (4, 4) nearest seed (6,) first, into out;
     returns the target's ``info`` entries (a tuple: no array to unpack; see the module's layouts).
 
-    X and the seed come unchecked: ``check_target``."""
+    X and the seed come unchecked: ``check_target``. The solver is this kernel's own body, not a function it
+    calls: a compiled function optimises again all it calls, and the first IK call compiles this one alone."""
     check_target(X, seed)
     info = np.empty(INFO)
     values, counts, q, best, best_error = _start(out, info)

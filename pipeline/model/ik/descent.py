@@ -4,10 +4,10 @@ Each step solves ``(A^T A + lambda I) v = A^T e`` (Cholesky; A the Jacobian rows
 error) with the damping ``lambda`` adapted to progress (smaller after a step that reduced the error, larger
 after one that did not), adds the geodesic acceleration ``a`` (M. K. Transtrum and J. P. Sethna, "Improvements
 to the Levenberg-Marquardt algorithm for nonlinear least-squares minimization", 2012): ``(A^T A + lambda I) a =
--A^T e''``, e'' the error's second derivative along v by finite differences from the error at ``q + PROBE v``,
-and moves by ``v + a / 2``; revolute joints are wrapped by 2 pi into their limits (the representative nearest
-the current value), then every joint is clamped to its limits. A descent allocates its work arrays once: no
-iteration allocates.
+A^T e''``, e'' the error's second derivative along v (by finite differences, from the error at
+``q + PROBE v``), and moves by ``v + a / 2`` (undamped, the step that zeroes the error to second order);
+revolute joints are wrapped by 2 pi into their limits (the representative nearest the current value), then
+every joint is clamped to its limits. A descent allocates its work arrays once: no iteration allocates.
 
 The acceleration is for targets near a singularity. Near a shoulder singularity (the wrist centre within a
 millimetre of axis 1) q1 barely moves the end and the near-solutions form a curved valley along q1, the wrist
@@ -226,7 +226,7 @@ def descend(chain, q_min, q_max, X_target, kind, q, max_iterations):
         for j in range(dof):                           # the error a PROBE of the way along v
             q_new[j] = q[j] + PROBE * step[j]
         _errors(end_pose(chain, q_new), X_target, kind, _axis_basis(x), e_new)
-        for r in range(rows):                          # minus its second derivative along v, into e_new
+        for r in range(rows):                          # e_new = the error's second derivative along v
             predicted = 0.0
             for j in range(dof):
                 predicted += A[r, j] * step[j]

@@ -15,6 +15,7 @@ from ...files.choices import FULL_POSE, POSITION_AND_AXIS, POSITION_ONLY
 from ..chain import compiled
 from . import descent
 from .branches import configuration_labels
+from .prebuilt import python_entry
 from .result import MATCHED_COMPONENTS, IkResult, IkTarget, Solution, check_search_budget, wrap_into_limits
 
 #: The kernel's code of each target kind.
@@ -25,8 +26,8 @@ def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int):
     """One damped least-squares descent from q: (q, iterations, position error [m], rotation error
     [rad], strict)."""
     limits = robot.limits
-    return descent.descend(robot._chain, limits.q_min, limits.q_max, target.X_BE,
-                           KIND_CODES[target.kind], q, max_iterations)
+    return python_entry(descent.descend)(robot._chain, limits.q_min, limits.q_max, target.X_BE,
+                                         KIND_CODES[target.kind], q, max_iterations)
 
 
 def _nearest_the_seed(robot, q: np.ndarray, q_seed: np.ndarray) -> np.ndarray:
