@@ -68,7 +68,10 @@ def test_only_arguments_of_exactly_the_signature_reach_the_machine_code():
         for value in values:
             assert _routed(closed_form.solve_one, *args[:index], value, *args[index + 1:]) == "dispatcher", \
                 (index, type(value), getattr(value, "dtype", None))
-    assert _routed(closed_form.solve_one, *args[:-1]) == "dispatcher"           # one argument short
+    with pytest.raises(TypeError, match="missing 1 required positional argument"):
+        _routed(closed_form.solve_one, *args[:-1])
+    big_endian = args[3].astype(">f8")
+    assert _routed(closed_form.solve_one, *args[:3], big_endian, *args[4:]) == "dispatcher"
 
 
 def test_integer_arguments_must_be_int64_values():
@@ -76,7 +79,7 @@ def test_integer_arguments_must_be_int64_values():
     args = [robot._chain, robot.limits.q_min, robot.limits.q_max, np.eye(4), POSE, np.zeros(6), 200]
     assert _routed(descent.descend, *args) == "machine code"
     assert _routed(descent.descend, *args[:4], np.int64(POSE), *args[5:]) == "machine code"
-    for kind in (True, 0.0, 2 ** 63, "0"):
+    for kind in (True, 0.0, 2 ** 63, -2 ** 63 - 1, "0", np.int32(0)):
         assert _routed(descent.descend, *args[:4], kind, *args[5:]) == "dispatcher", kind
 
 
