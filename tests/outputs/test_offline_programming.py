@@ -105,11 +105,12 @@ FORMATS = {
 }
 #: The language of each arm's maker (arm6, seed 004's arm of no maker, on a KUKA controller: its axis angles
 #: are its joint values).
-MAKER = {"gp7": "jbi", "lrmate200id": "ls", "irb1600": "rapid", "arm6": "krl", "ur5": "urscript"}
+MAKER = {"gp7": "jbi", "lrmate200id": "ls", "irb1600": "rapid", "arm6": "krl", "ur5": "urscript", "kr6": "krl"}
 #: Joint values [deg] the built job starts at and moves around: inside every limit, no axis at 0 or +-180 deg
 #: (a configuration field's boundary), the wrist away from its singular set.
 SEEDS = {"gp7": [5, 20, -10, 8, -70, 12], "lrmate200id": [10, 20, -10, 5, -60, 10],
-         "irb1600": [5, 10, -10, 8, 45, 12], "arm6": [15, 60, -30, 10, 50, 15], "ur5": [30, -100, 100, -90, -90, 30]}
+         "irb1600": [5, 10, -10, 8, 45, 12], "arm6": [15, 60, -30, 10, 50, 15], "ur5": [30, -100, 100, -90, -90, 30],
+         "kr6": [10, -80, 100, 15, 40, 20]}
 #: (case name, robot, job: "built" or a demo file, language).
 CASES = [
     *[(f"{robot}_built_{MAKER[robot]}", robot, "built", MAKER[robot]) for robot in SEEDS],
@@ -150,7 +151,9 @@ def references(tmp_path_factory) -> dict[str, str]:
     URDF (time to full speed 0.3 s, as the presets assume: a URDF has no acceleration limits)."""
     imported = import_urdf(DATA_DIR / "urdf" / "ur5.urdf", time_to_full_speed=0.3)
     path = imported.write(tmp_path_factory.mktemp("ur5") / "ur5.yaml")
-    return {robot: str(path) if robot == "ur5" else robot for robot in SEEDS}
+    kuka = import_urdf(DATA_DIR / "urdf" / "kuka_kr6r700sixx.urdf", time_to_full_speed=0.3, controller="kuka")
+    kr6 = kuka.write(tmp_path_factory.mktemp("kr6") / "kr6.yaml")     # KUKA's zero, $FLANGE x out of the flange
+    return {**{robot: robot for robot in SEEDS}, "ur5": str(path), "kr6": str(kr6)}
 
 
 @pytest.fixture(scope="module")

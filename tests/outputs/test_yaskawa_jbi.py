@@ -104,7 +104,7 @@ def test_moves_speeds_and_position_levels_of_the_gp7_job(programs):
     lines = [line for line in instructions(write_jbi(programs["gp7_pick_place"], "GP7", WHEN))
              if not line.startswith("'")]
     assert lines == ["MOVJ C00000 VJ=100.00", "MOVJ C00001 VJ=100.00", "MOVL C00002 V=500.0",
-                     "MOVL C00003 V=500.0 PL=3",
+                     "MOVL C00003 V=500.0",           # no PL into the arc, whose first MOVC repeats C00003
                      "MOVC C00004 V=500.0", "MOVC C00005 V=500.0", "MOVC C00006 V=500.0 PL=3",
                      "MOVL C00007 V=500.0", "MOVL C00008 V=500.0 PL=3", "MOVL C00009 V=500.0"]
 
@@ -124,7 +124,7 @@ def test_pl_is_the_largest_level_within_the_zone(zone_mm, level):
 
 def test_the_controllers_own_pl_distances_can_be_given(programs):
     lines = instructions(write_jbi(programs["gp7_pick_place"], "GP7", WHEN, pl_mm=(5, 10, 20, 40, 60, 80, 100, 120)))
-    assert "MOVL C00003 V=500.0 PL=5" in lines
+    assert "MOVC C00006 V=500.0 PL=5" in lines
     with pytest.raises(ConfigurationError, match="8 increasing distances"):
         write_jbi(programs["gp7_pick_place"], "GP7", WHEN, pl_mm=(1, 2, 3))
 

@@ -23,6 +23,17 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   programmed speed (CNT100 rounds over about that distance, so the corner is not cut by more than the zone
   at the programmed speed); otherwise half the shorter of the two neighbouring TCP moves (the largest zone
   the program may have). The zone in mm and the reach are stated in a comment line before each CNT move.
+  Why CNT and not a distance: the corner-region option of the R-30iB writes ``CNT100 CR50`` (CR in mm), but it is
+  an option that not every controller generation or configuration has, and a program using it does not load
+  where it is missing; CNT loads on every controller, so it is written with the reason in the header.
+* Frames: ``/MN`` starts with ``UFRAME_NUM=0 ;`` and ``UTOOL_NUM=1 ;``, the frames every point names (``UF : 0,
+  UT : 1``): a point whose UF/UT differs from the active frame numbers stops the program with an INTP-250-class
+  alarm (user frame number mismatch; a third-party knowledge-base page, unverified for the tool frame).
+* Load: LS has no load data of its own (``PAYLOAD[n]`` selects a payload schedule whose mass and centre of mass
+  are system settings on the controller: not written here); the job's payload (mass [kg], centre of mass in
+  the flange frame [mm]) is a comment, or a PLACEHOLDER comment when the job gives none.
+* Name and job: the program name is never a word of the format or of the TP instructions (``names``); a comment
+  line records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
 * Points: ``P[i]{ GP1: UF : 0, UT : 1, CONFIG : 'F/N U/D T/B, t1, t4, t6', X Y Z W P R }`` for poses, the
   TCP in user frame 0 (FANUC's world frame) in mm, W P R in deg as FANUC defines them: rotations about the
   fixed x, y, z axes of the frame, R = Rz(R) Ry(P) Rx(W); CONFIG from ``pipeline.model.vendors.configuration``.
@@ -51,28 +62,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import ConfigurationError, ConfigurationNotFoundError
-from ...files.atomic import WRITTEN_BY
+from ...errors import ConfigurationError, ConfigurationNotFoundError, OutputError
+from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_position_to_pose
 from ...model.vendors.axes import FANUC, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
+from ...model.vendors.controller import controller_frames, frames_words
 from ...model.vendors.selection import select_solution
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
 
-#: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
-#: with its source (ROS-Industrial descriptions: the ``base_link-base`` transform to the maker's frame).
-CONTROLLER_FRAMES = {
-    ("lrmate200id", "fanuc"): (0.330, ("FANUC world frame: 330 mm above the mounting face (ROS-Industrial "
-                                       "fanuc_lrmate200id_support, base_link-base)")),
-    ("gp7", "yaskawa"): (0.330, ("Yaskawa robot frame: 330 mm above the mounting face (ROS-Industrial "
-                                 "motoman_gp7_support, base_link-base)")),
-}
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
 NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
 FANUC_SPEED_MM_S = (1, 2000)
 MM, DEG = 1000.0, 180.0 / math.pi
+#: The user frame and tool frame numbers every point names and /MN selects (module docstring, "Frames").
+USER_FRAME, TOOL_FRAME = 0, 1
 _SEPARATOR = ",\t"
 
 
@@ -134,11 +140,13 @@ def via_point(program: Program, move: Move, vendor: str) -> Point:
 
 
 def controller_frame(robot, vendor: str) -> tuple[float, str]:
-    """(height [m] of the controller's robot frame above our base frame, what it rests on)."""
-    known = CONTROLLER_FRAMES.get((robot.name, vendor))
-    if known is not None:
-        return known
-    return 0.0, f"{robot.name} has no published {vendor} robot frame: positions are in our base frame (mounting face)"
+    """(height [m] of the controller's robot frame above our base frame, what it rests on): the robot file's
+    ``vendor`` controller section's base frame (``model.vendors.controller``), which must be a lift along z."""
+    X = controller_frames(robot, vendor)[0]
+    if not np.allclose(X[:3, :3], np.eye(3), atol=1e-12) or np.abs(X[:2, 3]).max() > 1e-12:
+        raise OutputError(f"{robot.name}: the {vendor} controller section's base frame is not our base frame lifted "
+                          "along z: not written here")
+    return float(X[2, 3]), frames_words(robot, vendor, "robot frame", "flange", "configuration")
 
 
 def xyz_rpy(X_BT: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
@@ -234,12 +242,13 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
     height, frame = controller_frame(program.robot, FANUC)
-    comments = comment_lines(_header_text(program, frame))
+    comments = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+                *comment_lines(payload_text(program, "PAYLOAD schedule (UT 1)"))]
     motions = program_points(program, FANUC)
     zones = [line for motion in motions if motion.zone > 0.0 for line in comment_lines(_zone_comment(program, motion))]
     configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
     lint(program, FANUC_LS, name, comments + zones, configs)
-    lines = [f"!{line}" for line in comments]
+    lines = [f"UFRAME_NUM={USER_FRAME}", f"UTOOL_NUM={TOOL_FRAME}", *(f"!{line}" for line in comments)]
     positions, index = [], 0
     for motion in motions:
         labels = []
@@ -260,7 +269,19 @@ def _header_text(program: Program, frame: str) -> str:
             "speed profile for each move, "
             "not the certified one: timing and the path in zones differ. It stops (FINE) at every waypoint "
             f"without a zone. UT 1 = {tool_text(program)} (x y z w p r, mm deg). {frame}. Loading .ls needs the "
-            "ASCII Program Loader option (or MakeTP offline).")
+            "ASCII Program Loader option (or MakeTP offline). CNTn is a speed-dependent percentage, not a distance: "
+            "n is made from the zone (its mm stated before each CNT move); the CR option (mm) is not on every "
+            "controller.")
+
+
+def payload_text(program: Program, where: str) -> str:
+    """A comment: the job's payload (mass [kg], centre of mass in the flange frame [mm]) to set in ``where``, or a
+    PLACEHOLDER when the job gives none (the module docstring's "Load")."""
+    payload = program.payload
+    if payload is None:
+        return f"PLACEHOLDER: the job gives no payload: set the real one in {where}"
+    com = " ".join(f"{v:.1f}" for v in rounded(payload.com * MM, 1))
+    return f"payload {payload.mass:g} kg, com {com} mm (flange): set it in {where}"
 
 
 def _zone_comment(program: Program, motion: Motion) -> str:
@@ -300,7 +321,7 @@ def _motion(program: Program, motion: Motion, labels: list[str]) -> str:
 
 def _position(program: Program, index: int, point: Point, height: float) -> str:
     """One /POS entry: joints as the pendant shows them, or CONFIG and X Y Z W P R."""
-    head = f"P[{index}]{{\n   GP1:\n\tUF : 0, UT : 1,"
+    head = f"P[{index}]{{\n   GP1:\n\tUF : {USER_FRAME}, UT : {TOOL_FRAME},"
     if point.in_joints:
         J = rounded(axis_angles(program.robot, point.q, FANUC), 3)
         values = [f"J{i + 1}= {v:10.3f} deg" for i, v in enumerate(J)]

@@ -5,7 +5,7 @@ writer calls ``lint(program, language, ...)`` once, before writing anything, and
 The rules, each with one table row per language (``LIMITS``, every limit with its source):
 
 * names and comments within the language's limits: the program (module, job) name's length and
-  characters, and every comment line the writer passes;
+  characters, not a reserved word (``names``), and every comment line the writer passes;
 * points per file: at most the positions one program file may hold, where the language has such a limit;
 * zones: a move's zone [m] no larger than half of either neighbouring move's length (the controller would
   silently shrink it: KUKA's approximation distance is at most half of the move, KSS expert programming,
@@ -142,6 +142,12 @@ def check_name(language: str, name: str) -> None:
     if not re.fullmatch(limits.name_pattern, name):
         raise ControllerLintError(language, None, "name", name, f"not a {language} name ({limits.name_pattern}; "
                                                                 f"{limits.sources})")
+    from .names import PREFIX, is_reserved      # names builds on this module's LIMITS
+
+    if is_reserved(language, name):
+        raise ControllerLintError(language, None, "name", name, f"a reserved word of {language} or a name its writer "
+                                                                f"declares (pipeline.outputs.controllers.names); "
+                                                                f"e.g. {PREFIX}{name}")
 
 
 def check_comment(language: str, line: str) -> None:

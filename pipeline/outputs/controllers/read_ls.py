@@ -191,6 +191,8 @@ def _motions(tree: Tree) -> tuple[list[dict], list[list[str]], list[str]]:
         if node.data == "comment":
             pending.append(str(node.children[0])[1:])
             continue
+        if node.data == "frame_select":         # UFRAME_NUM / UTOOL_NUM: the frames the points name
+            continue
         header = pending if header is None else header
         refs = [int(ref.children[0]) for ref in node.find_data("point_ref")]
         speed, termination = node.children[-2], node.children[-1].children[0]
