@@ -246,7 +246,8 @@ def cmd_program(args) -> int:
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
     from .program.job import load_job
-    from .runner import LANGUAGE_TITLES, SERVO_PERIOD_S, program_name, program_texts, timed_program
+    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, program_name, program_texts,
+                         timed_program)
 
     from .outputs.controllers.krl import KRC2
     from .outputs.controllers.urscript import check_servo_period
@@ -257,6 +258,7 @@ def cmd_program(args) -> int:
     if args.krl_generation is not None and args.lang != "krl":
         raise OutputError(f"--krl-generation is the KUKA controller generation of a KRL program; {args.lang} has none")
     job = load_job(args.job)
+    check_language_arm(job.robot, args.lang)
     name, targets = _program_targets(args.lang, program_name(args.lang, job.name), Path(args.out or "."))
     for path in targets.values():
         prepare_file_target(path, args.force, job.name, _keep_both(args.lang, name, path))
@@ -655,7 +657,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                     f"({', '.join(languages)})",
                     "Compile and time a job as run does (a job that fails is never written), then write its program\n"
                     "in a controller's own language: ABB RAPID (.mod), FANUC LS (.ls), Yaskawa INFORM (.jbi),\n"
-                    "KUKA KRL (.src + .dat), URScript (.script, with the certified profile's servoj replay). The\n"
+                    "KUKA KRL (.src + .dat), URScript (.script, with the certified profile's servoj replay; for a\n"
+                    "Universal Robots arm only: a robot file with controller: {maker: ur}). The\n"
                     "program's name is the job's, made valid for the language (the file's header says so when\n"
                     "it changed). The controller plans its own velocity profile for native moves.",
                     ["trajectories/jobs/gp7_pick_place.yaml --lang jbi --out out/controller",

@@ -196,6 +196,15 @@ def program_name(language: str, job_name: str) -> str:
     return legal_name(language, job_name)
 
 
+def check_language_arm(robot, language: str) -> None:
+    """OutputError naming the robot and its file unless ``language`` can move ``robot`` (URScript: a Universal
+    Robots arm, ``urscript.check_arm``): checked before a job is planned and timed (the writer checks again)."""
+    if language == "urscript":
+        from .outputs.controllers.urscript import check_arm
+
+        check_arm(robot)
+
+
 #: URScript's servoj replay period [s] by default: an e-Series controller's (a CB3's is 0.008 s).
 SERVO_PERIOD_S = 0.002
 

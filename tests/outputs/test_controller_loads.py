@@ -30,6 +30,8 @@ from pipeline.program.job import Payload, load_job, parse_job
 from pipeline.program.model import CIRCULAR
 from pipeline.runner import program_name
 
+from .test_urscript import UR5_JOB
+
 ROOT = Path(__file__).resolve().parents[2]
 JOBS = ROOT / "trajectories" / "jobs"
 GP7_JOB = JOBS / "gp7_pick_place.yaml"
@@ -39,6 +41,12 @@ PAYLOAD = Payload(2.5, np.array([0.0, 0.01, 0.08]))
 @pytest.fixture(scope="module")
 def gp7():
     return compile_job(load_job(GP7_JOB))
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    """test_urscript's UR5 job compiled: URScript is written for UR arms only."""
+    return compile_job(parse_job(UR5_JOB, source="ur5_job.yaml"))
 
 
 def test_krl_default_generation_writes_c_ptp_on_ptp_and_reads_back(gp7):
@@ -62,25 +70,26 @@ def test_krl_default_generation_writes_c_ptp_on_ptp_and_reads_back(gp7):
 @pytest.mark.parametrize("language, reserved", [("krl", "END"), ("krl", "XP1"), ("rapid", "MODULE"),
                                                 ("rapid", "tool_job"), ("jbi", "NOP"), ("ls", "END"),
                                                 ("urscript", "def")])
-def test_reserved_job_names_get_a_prefix_and_are_refused_as_given(gp7, language, reserved):
-    """`DEF END( )` is not KRL: a job named END becomes P_END; the writers refuse a reserved name."""
+def test_reserved_job_names_get_a_prefix_and_are_refused_as_given(gp7, ur5, language, reserved):
+    """`DEF END( )` is not KRL: a job named END becomes P_END; the writers refuse a reserved name (URScript's on
+    the UR5, an arm it writes for)."""
     assert program_name(language, reserved).upper() == f"P_{reserved}".upper()
     writers = {"krl": write_krl, "rapid": write_rapid, "jbi": write_jbi, "ls": write_ls, "urscript": write_urscript}
-    with pytest.raises((ControllerLintError, OutputError)):
-        writers[language](gp7, reserved)
+    with pytest.raises((ControllerLintError, OutputError), match="name"):
+        writers[language](ur5 if language == "urscript" else gp7, reserved)
 
 
-def test_payload_is_written_in_every_language_and_a_placeholder_without(gp7):
+def test_payload_is_written_in_every_language_and_a_placeholder_without(gp7, ur5):
     loaded = dataclasses.replace(gp7, payload=PAYLOAD)
     src, _ = write_krl(loaded, "GP7")
     assert "$LOAD.M = 2.500" in src and "$LOAD.CM = {X 0.000,Y 10.000,Z 80.000,A 0.0,B 0.0,C 0.0}" in src
     assert "PLACEHOLDER" in write_krl(gp7, "GP7")[0]
     assert "[TRUE,[[0,0,120],[1,0,0,0]],[2.5,[0,10,80],[1,0,0,0],0,0,0]]" in write_rapid(loaded, "GP7")
     assert "PLACEHOLDER" in write_rapid(gp7, "GP7")
-    script = write_urscript(loaded, "gp7")
+    script = write_urscript(dataclasses.replace(ur5, payload=PAYLOAD), "ur5")
     assert "  set_payload(2.5, [0.0, 0.01, 0.08])" in script.splitlines()
-    assert read_urscript(script, "gp7")["payload"] == {"mass": 2.5, "com": [0.0, 0.01, 0.08]}
-    assert "PLACEHOLDER" in write_urscript(gp7, "gp7")
+    assert read_urscript(script, UR5_JOB["robot"])["payload"] == {"mass": 2.5, "com": [0.0, 0.01, 0.08]}
+    assert "PLACEHOLDER" in write_urscript(ur5, "ur5")
     for writer in (write_ls, write_jbi):
         assert "payload 2.5 kg" in writer(loaded, "GP7") and "PLACEHOLDER" in writer(gp7, "GP7")
 
@@ -116,11 +125,11 @@ def test_jbi_has_no_zone_into_an_arc_and_ends_with_end(gp7):
     assert instructions[-1] == "END"
 
 
-def test_urscript_calls_its_program(gp7):
-    lines = write_urscript(gp7, "gp7").splitlines()
-    assert lines[0] == "def gp7():" and lines[-2:] == ["end", "gp7()"]
+def test_urscript_calls_its_program(ur5):
+    lines = write_urscript(ur5, "ur5").splitlines()
+    assert lines[0] == "def ur5():" and lines[-2:] == ["end", "ur5()"]
     with pytest.raises(Exception, match="other"):
-        read_urscript("\n".join(lines[:-1] + ["other()"]) + "\n", "gp7")
+        read_urscript("\n".join(lines[:-1] + ["other()"]) + "\n", UR5_JOB["robot"])
 
 
 def test_urscript_replay_guard_names_the_length_and_a_period_that_fits():

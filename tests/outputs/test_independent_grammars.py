@@ -17,7 +17,7 @@ grammar where one exists, and passes structural checks written from the manuals 
 Every demo job in ``trajectories/jobs/*.yaml`` is written in every language through the real CLI path
 (``python -m pipeline program JOB --lang L --out DIR``, in process: ``pipeline.__main__.main``), into a temporary
 folder; the 5-axis arm5 jobs must be refused by every writer (a controller program needs a 6-axis arm) and write
-nothing. The cases of test_offline_programming (built jobs for every preset and a UR5, written by the writers
+nothing, and so must URScript for every arm that is not a Universal Robots one (no demo job's is). The cases of test_offline_programming (built jobs for every preset and a UR5, written by the writers
 directly) are checked too.
 """
 
@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import pytest
 
 from pipeline.__main__ import PROGRAM_SUFFIXES, main
+from pipeline.model.vendors.controller import controller_of
 from pipeline.outputs.controllers.fanuc_ls import write_ls
 from pipeline.outputs.controllers.krl import write_krl
 from pipeline.outputs.controllers.urscript import MAX_REPLAY_LINES
@@ -255,9 +256,16 @@ def test_every_demo_job_in_jbi_passes_the_structural_rules(demo_programs, job):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("job", DEMO_JOBS)
-def test_every_demo_job_in_urscript_runs_its_motion(demo_programs, job):
-    text = demo(demo_programs, job, "urscript")[".script"]
-    assert structure_checks.urscript_problems(text, MAX_REPLAY_LINES) == []
+def test_every_demo_job_in_urscript_runs_its_motion_or_is_refused_off_a_ur_arm(demo_programs, job):
+    """URScript runs on Universal Robots controllers only: a UR arm's demo job must run its motion, any other arm's
+    is refused (exit 2, the message naming the fix, nothing written); the UR5 cases above run theirs."""
+    if getattr(controller_of(load_job(JOBS / f"{job}.yaml").robot), "maker", None) == "ur":
+        text = demo(demo_programs, job, "urscript")[".script"]
+        assert structure_checks.urscript_problems(text, MAX_REPLAY_LINES) == []
+        return
+    run = demo_programs[job, "urscript"]
+    assert run.code == 2 and not run.files, run
+    assert (REFUSAL if job in REFUSED else "add 'controller: {maker: ur}'") in run.stderr, run.stderr
 
 
 @pytest.mark.slow

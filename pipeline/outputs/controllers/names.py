@@ -4,7 +4,7 @@ rule that makes a legal name of any job name (``legal_name``), which every write
 The rule: characters other than letters, digits and ``_`` become ``_``; FANUC and Yaskawa names upper case;
 ``P_`` before a name that does not start with a letter, is a reserved word of the language (compared as the
 language compares names: RAPID, KRL, INFORM and LS ignore case, URScript does not) or is a name the writer
-itself declares in the same file (``WRITER_NAMES``); cut to the language's length (``lint.LIMITS``). The prefixed
+itself declares in the same file (``WRITER_NAMES``); cut to the language's length (``NAME_MAX``). The prefixed
 name is an ordinary identifier, which every reader takes back.
 
 Reserved words, per language:
@@ -26,7 +26,11 @@ from __future__ import annotations
 
 import re
 
-from .lint import FANUC_LS, JBI, KRL, RAPID, URSCRIPT, language_limits
+#: The controller languages (``lint`` checks each, ``runner`` writes each).
+RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
+LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
+#: The longest program name of each language [characters; None: any length] (sources: ``lint.LIMITS``).
+NAME_MAX = {RAPID: 32, FANUC_LS: 8, JBI: 8, KRL: 24, URSCRIPT: None}
 
 RESERVED_WORDS = {
     RAPID: frozenset((
@@ -81,4 +85,4 @@ def legal_name(language: str, job_name: str) -> str:
         name = name.upper()
     if not name[:1].isalpha() or is_reserved(language, name):
         name = f"{PREFIX}{name}"
-    return name[:language_limits(language).name_max].rstrip("_")
+    return name[:NAME_MAX[language]].rstrip("_")

@@ -13,10 +13,13 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   per module: run it with "PP to Routine", or call it from the task's own ``main``. The module name is never a
   name the module declares (``names``: a job ``tool_job`` becomes module ``P_tool_job``).
 * The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
+* Frames: the controller's base frame and tool0 are the robot file's abb controller section's (``controller.
+  controller_frames``; our base and end frames without one): robtargets are in its base frame, tframe is the
+  tool on its tool0, and a header line says where they come from (``controller.frames_words``).
 * ``wobjdata``: without a cell, or with the robot's base at the cell's origin, ``wobj0`` (targets in the
-  robot's base frame). Otherwise a work object whose user frame is the robot's base in the cell (X_WB), so
-  that the targets stay in the robot's base frame: the controller's base frame (system parameters) must then
-  be X_WB in its world frame, as in the cell.
+  controller's base frame). Otherwise a work object whose user frame is the controller's base frame in the
+  cell (X_WB X_B_base), so that the targets stay in that frame: the controller's base frame (system
+  parameters) must then be that pose in its world frame, as in the cell.
 * ``robtarget`` [trans, rot, robconf, extax]: the TCP in the work object, position [mm] rounded to 0.001 mm,
   orientation as the unit quaternion [q1 (scalar), q2, q3, q4] with q1 >= 0 rounded to 1e-6, ``confdata``
   [cf1, cf4, cf6, cfx] (``pipeline.model.vendors.configuration``; the axis map of ``pipeline.model.vendors.axes``
@@ -59,7 +62,8 @@ from ...errors import OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ...model.vendors import selection
-from ...model.vendors.axes import ABB, axis_angles, axis_map
+from ...model.vendors.axes import ABB, axis_angles
+from ...model.vendors.controller import controller_frames, frames_words
 from ...model.vendors.configuration import format_configuration
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .lint import RAPID, lint
@@ -130,9 +134,12 @@ def pose_text(X: np.ndarray) -> str:
     return f"[{numbers(position * 1e3, MM)},{numbers(quaternion, QUATERNION)}]"
 
 
-def written_pose(X: np.ndarray) -> np.ndarray:
+def written_pose(X: np.ndarray, X_B_base: np.ndarray | None = None) -> np.ndarray:
     """The pose (4, 4) [m] a controller reads from ``pose_text(X)``: the rounded position and the rounded
-    quaternion normalised."""
+    quaternion normalised; with ``X_B_base`` (the controller's base frame in ours), X is in our base frame and
+    written in its."""
+    if X_B_base is not None:
+        return X_B_base @ written_pose(np.linalg.inv(X_B_base) @ X)
     quaternion, position = pose_to_quaternion_position(X)
     quaternion = np.round(quaternion, QUATERNION)
     return quaternion_position_to_pose(quaternion / np.linalg.norm(quaternion), np.round(position * 1e3, MM) / 1e3)
@@ -143,7 +150,8 @@ def written_configuration(robot, X: np.ndarray, q: np.ndarray) -> np.ndarray:
     [rad]: ``selection.written_configuration`` of the pose as the module rounds it (``written_pose``), within
     WRITTEN_JOINTS_RAD of q (an axis on a quadrant boundary, a multiple of 90 deg, may be written on the side
     its rounded robtarget selects)."""
-    return selection.written_configuration(robot, written_pose(X), q, ABB, WRITTEN_JOINTS_RAD,
+    return selection.written_configuration(robot, written_pose(X, controller_frames(robot, ABB)[0]), q, ABB,
+                                           WRITTEN_JOINTS_RAD,
                                              f"the robtarget, rounded to {MM} decimals of mm and {QUATERNION} of "
                                              "the quaternion,")
 
@@ -214,9 +222,12 @@ class _Module:
         self.instructions: list[str] = []
         X_WB = None if program.cell is None else program.cell.X_WB
         self.wobj = "" if X_WB is None or np.allclose(X_WB, np.eye(4), atol=1e-12) else f"\\WObj:={WOBJ}"
-        self.declare(TOOL, "tooldata", f"[TRUE,{pose_text(program.tool.X_FT)},{load_text(program)}]")
-        if self.wobj:
-            self.declare(WOBJ, "wobjdata", f"[FALSE,TRUE,\"\",{pose_text(X_WB)},[[0,0,0],[1,0,0,0]]]")
+        self.X_B_base, X_E_flange = controller_frames(program.robot, ABB)
+        tframe = np.linalg.inv(X_E_flange) @ program.tool.X_FT                 # on the controller's tool0
+        self.declare(TOOL, "tooldata", f"[TRUE,{pose_text(tframe)},{load_text(program)}]")
+        if self.wobj:                                       # uframe: the controller's base frame in the cell
+            uframe = pose_text(X_WB @ self.X_B_base)
+            self.declare(WOBJ, "wobjdata", f"[FALSE,TRUE,\"\",{uframe},[[0,0,0],[1,0,0,0]]]")
 
     def declare(self, name: str, datatype: str, value: str | None) -> None:
         if value is not None:
@@ -230,7 +241,8 @@ class _Module:
     def robtarget(self, name: str, X: np.ndarray, q: np.ndarray) -> str:
         robot = self.program.robot
         conf = format_configuration(ABB, written_configuration(robot, X, q))
-        self.declare(name, "robtarget", f"[{pose_text(X)[1:-1]},{conf},{EXTERNAL_AXES}]")
+        pose = pose_text(np.linalg.inv(self.X_B_base) @ X)                   # in the controller's base frame
+        self.declare(name, "robtarget", f"[{pose[1:-1]},{conf},{EXTERNAL_AXES}]")
         return name
 
     def speed(self, move: Move) -> str:
@@ -299,7 +311,7 @@ class _Module:
             "  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move",
             f"- joint moves are axis-interpolated, not the job's path shape ({program.path or 'default'})",
             "confdata [cf1,cf4,cf6,cfx] from each target's joint values; ConfJ/ConfL \\On keep them.",
-            f"Axis map: {axis_map(program.robot, ABB).source}.",
+            frames_words(program.robot, ABB, "the base frame", "tool0", "confdata and jointtargets") + ".",
             job_mark(program.job_name or program.name),
             (f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one."
              if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (no inertia)."),

@@ -39,7 +39,8 @@ lists and poses; "Module motion" for the functions):
   (the controller keeps its installation's payload).
 * The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``); the name is never a keyword
   nor a name the program defines (``names``).
-* Arms: ``check_arm`` refuses what URScript cannot move (the one place an arm's maker is checked).
+* Arms: ``check_arm`` refuses what URScript cannot move (the one place an arm's maker is checked): an arm
+  that is not 6-joint, or whose robot file has no controller section of maker ``ur`` (Universal Robots).
 """
 
 from __future__ import annotations
@@ -54,9 +55,10 @@ from scipy.spatial.transform import Rotation
 
 from ...errors import OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
+from ...model.vendors.controller import controller_of
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...timing.profile import Profile
-from .lint import URSCRIPT, lint
+from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -85,7 +87,7 @@ def write_urscript(program: Program, name: str, profile: Profile | None = None, 
     the name and the header comments (ControllerLintError; URScript writes no configuration data)."""
     check_name(name)
     _check_replay_options(period, lookahead_time, gain)
-    check_arm(program)
+    check_arm(program.robot)
     header = _header(program, name, profile, period, lookahead_time, gain)
     lint(program, URSCRIPT, name, header)
     moves = _native_moves(program)
@@ -104,10 +106,19 @@ def write_urscript(program: Program, name: str, profile: Profile | None = None, 
     return "\n".join(lines + ["end", f"{name}()", ""])
 
 
-def check_arm(program: Program) -> None:
-    """OutputError unless URScript can move the program's robot: a 6-joint arm."""
-    if program.robot.dof != 6:
-        raise OutputError(f"{program.robot.name}: URScript moves a 6-joint arm, this one has {program.robot.dof}")
+def check_arm(robot) -> None:
+    """OutputError unless URScript can move ``robot`` (a Robot): a 6-joint arm whose robot file's controller
+    section names the maker ``ur`` (a Universal Robots controller runs URScript, no other does)."""
+    if robot.dof != 6:
+        raise OutputError(f"{robot.name}: URScript moves a 6-joint arm, this one has {robot.dof}")
+    maker = getattr(controller_of(robot), "maker", None)
+    if maker != "ur":
+        has = "no controller section" if maker is None else f"a controller section of maker {maker}"
+        own = [language for language, limits in LIMITS.items() if limits.vendor and maker in (None, limits.vendor)]
+        raise OutputError(f"{robot.name}: URScript runs only on a Universal Robots controller, and the robot file "
+                          f"{robot.spec.source} has {has}: for a UR arm add 'controller: {{maker: ur}}' to the robot "
+                          "file (models/README.md, \"The controller section\"); else write the program in its "
+                          f"maker's language (--lang {'/'.join(own)})")
 
 
 def payload_line(program: Program) -> str:
