@@ -27,7 +27,7 @@ import numpy as np
 from .errors import ConfigurationError, FileFormatError, OutputError, PipelineError
 from .files.atomic import WRITTEN_BY, prepare_file_target, staged_output, write_text_atomic
 from .files.choices import DEFAULT_MAX_DURATION_S
-from .files.robot_spec import preset_names
+from .files.robot_spec import CONTROLLER_MAKERS, preset_names
 from .model.chain.singularity import compute_singularity
 from .model.robot import load_robot
 from .timing import DEFAULT_MAX_SAMPLES
@@ -185,7 +185,7 @@ def cmd_import_urdf(args) -> int:
 
     prepare_file_target(args.out, args.force)
     imported = import_urdf(args.urdf, base=args.base, tip=args.tip, convention=args.convention, name=args.name,
-                           time_to_full_speed=args.time_to_full_speed)
+                           time_to_full_speed=args.time_to_full_speed, controller=args.controller)
     imported.write(args.out, args.force)
     chain = imported.chain
     print(imported.robot)
@@ -246,24 +246,44 @@ def cmd_program(args) -> int:
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
     from .program.job import load_job
-    from .runner import LANGUAGE_TITLES, SERVO_PERIOD_S, program_name, program_texts, timed_program
+    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, program_name, program_texts,
+                         timed_program)
 
+    from .outputs.controllers.krl import KRC2
     from .outputs.controllers.urscript import check_servo_period
 
     if args.servo_period is not None and args.lang != "urscript":
         raise OutputError(f"--servo-period is the period of URScript's servoj replay; {args.lang} has none")
     period = check_servo_period(SERVO_PERIOD_S if args.servo_period is None else args.servo_period)
+    if args.krl_generation is not None and args.lang != "krl":
+        raise OutputError(f"--krl-generation is the KUKA controller generation of a KRL program; {args.lang} has none")
     job = load_job(args.job)
+    check_language_arm(job.robot, args.lang)
     name, targets = _program_targets(args.lang, program_name(args.lang, job.name), Path(args.out or "."))
     for path in targets.values():
-        prepare_file_target(path, args.force)
+        prepare_file_target(path, args.force, job.name, _keep_both(args.lang, name, path))
     program, _, profile = timed_program(job, args.max_samples, args.max_duration)
-    texts = program_texts(job, args.lang, program, profile, name, period)
+    texts = program_texts(job, args.lang, program, profile, name, period, args.krl_generation or KRC2)
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
     for suffix, text in texts.items():
         print(f"wrote {write_text_atomic(targets[suffix], text, args.force)}")
     return 0
+
+
+def _keep_both(language: str, name: str, path: Path) -> str:
+    """How to keep another job's program at ``path`` and write this one too: another folder, or a job name
+    that gives a program name still free in that folder (e.g. GP7_PIC2 for GP7_PICK)."""
+    from .runner import program_name
+
+    example = ""
+    for n in range(2, 100):
+        free = program_name(language, f"{name[:len(name) - len(str(n))]}{n}")
+        if not path.with_name(free + path.suffix).exists():
+            example = f" (free here: {free}, e.g. from a job file named {free.lower()}.yaml)"
+            break
+    return (f"to keep both, write this one into another folder (--out DIR) or rename the job so that its program "
+            f"name differs{example}")
 
 
 def _program_targets(language: str, name: str, out: Path) -> tuple[str, dict[str, Path]]:
@@ -637,7 +657,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                     f"({', '.join(languages)})",
                     "Compile and time a job as run does (a job that fails is never written), then write its program\n"
                     "in a controller's own language: ABB RAPID (.mod), FANUC LS (.ls), Yaskawa INFORM (.jbi),\n"
-                    "KUKA KRL (.src + .dat), URScript (.script, with the certified profile's servoj replay). The\n"
+                    "KUKA KRL (.src + .dat), URScript (.script, with the certified profile's servoj replay; for a\n"
+                    "Universal Robots arm only: a robot file with controller: {maker: ur}). The\n"
                     "program's name is the job's, made valid for the language (the file's header says so when\n"
                     "it changed). The controller plans its own velocity profile for native moves.",
                     ["trajectories/jobs/gp7_pick_place.yaml --lang jbi --out out/controller",
@@ -648,6 +669,9 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     program.add_argument("--out", metavar="FILE_OR_DIR", help="a file with the language's suffix (KRL: the .src, "
                          "its .dat beside it), or a folder for NAME.<suffix> (default: the current folder)")
     _add_force_option(program)
+    program.add_argument("--krl-generation", choices=("krc2", "kss8"),
+                         help="krl: the KUKA controller generation: krc2 (default; KR C2 / KSS 5, PTP zones as C_PTP, "
+                              "what a plain KRL parser accepts) or kss8 (KR C4, PTP zones as C_DIS)")
     program.add_argument("--servo-period", type=_seconds, metavar="SECONDS",
                          help="urscript: the controller period of the servoj replay (default 0.002, e-Series; "
                               "0.008 on a CB3)")
@@ -730,7 +754,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                     "Turn the serial chain of a URDF (from --base to --tip) into a robot file: a DH table from\n"
                     "the joint axes, limits, inertias and provenance; its forward kinematics is checked against\n"
                     "the URDF's before anything is written.",
-                    ["irb1600.urdf --out irb1600.yaml", "ur5.urdf --out ur5.yaml --tip tool0 --convention modified"])
+                    ["irb1600.urdf --out irb1600.yaml", "ur5.urdf --out ur5.yaml --tip tool0 --convention modified",
+                     "kr6r700sixx.urdf --out kr6.yaml --controller kuka"])
     urdf_in.add_argument("urdf", help="the URDF file (xacro must be expanded first)")
     urdf_in.add_argument("--out", required=True, metavar="ROBOT.yaml", help="the robot file to write")
     _add_force_option(urdf_in)
@@ -743,6 +768,10 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     urdf_in.add_argument("--time-to-full-speed", type=_seconds, metavar="SECONDS",
                          help="fill in the acceleration limits a URDF lacks: qdd_max = qd_max / SECONDS per joint "
                               "(e.g. 0.25; recorded in the file's provenance)")
+    urdf_in.add_argument("--controller", choices=list(CONTROLLER_MAKERS), metavar="MAKER",
+                         help="give the robot file a controller section for this maker's controller (abb, fanuc, "
+                              "yaskawa, kuka, ur) from the conventions of ROS-Industrial's descriptions: axis map, "
+                              "base and flange frames, elbow-up pose (models/README.md)")
     urdf_in.set_defaults(func=cmd_import_urdf)
 
     check_cell = _verb(sub, prog, "check-cell", "print a cell, its collision model and the robot's clearance at "

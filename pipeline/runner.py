@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import functools
 import logging
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -189,21 +188,21 @@ def reported_program(job: Job, max_samples: int = DEFAULT_MAX_SAMPLES,
 
 
 def program_name(language: str, job_name: str) -> str:
-    """A valid program name in ``language`` made from ``job_name``: characters other than letters, digits
-    and _ become _, FANUC and Yaskawa names upper case, ``P_`` before a name that does not start with a
-    letter or is a reserved word, cut to the language's length (``pipeline.outputs.controllers.lint.LIMITS``)."""
-    from .outputs.controllers.lint import language_limits
-    from .outputs.controllers.rapid import RESERVED_WORDS
-    from .outputs.controllers.urscript import RESERVED
+    """A valid program name in ``language`` made from ``job_name`` (``pipeline.outputs.controllers.names.
+    legal_name``: _ for other characters, FANUC and Yaskawa upper case, ``P_`` before a reserved word, cut to the
+    language's length)."""
+    from .outputs.controllers.names import legal_name
 
-    limits = language_limits(language)
-    name = re.sub(r"[^A-Za-z0-9_]+", "_", job_name).strip("_")
-    if language in ("ls", "jbi"):
-        name = name.upper()
-    reserved = (language == "rapid" and name.upper() in RESERVED_WORDS) or (language == "urscript" and name in RESERVED)
-    if not name[:1].isalpha() or reserved:
-        name = f"P_{name}"
-    return name[:limits.name_max].rstrip("_")
+    return legal_name(language, job_name)
+
+
+def check_language_arm(robot, language: str) -> None:
+    """OutputError naming the robot and its file unless ``language`` can move ``robot`` (URScript: a Universal
+    Robots arm, ``urscript.check_arm``): checked before a job is planned and timed (the writer checks again)."""
+    if language == "urscript":
+        from .outputs.controllers.urscript import check_arm
+
+        check_arm(robot)
 
 
 #: URScript's servoj replay period [s] by default: an e-Series controller's (a CB3's is 0.008 s).
@@ -211,12 +210,14 @@ SERVO_PERIOD_S = 0.002
 
 
 def program_texts(job: Job, language: str, program: Program, profile: Profile,
-                  name: str | None = None, servo_period: float = SERVO_PERIOD_S) -> dict[str, str]:
+                  name: str | None = None, servo_period: float = SERVO_PERIOD_S,
+                  krl_generation: str = "krc2") -> dict[str, str]:
     """The job's ``program`` in a controller's ``language`` (rapid, ls, jbi, krl, urscript) as program
     ``name`` (None: ``program_name`` of the job's name): file suffix -> text (KRL: .src and .dat). When
     the name differs from the job's, the writer's header says so (the program's name it states becomes
     "job name (written as NAME: the language's rule)", the rule when the name was made from the job's).
-    URScript gets the certified ``profile``'s servoj replay every ``servo_period`` [s].
+    URScript gets the certified ``profile``'s servoj replay every ``servo_period`` [s], KRL is written for the
+    controller generation ``krl_generation`` (``krl.GENERATIONS``).
     OutputError names the job file (and the waypoint whose move breaks a rule of the language) and what
     the writer refused."""
     name = program_name(language, job.name) if name is None else name
@@ -224,7 +225,7 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
         rule = f": {NAME_RULES[language]}" if name == program_name(language, program.name) else ""
         program = replace(program, name=f"{program.name} (written as {name}{rule})")
     try:
-        return _program_texts(language, program, profile, name, servo_period)
+        return _program_texts(language, program, profile, name, servo_period, krl_generation)
     except PipelineError as exc:
         move = getattr(exc, "move", None)
         where = job.source if move is None else job.location(("waypoints", move))
@@ -232,7 +233,7 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
 
 
 def _program_texts(language: str, program: Program, profile: Profile, name: str,
-                   servo_period: float) -> dict[str, str]:
+                   servo_period: float, krl_generation: str) -> dict[str, str]:
     from .outputs.controllers.fanuc_ls import write_ls
     from .outputs.controllers.krl import write_krl
     from .outputs.controllers.rapid import write_rapid
@@ -240,7 +241,7 @@ def _program_texts(language: str, program: Program, profile: Profile, name: str,
     from .outputs.controllers.yaskawa_jbi import write_jbi
 
     if language == "krl":
-        return dict(zip((".src", ".dat"), write_krl(program, name)))
+        return dict(zip((".src", ".dat"), write_krl(program, name, krl_generation)))
     writers = {"rapid": lambda: {".mod": write_rapid(program, name)}, "ls": lambda: {".ls": write_ls(program, name)},
                "jbi": lambda: {".jbi": write_jbi(program, name)},
                "urscript": lambda: {".script": write_urscript(program, name, profile, servo_period)}}

@@ -13,6 +13,7 @@ import contextlib
 import ctypes
 import errno
 import functools
+import hashlib
 import json
 import os
 import re
@@ -33,6 +34,11 @@ OWNER_MARKER = ".dh-pipeline-output.json"
 #: PNG text chunk): an existing file without it was not written here and is replaced only when asked.
 WRITTEN_BY = "dh-pipeline"
 MARK_BYTES = 4096
+#: A file written for one job (a controller program) also names that job within its first MARK_BYTES, as one
+#: word ``job=<name>`` (``job_mark``) at most JOB_MARK_CHARS long (a pendant's 32-character comment line): writing
+#: another job's file over it is refused unless asked (``prepare_file_target``).
+JOB_MARK, JOB_MARK_CHARS = "job=", 32
+_JOB_MARK_FOUND = re.compile(rf"(?<![A-Za-z0-9_]){JOB_MARK}([A-Za-z0-9_.+~-]+)")
 #: Linux ``renameat2`` flag that swaps two paths atomically, and "relative to the working directory".
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
@@ -66,11 +72,14 @@ def write_bytes_atomic(path: str | Path, data: bytes, replace: bool = False) -> 
     return path
 
 
-def prepare_file_target(path: str | Path, replace: bool = False) -> None:
+def prepare_file_target(path: str | Path, replace: bool = False, job: str | None = None,
+                        suggestion: str = "") -> None:
     """Check before any work that a single output file can go to ``path``: absent, or a regular file this
-    package wrote (WRITTEN_BY within its first MARK_BYTES; any regular file with ``replace``), never a folder,
-    FIFO, device or socket (which the atomic rename would replace; a symbolic link counts as what it points
-    to), and its parent a folder (created if missing) we may write in. Raises OutputError naming the path."""
+    package wrote (WRITTEN_BY within its first MARK_BYTES; any regular file with ``replace``) and, when ``job``
+    names the job the new file is written for, not for another job (its ``job_mark``; ``suggestion`` says how to
+    keep both), never a folder, FIFO, device or socket (which the atomic rename would replace; a symbolic link
+    counts as what it points to), and its parent a folder (created if missing) we may write in. Raises
+    OutputError naming the path (and both jobs)."""
     path = Path(path)
     kind = special_kind(path)
     if kind == "a folder":
@@ -80,9 +89,33 @@ def prepare_file_target(path: str | Path, replace: bool = False) -> None:
     if not replace and os.path.exists(path) and not written_here(path):
         raise OutputError(f"{path}: exists and was not written by {WRITTEN_BY}: it is not replaced; give another "
                           "name, or ask for the replacement (--force)")
+    other = None if replace or job is None or not os.path.exists(path) else marked_job(path)
+    if other is not None and other != job_mark(job)[len(JOB_MARK):]:
+        raise OutputError(f"{path}: holds the program of job {other}, not of job {job}: it is not replaced"
+                          f"{'; ' + suggestion if suggestion else ''}; or ask for the replacement (--force)")
     _make_parent(path)
     if not os.access(path.parent, os.W_OK | os.X_OK):
         raise OutputError(f"{path}: cannot write in the folder {path.parent}: it is not writable")
+
+
+def job_mark(job: str) -> str:
+    """``job=<name>``: the job's name with every character but letters, digits and ``_ . + -`` as ``_``; a name
+    longer than the mark allows is cut and ends in ``~`` and 6 hex digits of its SHA-256 (still one per job)."""
+    name = re.sub(r"[^A-Za-z0-9_.+-]", "_", job)
+    room = JOB_MARK_CHARS - len(JOB_MARK)
+    if len(name) > room:
+        name = f"{name[:room - 7]}~{hashlib.sha256(job.encode()).hexdigest()[:6]}"
+    return JOB_MARK + name
+
+
+def marked_job(path: Path) -> str | None:
+    """The job a file names (``job_mark``, within its first MARK_BYTES), or None."""
+    try:
+        with open(path, "rb") as handle:
+            found = _JOB_MARK_FOUND.search(handle.read(MARK_BYTES).decode("utf-8", "replace"))
+    except OSError:
+        return None
+    return None if found is None else found.group(1)
 
 
 def written_here(path: Path) -> bool:

@@ -107,12 +107,35 @@ class Limits:
         return (np.where(continuous, 0.0, self.q_min) + np.where(continuous, 0.0, self.q_max)) / 2.0
 
 
+#: The makers whose controller a robot file's ``controller`` section may name.
+CONTROLLER_MAKERS = ("abb", "fanuc", "yaskawa", "kuka", "ur")
+#: Axis couplings a ``controller`` section may name: a FANUC pendant's J3 = q3 - q2.
+COUPLINGS = ("fanuc_j2_j3",)
+
+
+@dataclass(frozen=True, eq=False)
+class ControllerSection:
+    """A robot file's ``controller`` section in SI units: the ``maker``; per joint the controller's axis
+    angle = ``direction`` (+-1) * q, coupled (``coupling``: None or ``fanuc_j2_j3``, J3 = J3 - J2), plus
+    ``offset`` [rad]; ``X_B_base`` the controller's base frame in our base frame and ``X_E_flange`` its
+    flange frame in our end frame, (4, 4) [m]; ``elbow_up`` the axis angles [rad] of a pose the maker
+    calls elbow up."""
+
+    maker: str
+    direction: tuple[int, ...]
+    offset: tuple[float, ...]
+    coupling: str | None
+    X_B_base: np.ndarray
+    X_E_flange: np.ndarray
+    elbow_up: tuple[float, ...]
+
+
 @dataclass(frozen=True, eq=False)
 class RobotSpec:
     """A validated robot description in SI units.
 
     ``X_BaseD0``: pose of DH frame 0 in the robot base frame; ``X_DnE``: pose of the end frame in
-    the last DH frame (the tool). Both 4x4 [m].
+    the last DH frame (the tool). Both 4x4 [m]. ``controller``: the file's controller section (None: none).
     """
 
     name: str
@@ -124,6 +147,7 @@ class RobotSpec:
     length_unit: str
     angle_unit: str
     provenance: Any = None
+    controller: ControllerSection | None = None
 
     @property
     def dof(self) -> int:
@@ -197,7 +221,9 @@ MAX_RADIUS_M = 2.0            # a link radius [m]: thicker is mm written under m
 MIN_SIZE_M = 1e-6             # a link radius, a cell shape's size [m]: thinner is no shape (0 aborts Drake)
 
 _TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
-_TOP_OPTIONAL = ("tool", "base", "provenance", "description", "assumptions", "notes")
+_TOP_OPTIONAL = ("tool", "base", "controller", "provenance", "description", "assumptions", "notes")
+_CONTROLLER_REQUIRED = ("maker",)
+_CONTROLLER_OPTIONAL = ("axes", "coupling", "base", "flange", "elbow_up")
 #: Required on every row but a continuous joint's, which must not give them.
 POSITION_LIMITS = ("q_min", "q_max")
 _JOINT_REQUIRED = ("a", "alpha", "d", "qd_max")
@@ -368,6 +394,43 @@ class _RobotReader(Reader):
                 self.angle((key, "rpy", i))
         return X
 
+    def controller(self, dof: int) -> ControllerSection | None:
+        """The optional ``controller`` section (models/README.md, "The controller section") in SI units."""
+        path = ("controller",)
+        if not self.has(path):
+            return None
+        raw = self.mapping(path, _CONTROLLER_REQUIRED, _CONTROLLER_OPTIONAL)
+        maker = self.choice((*path, "maker"), CONTROLLER_MAKERS)
+        direction, offset = (1,) * dof, (0.0,) * dof
+        if self.has((*path, "axes")):
+            self.mapping((*path, "axes"), (), ("direction", "offset"))
+            signs = self.vector((*path, "axes", "direction"), dof, "+1 or -1 per joint", default=[1.0] * dof)
+            for i, sign in enumerate(signs):
+                if sign not in (1.0, -1.0):
+                    self.fail((*path, "axes", "direction", i), "must be 1 or -1", sign)
+            direction = tuple(int(v) for v in signs)
+            if self.has((*path, "axes", "offset")):
+                self.vector((*path, "axes", "offset"), dof, f"one angle per joint [{self.angle_unit}]")
+                offset = tuple(self.angle((*path, "axes", "offset", i)) for i in range(dof))
+        coupling = self.choice((*path, "coupling"), COUPLINGS) if "coupling" in raw else None
+        if coupling is not None and (maker != "fanuc" or dof < 3):
+            self.fail((*path, "coupling"), f"is a FANUC pendant's J2/J3 coupling; this is a {maker} robot with "
+                      f"{dof} joints", coupling)
+        frames = []
+        for key in ("base", "flange"):
+            X = np.eye(4)
+            if self.has((*path, key)):
+                X = self.pose((*path, key), self.ls, self.as_, complete=False, max_length_m=MAX_LENGTH_M)
+                if self.has((*path, key, "rpy")):
+                    for i in range(3):
+                        self.angle((*path, key, "rpy", i))
+            frames.append(X)
+        elbow_up = (0.0,) * dof
+        if self.has((*path, "elbow_up")):
+            self.vector((*path, "elbow_up"), dof, f"the controller's axis angles [{self.angle_unit}]")
+            elbow_up = tuple(self.number((*path, "elbow_up", i)) * self.as_ for i in range(dof))
+        return ControllerSection(maker, direction, offset, coupling, frames[0], frames[1], elbow_up)
+
     def spec(self) -> RobotSpec:
         self.mapping((), _TOP_REQUIRED, _TOP_OPTIONAL)
         name = self.name(("name",))
@@ -396,6 +459,7 @@ class _RobotReader(Reader):
             length_unit=self.length_unit,
             angle_unit=self.angle_unit,
             provenance=self.get(("provenance",)),
+            controller=self.controller(len(joints)),
         )
         if spec.reach_bound < MIN_REACH_M:
             self.fail(("joints",), f"the arm reaches at most {spec.reach_bound * 1e3:.3g} mm from its base: "

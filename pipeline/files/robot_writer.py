@@ -15,7 +15,7 @@ import yaml
 
 from .atomic import WRITTEN_BY, write_text_atomic
 from .poses import rotation_to_rpy
-from .robot_spec import DhJoint, LinkInertia, RobotSpec
+from .robot_spec import ControllerSection, DhJoint, LinkInertia, RobotSpec
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
 #: Resolution of the written values: lengths [m], angles [rad].
@@ -102,15 +102,38 @@ def robot_document(spec: RobotSpec, length_unit: str = "mm", angle_unit: str = "
         pose = units.pose(X)
         if any(pose["xyz"] + pose["rpy"]):
             document[key] = pose
+    if spec.controller is not None:
+        document["controller"] = controller_document(spec.controller, units)
     document["joints"] = [_joint(joint, units) for joint in spec.joints]
     return document
+
+
+def controller_document(section: ControllerSection, units: _Units) -> dict:
+    """The ``controller`` section of a robot file (defaults left out)."""
+    out = {"maker": section.maker}
+    axes = {}
+    if any(v != 1 for v in section.direction):
+        axes["direction"] = list(section.direction)
+    if any(section.offset):
+        axes["offset"] = [units.angle(v) for v in section.offset]
+    if axes:
+        out["axes"] = axes
+    if section.coupling is not None:
+        out["coupling"] = section.coupling
+    for key, X in (("base", section.X_B_base), ("flange", section.X_E_flange)):
+        pose = units.pose(X)
+        if any(pose["xyz"] + pose["rpy"]):
+            out[key] = pose
+    if any(section.elbow_up):
+        out["elbow_up"] = [units.angle(v) for v in section.elbow_up]
+    return out
 
 
 def robot_file_text(document: dict) -> str:
     """A robot file's text: a comment naming its writer, then one flow-style line per joint row, like the
     presets."""
-    head = {key: value for key, value in document.items() if key not in ("base", "tool", "joints")}
-    frames = {key: document[key] for key in ("base", "tool") if key in document}
+    head = {key: value for key, value in document.items() if key not in ("base", "tool", "controller", "joints")}
+    frames = {key: document[key] for key in ("base", "tool", "controller") if key in document}
     text = yaml.safe_dump(head, sort_keys=False, width=110, allow_unicode=True)
     if frames:
         text += yaml.safe_dump(frames, sort_keys=False, default_flow_style=None)

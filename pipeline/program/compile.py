@@ -65,7 +65,8 @@ def compile_job(job: Job, scene=None) -> Program:
                           planned, track))
     limits = dataclasses.replace(job.robot.limits, tcp_speed_max=job.tcp_speed_limit, tcp_accel_max=None)
     return Program(job.name, job.robot, Tool.of_job(job), job.cell, limits, job.tcp_accel_max, job.speed_scale, job.timing,
-                   job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan, tilt)
+                   job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan, tilt,
+                   payload=job.payload, job_name=job.name)
 
 
 def with_capped_zones(job: Job, targets: list[np.ndarray]) -> Job:

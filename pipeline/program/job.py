@@ -56,7 +56,7 @@ REACH_SAMPLES = 4096
 _REQUIRED = ("waypoints",)
 _OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
              "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
-             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit")
+             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit", "payload")
 #: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have (ours,
 #: a controller's, or both), and how the TCP gets there (move, via point, zone, speed).
 _POSE_EXTRA = ("target", "config", "controller_config", "move", "via", "zone", "speed")
@@ -132,6 +132,19 @@ class PoseWaypoint:
         return self.move != "joint"
 
 
+#: The heaviest payload a job may name [kg] (a guard against a unit slip: the largest industrial arms carry ~2.3 t).
+MAX_PAYLOAD_KG = 5000.0
+
+
+@dataclass(frozen=True, eq=False)
+class Payload:
+    """What the robot carries (tool and part), for the controllers' load data: ``mass`` [kg] and ``com`` (3,) [m]
+    its centre of mass in the flange frame F."""
+
+    mass: float
+    com: np.ndarray
+
+
 @dataclass(frozen=True, eq=False)
 class Job:
     """A validated job in SI units.
@@ -149,6 +162,8 @@ class Job:
     ``robot`` is the robot as its file gives it; with a tool, ``robot``'s end frame is the TCP and every
     pose is a TCP pose); ``tcp_speed_max`` [m/s]: the default speed of tool moves, ``tcp_accel_max``
     [m/s^2]: the TCP's acceleration limit on tool moves, or None (neither limits joint moves);
+    ``payload``: the Payload (mass, centre of mass in the flange frame) or None: not given (controller programs
+    then carry a marked placeholder);
     ``tcp_speed_limit`` [m/s] or None: a TCP speed limit that holds everywhere (a safety-rated reduced
     speed), certified on the whole profile; ``singularity``:
     what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
@@ -189,6 +204,7 @@ class Job:
     plan_tilt_max: float | None = None
     document: Document | None = None
     tcp_speed_limit: float | None = None
+    payload: Payload | None = None
 
     def location(self, path: tuple) -> str:
         """``file:line: field`` of the field at ``path`` (``file: field`` where the line is unknown)."""
@@ -612,8 +628,24 @@ class _JobReader(Reader):
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
             cell=self.cell,
             document=self.document,
+            payload=self.payload(length_scale),
             **self.planning(angle_scale),
         )
+
+    def payload(self, length_scale: float | None) -> Payload | None:
+        """``payload: {mass: kg, com: [x, y, z]}`` (com: the centre of mass in the flange frame, length_unit; the
+        flange's origin when absent) -> Payload, or None when absent."""
+        if not self.has(("payload",)):
+            return None
+        self.mapping(("payload",), ("mass",), ("com",))
+        mass = self.number(("payload", "mass"), low=0.0, high=MAX_PAYLOAD_KG, low_open=True, unit="kg")
+        com = np.zeros(3)
+        if self.has(("payload", "com")):
+            if length_scale is None:
+                self.fail(("length_unit",), "required because payload gives com (length_unit: m or mm)",
+                          kind=MissingFieldError)
+            com = self.vector(("payload", "com"), 3, "x, y, z of the centre of mass in the flange frame") * length_scale
+        return Payload(mass, com)
 
     def planning(self, angle_scale: float | None) -> dict:
         """``plan``, ``planner``, ``plan_time_budget`` and ``plan_tilt_max`` (in the file's angle unit, at

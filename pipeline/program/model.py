@@ -24,6 +24,7 @@ from ..cell.tilt import TiltLimit
 from ..cell.tool import Tool
 from ..files.robot_spec import Limits
 from ..model.robot import Robot
+from .job import Payload
 from .tool_moves import ToolJointPath
 
 JOINT, LINEAR, CIRCULAR = "joint", "linear", "circular"
@@ -123,7 +124,9 @@ class Program:
     TCP speed limit), ``tcp_accel_max`` [m/s^2] on tool moves (None: not limited), ``speed_scale``,
     ``timing`` method, ``path`` shape, ``dt`` [s], ``waypoints`` (how each was solved), ``moves``,
     ``stops`` (waypoint indices where the motion rests, first and last included), ``plan`` (the job's),
-    ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none)."""
+    ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none), ``payload`` the job's
+    Payload (None: not given), ``job_name`` the job it was compiled from (``name`` may be renamed for a controller;
+    every controller program records the job: ``pipeline.files.atomic.job_mark``)."""
 
     name: str
     robot: Robot
@@ -141,6 +144,8 @@ class Program:
     plan: str = "direct"
     tilt: TiltLimit | None = None
     details: dict = field(default_factory=dict)
+    payload: Payload | None = None
+    job_name: str = ""
 
     @property
     def has_tcp_limits(self) -> bool:

@@ -32,7 +32,8 @@ from ..model.ik.branches import configuration_labels
 from ..model.ik.result import MAX_TARGET_COORDINATE_M, Solutions, limit_variants
 from ..model.ik.velocity import NEAR_SINGULAR
 from ..model.vendors import configurations, format_configuration
-from ..model.vendors.axes import PRESET_MAPS
+from ..model.vendors.axes import VENDORS
+from ..model.vendors.controller import controller_of
 
 if TYPE_CHECKING:                     # Drake's collision module is imported only where a scene is used
     from ..cell.collision import Clearance
@@ -121,8 +122,10 @@ def closest_words(clearance: Clearance | None) -> str:
 
 
 def maker_vendor(robot) -> str | None:
-    """The controller vendor whose axis map is the robot's preset's (``model.vendors.axes.PRESET_MAPS``), or None."""
-    return next((vendor for name, vendor in PRESET_MAPS if name == robot.name), None)
+    """The maker of the robot file's controller section (``model.vendors.controller.controller_of``) where this
+    package computes its configuration data (``model.vendors.axes.VENDORS``), or None."""
+    controller = controller_of(robot)
+    return controller.maker if controller is not None and controller.maker in VENDORS else None
 
 
 def branch_names(robot, Q: np.ndarray) -> tuple[list[str], str | None, list[str | None]]:

@@ -245,9 +245,11 @@ class Page:
     def export(self, language: str, folder, replace: bool = False) -> list[Path]:
         """The planned and timed program in a controller's language (rapid, ls, jbi, krl, urscript) as files
         NAME.<suffix> in ``folder`` (``pipeline.runner.program_texts``: the files ``python -m pipeline
-        program`` writes); ConfigurationError before the program is planned and timed."""
-        from ..runner import program_texts
+        program`` writes); OutputError for a language that cannot move the robot (URScript on an arm that is not
+        a Universal Robots one), ConfigurationError before the program is planned and timed."""
+        from ..runner import check_language_arm, program_texts
 
+        check_language_arm(self.robot, language)
         if self.outcome is None:
             raise ConfigurationError("plan and time the program first: the export is of the certified program")
         outcome = self.outcome

@@ -175,3 +175,15 @@ def serial_chain(model: UrdfModel, base: str | None = None, tip: str | None = No
     on_chain = {joint.name for joint in path}
     ignored = tuple(j.name for j in tree.below(base) if j.is_movable and j.name not in on_chain)
     return SerialChain(model, base, tip, tuple(joints), X, tuple(bodies), ignored)
+
+
+def link_pose(model: UrdfModel, base: str, link: str) -> np.ndarray | None:
+    """The pose (4, 4) [m] of ``link`` in the ``base`` link's frame with every joint at 0, or None when the
+    file has no such link below ``base``."""
+    tree = _Tree(model)
+    if link not in model.links or (link != base and not tree.path_exists(base, link)):
+        return None
+    X = np.eye(4)
+    for joint in tree.path(base, link):
+        X = X @ joint.X_PJ
+    return X

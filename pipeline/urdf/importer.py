@@ -28,6 +28,7 @@ from ..model.chain.dh_convert import standard_to_modified
 from ..model.chain.kinematics import DhKinematics, rotation_log
 from ..model.robot import Robot
 from .chain import SerialChain, serial_chain
+from .controller_section import controller_section
 from .dh_from_axes import dh_from_axes
 from .reader import read_urdf
 
@@ -125,10 +126,13 @@ def _fk_error(robot: Robot, chain: SerialChain) -> float:
 
 
 def import_urdf(path: str | Path, base: str | None = None, tip: str | None = None, convention: str = "standard",
-                name: str | None = None, time_to_full_speed: float | None = None) -> UrdfImport:
+                name: str | None = None, time_to_full_speed: float | None = None,
+                controller: str | None = None) -> UrdfImport:
     """Import the serial chain from ``base`` to ``tip`` of a URDF file (see the module docstring).
     ``time_to_full_speed`` [s] (a URDF has no acceleration limits): each joint's ``qdd_max`` is
-    ``qd_max / time_to_full_speed``, recorded in the file's provenance (None: no qdd_max)."""
+    ``qd_max / time_to_full_speed``, recorded in the file's provenance (None: no qdd_max). ``controller``: a
+    maker (kuka, abb, fanuc, yaskawa, ur) whose controller section the file gets from the conventions of
+    ROS-Industrial's descriptions (``pipeline.urdf.controller_section``; None: no section)."""
     if convention not in CONVENTIONS:
         raise ConfigurationError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
     if time_to_full_speed is not None and not MIN_TIME_TO_FULL_SPEED_S <= time_to_full_speed <= \
@@ -155,6 +159,10 @@ def import_urdf(path: str | Path, base: str | None = None, tip: str | None = Non
     if convention == "modified":
         spec = dataclasses.replace(standard_to_modified(spec), name=spec.name)
     spec = _with_mass_properties(spec, chain, assumptions)
+    if controller is not None:
+        spec = dataclasses.replace(spec, controller=controller_section(chain, controller))
+        assumptions.append(f"controller: a {controller} controller, its section from the conventions of "
+                           "ROS-Industrial's descriptions (pipeline.urdf.controller_section, models/SOURCES.md)")
     for i, angle in geometry.snapped:
         assumptions.append(f"the axes of joints {chain.joints[i].joint.name} and {chain.joints[i + 1].joint.name} "
                            f"are {math.degrees(angle):.3g} deg from parallel: treated as parallel")

@@ -106,13 +106,14 @@ def test_yaskawa_rconf_follows_the_nx100_manual():
 
 # -- axis maps ---------------------------------------------------------------------------------------------
 def test_axis_maps_per_preset():
-    assert "identity" in axis_map(load_robot("irb1600"), "abb").source
+    """The presets' maps come from their robot files' controller sections; another maker's gets the identity."""
+    assert "the controller section of irb1600.yaml" in axis_map(load_robot("irb1600"), "abb").source
     assert axis_map(load_robot("lrmate200id"), "fanuc").fanuc_j3
     np.testing.assert_allclose(axis_angles(load_robot("lrmate200id"), deg(10, 20, 50, 0, -30, 90), "fanuc"),
                                [10, 20, 30, 0, -30, 90], atol=1e-12)
     other = axis_map(load_robot("gp7"), "fanuc")
-    assert not other.fanuc_j3 and "no published map" in other.source
-    assert "no published map" in axis_map(load_robot("arm6"), "kuka").source
+    assert not other.fanuc_j3 and "no fanuc controller section" in other.source and "identity" in other.source
+    assert "no kuka controller section" in axis_map(load_robot("arm6"), "kuka").source
 
 
 def test_every_preset_zero_pose_is_the_front_elbow_up_pose():

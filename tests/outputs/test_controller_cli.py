@@ -1,5 +1,6 @@
 """The controller programs from the command line and as job outputs: ``python -m pipeline program JOB --lang L``
-writes the GP7 demo job in each of the five languages, ``read-program`` reads each back into a job file that
+writes the GP7 demo job in each of the four languages of its makers and a UR5 job in URScript (URScript on the GP7
+is refused), ``read-program`` reads each back into a job file that
 ``load_job`` accepts with the same waypoints (kinds, branches, positions within the formats' rounding), mistakes
 are one ``error:`` line with exit status 2, and a job listing ``rapid`` among its outputs writes program.mod.
 
@@ -21,11 +22,14 @@ from pipeline.files.atomic import written_here
 from pipeline.program.job import load_job
 from pipeline.runner import PROGRAM_FILES, program_name, run_job_file
 
+from .test_urscript import UR5_JOB
+
 ROOT = Path(__file__).resolve().parents[2]
 GP7_JOB = ROOT / "trajectories" / "jobs" / "gp7_pick_place.yaml"
-#: Language -> the files ``program`` writes into a folder for the GP7 demo job (its name made valid).
+#: Language -> the files ``program`` writes into a folder for the GP7 demo job (its name made valid), or URScript's
+#: for the UR5 job (``ur5_job``).
 WRITTEN = {"rapid": ["gp7_pick_place.mod"], "ls": ["GP7_PICK.ls"], "jbi": ["GP7_PICK.jbi"],
-           "krl": ["gp7_pick_place.dat", "gp7_pick_place.src"], "urscript": ["gp7_pick_place.script"]}
+           "krl": ["gp7_pick_place.dat", "gp7_pick_place.src"], "urscript": ["ur5_moves.script"]}
 #: The formats' position rounding [m]: 0.001 mm everywhere, URScript 1e-6 m.
 POSITION_TOL = 1.5e-6
 #: ... and the orientations' (JBI: 0.01 deg) [1].
@@ -41,11 +45,24 @@ def cli(capsys, *args: str) -> tuple[int, str, str]:
 
 
 @pytest.fixture(scope="module")
-def written(tmp_path_factory) -> Path:
-    """The GP7 demo job written in every language into one folder."""
+def ur5_job(tmp_path_factory) -> Path:
+    """test_urscript's UR5 job as a job file ur5_moves.yaml (its robot file tests/data/ur5.yaml, a UR arm)."""
+    path = tmp_path_factory.mktemp("ur5") / "ur5_moves.yaml"
+    path.write_text(yaml.safe_dump(UR5_JOB))
+    return path
+
+
+def job_of(language: str, ur5_job: Path) -> Path:
+    """The job written in ``language``: the UR5 job in URScript, the GP7 demo job in the other languages."""
+    return ur5_job if language == "urscript" else GP7_JOB
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory, ur5_job) -> Path:
+    """The GP7 demo job written in the four languages of its makers, and the UR5 job in URScript, into one folder."""
     folder = tmp_path_factory.mktemp("programs")
     for language in WRITTEN:
-        assert main(["program", str(GP7_JOB), "--lang", language, "--out", str(folder)]) == 0
+        assert main(["program", str(job_of(language, ur5_job)), "--lang", language, "--out", str(folder)]) == 0
     return folder
 
 
@@ -61,14 +78,15 @@ def test_program_writes_each_language_named_from_the_job(written, language):
 
 
 @pytest.mark.parametrize("language", list(WRITTEN))
-def test_read_program_gives_back_a_job_with_the_same_waypoints(written, tmp_path, capsys, language):
+def test_read_program_gives_back_a_job_with_the_same_waypoints(written, ur5_job, tmp_path, capsys, language):
     program = written / next(name for name in WRITTEN[language] if not name.endswith(".dat"))
     out = tmp_path / "read" / "job.yaml"
-    code, stdout, err = cli(capsys, "read-program", program, "--robot", "gp7", "--out", out)
+    original = load_job(job_of(language, ur5_job))
+    code, stdout, err = cli(capsys, "read-program", program, "--robot", original.robot.spec.source, "--out", out)
     assert code == 0, err
     assert f"wrote {out}" in stdout
-    job, original = load_job(out), load_job(GP7_JOB)
-    assert job.robot.name == "gp7" and len(job.waypoints) == len(original.waypoints)
+    job = load_job(out)
+    assert job.robot.name == original.robot.name and len(job.waypoints) == len(original.waypoints)
     for read, given in zip(job.waypoints[1:], original.waypoints[1:]):
         assert read.move == given.move
         if hasattr(given, "X_BE"):     # URScript has no configuration data: its joint moves are joint targets
@@ -107,15 +125,30 @@ def test_mistakes_are_one_error_line(tmp_path, capsys, monkeypatch, args, messag
     assert list(tmp_path.iterdir()) == []
 
 
-def test_servo_period_sets_the_replay_period(tmp_path, capsys):
+def test_servo_period_sets_the_replay_period(ur5_job, tmp_path, capsys):
     """A CB3 takes servoj every 0.008 s: the replay has one servoj per period of the certified profile."""
-    code, stdout, err = cli(capsys, "program", GP7_JOB, "--lang", "urscript", "--servo-period", "0.008", "--out",
+    code, stdout, err = cli(capsys, "program", ur5_job, "--lang", "urscript", "--servo-period", "0.008", "--out",
                             tmp_path / "cb3.script")
     assert code == 0, err
     duration = float(stdout.split("the certified profile takes ")[1].split(" s")[0])
     calls = [line for line in (tmp_path / "cb3.script").read_text().splitlines() if "servoj(" in line]
     assert all("t=0.008," in line for line in calls)
     assert len(calls) == int(np.ceil(duration / 0.008 - 1e-9))
+
+
+@pytest.mark.parametrize("job, maker", [
+    (GP7_JOB, "a controller section of maker yaskawa"),
+    (ROOT / "trajectories" / "jobs" / "arm6_joint_rad.yaml", "no controller section"),
+])
+def test_urscript_for_an_arm_that_is_not_a_ur_one_is_refused_before_any_work(tmp_path, capsys, job, maker):
+    """URScript runs on Universal Robots controllers only: exit 2, one line naming the robot, its robot file's
+    controller section and the fix, nothing written (it wrote a .script for the GP7)."""
+    robot = load_job(job).robot
+    code, out, err = cli(capsys, "program", job, "--lang", "urscript", "--out", tmp_path)
+    assert code == 2 and out == "" and err.count("\n") == 1, err
+    assert all(words in err for words in (f"{robot.name}: URScript runs only on a Universal Robots controller",
+                                          f"{robot.spec.source} has {maker}", "controller: {maker: ur}")), err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_krl_src_without_its_dat_is_one_error_line(written, tmp_path, capsys):
@@ -183,9 +216,9 @@ def test_read_program_takes_regular_files_of_bounded_size_only(tmp_path, capsys,
 
 
 @pytest.mark.parametrize("period", ["1e9", "1e-6", "0.001", "0.05"])
-def test_a_servo_period_outside_the_controllers_is_refused_before_any_work(tmp_path, capsys, period):
+def test_a_servo_period_outside_the_controllers_is_refused_before_any_work(ur5_job, tmp_path, capsys, period):
     """--servo-period 1e9 replayed one servoj (the certified profile lost), 1e-6 wrote 525 MB."""
-    code, out, err = cli(capsys, "program", GP7_JOB, "--lang", "urscript", "--servo-period", period, "--out",
+    code, out, err = cli(capsys, "program", ur5_job, "--lang", "urscript", "--servo-period", period, "--out",
                          tmp_path / "x.script")
     assert code == 2 and out == "" and "servoj period must be a time in [0.002, 0.032] s" in err
     assert list(tmp_path.iterdir()) == []
@@ -209,12 +242,13 @@ def test_read_program_blames_the_robot_file_for_its_own_errors(written, tmp_path
 @pytest.mark.parametrize("language, unit, orientation", [("rapid", "mm", "quaternion"), ("ls", "mm", "rpy"),
                                                          ("jbi", "mm", "rpy"), ("krl", "mm", "rpy"),
                                                          ("urscript", "m", None)])
-def test_read_program_writes_the_programs_own_units(written, tmp_path, capsys, language, unit, orientation):
+def test_read_program_writes_the_programs_own_units(written, ur5_job, tmp_path, capsys, language, unit, orientation):
     """A program in mm and degrees reads back as a job in mm (and rpy in degrees where the language writes
     them): it came back in metres and quaternions."""
     program = written / next(name for name in WRITTEN[language] if not name.endswith(".dat"))
     out = tmp_path / "back.yaml"
-    assert cli(capsys, "read-program", program, "--robot", "gp7", "--out", out)[0] == 0
+    robot = load_job(job_of(language, ur5_job)).robot.spec.source
+    assert cli(capsys, "read-program", program, "--robot", robot, "--out", out)[0] == 0
     document = yaml.safe_load(out.read_text())
     assert document["length_unit"] == unit
     poses = [w for w in document["waypoints"] if isinstance(w, dict) and "xyz" in w]

@@ -76,12 +76,12 @@ def test_every_written_program_parses_with_the_grammar(programs, ls_parser, job)
 def test_config_is_the_joints_configuration_and_resolving_lands_on_the_exported_joints(programs, ls_parser, job):
     program = programs[job]
     robot = program.robot
-    height, _ = controller_frame(robot, "fanuc")
+    X_B_base, _ = controller_frame(robot, "fanuc")
     written = written_positions(ls_parser, write_ls(program, "PROG1", WHEN))
     for index, point in enumerate(flat_points(program), start=1):
         entry = written[index]
         assert entry["config"] == format_configuration("fanuc", configurations(robot, point.q, "fanuc"))
-        X = rpy_position_to_pose(np.radians(entry["wpr"]), entry["xyz"] / 1000.0 + [0.0, 0.0, height])
+        X = X_B_base @ rpy_position_to_pose(np.radians(entry["wpr"]), entry["xyz"] / 1000.0)
         q = select_solution(robot, X, entry["config"], "fanuc")
         tolerance = rounding_bound(robot, point.q, 0.001, 0.001)
         assert np.all(np.abs(q - point.q) <= tolerance), (index, np.degrees(q - point.q), np.degrees(tolerance))

@@ -154,7 +154,7 @@ def test_joint_waypoints_are_e6axis_axis_angles(programs):
 
 def test_moves_speeds_and_zones(programs):
     program = programs["gp7_pick_place"]
-    src, dat = write_krl(program, "GP7")
+    src, dat = write_krl(program, "GP7", generation="kss8")       # KSS 8: C_DIS on every move with a zone
     kinds = [m.data for m in motions(src)]
     assert kinds == ["ptp"] + [{"joint": "ptp", "linear": "lin", "circular": "circ"}[m.kind] for m in program.moves]
     lines = src.splitlines()

@@ -1,8 +1,9 @@
 """Offline programming end to end (issue 26, "Must show"): for every preset and a UR5 imported from
 tests/data/urdf/ur5.urdf, a demo-style job (a joint target, then pose waypoints reached by a joint move, linear
 moves with a zone and a circular move) is compiled, written in the language of the arm's maker (gp7: Yaskawa
-INFORM .jbi, lrmate200id: FANUC .ls, irb1600: ABB RAPID, arm6: KUKA KRL, UR5: URScript), and the GP7 in all five;
-the demo job files gp7_pick_place (all five) and irb1600_tool_moves (RAPID) too. Each program is read back by
+INFORM .jbi, lrmate200id: FANUC .ls, irb1600: ABB RAPID, arm6: KUKA KRL, UR5: URScript), and the GP7 in the four
+languages other than URScript (written for UR arms only); the demo job files gp7_pick_place (those four) and
+irb1600_tool_moves (RAPID) too. Each program is read back by
 our reader, and
 
 * every Cartesian target, as the file holds it (the read pose) with the vendor configuration the file gives it
@@ -66,6 +67,7 @@ from pipeline.urdf import import_urdf
 
 from ..conftest import DATA_DIR
 from .test_rapid import rapidchecker_errors
+from .test_urscript import on_a_ur_controller
 
 ROOT = Path(__file__).resolve().parents[2]
 JOBS = ROOT / "trajectories" / "jobs"
@@ -105,16 +107,27 @@ FORMATS = {
 }
 #: The language of each arm's maker (arm6, seed 004's arm of no maker, on a KUKA controller: its axis angles
 #: are its joint values).
-MAKER = {"gp7": "jbi", "lrmate200id": "ls", "irb1600": "rapid", "arm6": "krl", "ur5": "urscript"}
+MAKER = {"gp7": "jbi", "lrmate200id": "ls", "irb1600": "rapid", "arm6": "krl", "ur5": "urscript", "kr6": "krl",
+         "irb6640": "rapid", "lrmate200ic": "ls", "gp8": "jbi"}
 #: Joint values [deg] the built job starts at and moves around: inside every limit, no axis at 0 or +-180 deg
 #: (a configuration field's boundary), the wrist away from its singular set.
 SEEDS = {"gp7": [5, 20, -10, 8, -70, 12], "lrmate200id": [10, 20, -10, 5, -60, 10],
-         "irb1600": [5, 10, -10, 8, 45, 12], "arm6": [15, 60, -30, 10, 50, 15], "ur5": [30, -100, 100, -90, -90, 30]}
+         "irb1600": [5, 10, -10, 8, 45, 12], "arm6": [15, 60, -30, 10, 50, 15], "ur5": [30, -100, 100, -90, -90, 30],
+         "kr6": [10, -80, 100, 15, 40, 20], "irb6640": [5, 10, -10, 8, 45, 12], "lrmate200ic": [10, 20, -10, 5, -60, 10],
+         "gp8": [5, 20, -10, 8, -70, 12]}
+#: Arms imported from ROS-Industrial URDFs with their maker's controller section: (file, maker, tip link). The LR
+#: Mate 200iC ends at its ``flange`` link (x out of the faceplate), so FANUC's flange (tool0) is turned from our
+#: end frame, and its world frame is 330 mm above our base: targets and tool must be written in FANUC's frames.
+IMPORTED = {"irb6640": ("abb_irb6640_185_280.urdf", "abb", None), "lrmate200ic": ("fanuc_lrmate200ic.urdf", "fanuc",
+                                                                                "flange"),
+            "gp8": ("motoman_gp8.urdf", "yaskawa", None)}
 #: (case name, robot, job: "built" or a demo file, language).
 CASES = [
     *[(f"{robot}_built_{MAKER[robot]}", robot, "built", MAKER[robot]) for robot in SEEDS],
-    *[(f"gp7_built_{language}", "gp7", "built", language) for language in FORMATS if language != "jbi"],
-    *[(f"gp7_pick_place_{language}", "gp7", "gp7_pick_place", language) for language in FORMATS],
+    *[(f"gp7_built_{language}", "gp7", "built", language) for language in FORMATS
+      if language not in ("jbi", "urscript")],
+    *[(f"gp7_pick_place_{language}", "gp7", "gp7_pick_place", language) for language in FORMATS
+      if language != "urscript"],
     ("irb1600_tool_moves_rapid", "irb1600", "irb1600_tool_moves", "rapid"),
 ]
 CASE_IDS = [case[0] for case in CASES]
@@ -147,10 +160,16 @@ def built_job(robot: str, reference: str) -> dict:
 @pytest.fixture(scope="module")
 def references(tmp_path_factory) -> dict[str, str]:
     """How a job names each robot: the preset, or for the UR5 the robot file imported from the ROS-Industrial
-    URDF (time to full speed 0.3 s, as the presets assume: a URDF has no acceleration limits)."""
-    imported = import_urdf(DATA_DIR / "urdf" / "ur5.urdf", time_to_full_speed=0.3)
+    URDF with a UR controller section (time to full speed 0.3 s, as the presets assume: a URDF has no acceleration
+    limits)."""
+    imported = import_urdf(DATA_DIR / "urdf" / "ur5.urdf", time_to_full_speed=0.3, controller="ur")
     path = imported.write(tmp_path_factory.mktemp("ur5") / "ur5.yaml")
-    return {robot: str(path) if robot == "ur5" else robot for robot in SEEDS}
+    kuka = import_urdf(DATA_DIR / "urdf" / "kuka_kr6r700sixx.urdf", time_to_full_speed=0.3, controller="kuka")
+    kr6 = kuka.write(tmp_path_factory.mktemp("kr6") / "kr6.yaml")     # KUKA's zero, $FLANGE x out of the flange
+    arms = {name: str(import_urdf(DATA_DIR / "urdf" / urdf, tip=tip, time_to_full_speed=0.3, controller=maker)
+                      .write(tmp_path_factory.mktemp(name) / f"{name}.yaml"))
+            for name, (urdf, maker, tip) in IMPORTED.items()}
+    return {**{robot: robot for robot in SEEDS}, "ur5": str(path), "kr6": str(kr6), **arms}
 
 
 @pytest.fixture(scope="module")
@@ -315,8 +334,10 @@ def test_a_planned_move_is_written_through_its_vertices_with_exact_stops(cell_pr
     """Every language writes a planned joint move as joint moves through the planner's vertices (the straight
     joint segments the planner checked), stopping exactly at each vertex and at both ends of the move: read
     back, the targets are the program's with the vertices between, each within the format's rounding, and none
-    of those has a zone. Without the vertices the controller would cut straight through the cell's wall."""
+    of those has a zone. Without the vertices the controller would cut straight through the cell's wall. (URScript,
+    written for UR arms only, gets the GP7 as if on a UR controller: ``test_urscript.on_a_ur_controller``.)"""
     program, form = cell_program, FORMATS[language]
+    program = on_a_ur_controller(program) if language == "urscript" else program
     document = form.read(form.write(program), "gp7")
     expected, exact = [program.targets[0]], [True]
     for move in program.moves:

@@ -77,8 +77,9 @@ def jointtargets(text: str) -> dict[str, np.ndarray]:
 
 
 def instructions(text: str) -> list[str]:
-    """The instructions of PROC main, one per line, without indentation."""
-    body = text.split("PROC main()\n")[1].split("ENDPROC")[0]
+    """The instructions of the module's entry routine (``PROC main_<module>()``), one per line, without
+    indentation."""
+    body = re.split(r"PROC main_\w+\(\)\n", text)[1].split("ENDPROC")[0]
     return [line.strip() for line in body.splitlines()]
 
 
@@ -223,7 +224,7 @@ def test_work_object_when_the_base_is_placed_in_the_cell(cell_program):
     X_WB[:3, 3] = [1.0, 0.5, 0.2]
     program = dataclasses.replace(cell_program, cell=dataclasses.replace(cell_program.cell, X_WB=X_WB))
     text = write_rapid(program, "gp7_cell")
-    assert "TASK PERS wobjdata wobj_base := [FALSE,TRUE,\"\",[[1000,500,200],[0.707107,0,0,0.707107]]," \
+    assert "LOCAL PERS wobjdata wobj_base := [FALSE,TRUE,\"\",[[1000,500,200],[0.707107,0,0,0.707107]]," \
            "[[0,0,0],[1,0,0,0]]];" in text
     moves = [line for line in instructions(text) if line.startswith("Move") and not line.startswith("MoveAbsJ")]
     assert moves and all(line.endswith("tool_job\\WObj:=wobj_base;") for line in moves)

@@ -18,7 +18,7 @@ from pipeline.model.ik.branches import configuration_labels
 from pipeline.model.vendors import configurations
 from pipeline.outputs.controllers.read_jbi import read_jbi
 from pipeline.outputs.controllers.read_ls import ControllerProgramError
-from pipeline.outputs.controllers.yaskawa_jbi import PL_MM, pl_level, write_jbi
+from pipeline.outputs.controllers.yaskawa_jbi import PL_MM, pl_level, write_jbi, written_zone
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
 
@@ -35,9 +35,11 @@ def programs():
 
 
 def with_pl_zones(program):
-    """``program`` with each zone replaced by its PL level's distance (what the controller rounds by)."""
-    moves = tuple(dataclasses.replace(m, zone=PL_MM[pl_level(m.zone) - 1] / 1000.0 if pl_level(m.zone) else 0.0)
-                  for m in program.moves)
+    """``program`` with each zone as written (none into an arc: ``written_zone``) replaced by its PL level's
+    distance (what the controller rounds by)."""
+    levels = [pl_level(written_zone(program, m)) for m in program.moves]
+    moves = tuple(dataclasses.replace(m, zone=PL_MM[level - 1] / 1000.0 if level else 0.0)
+                  for m, level in zip(program.moves, levels))
     return dataclasses.replace(program, moves=moves)
 
 
@@ -79,11 +81,11 @@ def test_pl_levels_follow_the_table(programs):
     program = programs["gp7_pick_place"]
     text = write_jbi(program, "DEMO", WHEN)
     zones = [w.get("zone") for w in read_jbi(text, "gp7")["waypoints"]]
-    assert zones == [None, None, None, 0.05, 0.05, None, 0.05, None]      # 60 mm -> PL3 (50 mm)
+    assert zones == [None, None, None, None, 0.05, None, 0.05, None]      # 60 mm -> PL3 (50 mm); none into the arc
     controller = (10, 20, 40, 80, 160, 320, 640, 1280)
     zones = [w.get("zone") for w in read_jbi(text, "gp7", pl_mm=controller)["waypoints"]]
-    assert zones == [None, None, None, 0.04, 0.04, None, 0.04, None]
-    assert "zone" not in read_jbi(text.replace("PL=3", "PL=0"), "gp7")["waypoints"][3]
+    assert zones == [None, None, None, None, 0.04, None, 0.04, None]
+    assert "zone" not in read_jbi(text.replace("PL=3", "PL=0"), "gp7")["waypoints"][4]
 
 
 def test_rconf_in_force_selects_the_branch(programs):

@@ -16,7 +16,8 @@ import pytest
 
 from pipeline.model.ik.branches import configuration_labels
 from pipeline.outputs.controllers.fanuc_ls import cnt_value, rounding_bound, write_ls, zone_reach
-from pipeline.outputs.controllers.read_ls import ControllerProgramError, model_joints, read_ls
+from pipeline.model.vendors.axes import joint_values
+from pipeline.outputs.controllers.read_ls import ControllerProgramError, read_ls
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
 
@@ -121,11 +122,11 @@ def test_joint_positions_in_the_pendant_convention(tmp_path):
     assert np.abs(np.array(reread.targets) - np.array(program.targets)).max() <= np.radians(0.0005) + 1e-12
 
 
-def test_model_joints_inverts_the_fanuc_coupling():
+def test_joint_values_invert_the_fanuc_coupling():
     from pipeline.model.robot import load_robot
 
     robot = load_robot("lrmate200id")
-    assert np.allclose(np.degrees(model_joints(robot, [0, 10, 5, 0, 0, 0], "fanuc")), [0, 10, 15, 0, 0, 0])
+    assert np.allclose(np.degrees(joint_values(robot, [0, 10, 5, 0, 0, 0], "fanuc")), [0, 10, 15, 0, 0, 0])
 
 
 def test_tool_from_the_header_or_the_caller(programs):

@@ -101,7 +101,7 @@ def pendant_style(text: str) -> str:
         if "speeddata" in line or "zonedata" in line or line.lstrip().startswith("!"):
             continue
         if "CONST robtarget p2" in line:
-            line = line.replace("CONST", "LOCAL VAR").replace("],[", "],\n      ! orientation, then confdata\n      [")
+            line = line.replace("LOCAL CONST", "VAR").replace("],[", "],\n      ! orientation, then confdata\n      [")
         lines.append(line.upper() if line.lstrip().startswith("Move") else line.replace("tool_job", "Tool_Job"))
     body = "\n".join(lines) + "\n".replace("ConfL\\On;", "ConfL \\Off ;  ! the pendant's default")
     via = next(line for line in text.splitlines() if "robtarget c5" in line).split(":= ")[1].rstrip(";")

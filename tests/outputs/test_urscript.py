@@ -6,6 +6,7 @@ are the program's TCP poses; the servoj replay is the certified profile at the c
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -14,6 +15,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pipeline.errors import OutputError
+from pipeline.model.robot import Robot
 from pipeline.outputs.controllers.urscript import resample, write_urscript
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
@@ -184,6 +186,18 @@ def test_a_profile_of_another_program_is_refused(ur5):
         write_urscript(compile_job(parse_job(other, source=str(TESTS / "other.yaml"))), "other", profile)
 
 
+def test_an_arm_that_is_not_a_ur_one_is_refused_naming_its_maker_and_the_fix():
+    """The GP7 (a yaskawa controller section) and a UR5 file without its controller section: refused."""
+    gp7 = compile_job(load_job(TESTS.parent / "trajectories" / "jobs" / "gp7_pick_place.yaml"))
+    with pytest.raises(OutputError, match=r"gp7: URScript runs only on .* maker yaskawa: .*controller: \{maker: ur\}"
+                                          r".*--lang jbi"):
+        write_urscript(gp7, "gp7")
+    ur5 = compile_job(parse_job(UR5_JOB, source=str(TESTS / "ur5_job.yaml")))
+    bare = dataclasses.replace(ur5, robot=Robot(dataclasses.replace(ur5.robot.spec, controller=None)))
+    with pytest.raises(OutputError, match=r"ur5: .* has no controller section: .*--lang rapid/ls/jbi/krl"):
+        write_urscript(bare, "ur5")
+
+
 def test_grammar_rejects_what_urscript_does_not_allow(parser):
     for text in ("def a():\n  movej([0.0, 1.0)\nend\n", "def a():\n  movel(p[0.0, 1.0], a=1.2)\nend\n",
                  "def a():\nmovej([0.0])\n", "movej([0.0])\n"):
@@ -191,11 +205,19 @@ def test_grammar_rejects_what_urscript_does_not_allow(parser):
             parser.parse(text)
 
 
+def on_a_ur_controller(program):
+    """``program`` with its robot's controller section naming the maker ur (the moves the writer makes of a
+    program do not depend on the maker; the only demo job with planned moves is the GP7's)."""
+    robot = program.robot
+    section = dataclasses.replace(robot.spec.controller, maker="ur", X_B_base=np.eye(4), X_E_flange=np.eye(4))
+    return dataclasses.replace(program, robot=Robot(dataclasses.replace(robot.spec, controller=section)))
+
+
 def test_planned_moves_pass_their_vertices_with_exact_stops(parser):
-    """The GP7 cell job (joint moves planned over a wall, zones of 75 mm next to them): every planner vertex is a
-    movej with r=0, and no blend into or out of a planned move."""
+    """The GP7 cell job (joint moves planned over a wall, zones of 75 mm next to them), written as if the arm were
+    on a UR controller: every planner vertex is a movej with r=0, and no blend into or out of a planned move."""
     job = load_job(TESTS.parent / "trajectories" / "jobs" / "gp7_cell_pick_place.yaml")
-    program = compile_job(job, collision_model(job))
+    program = on_a_ur_controller(compile_job(job, collision_model(job)))
     calls = functions(parser.parse(write_urscript(program, "gp7_cell")))["gp7_cell"]
     expected = [program.targets[0]]
     for move in program.moves:

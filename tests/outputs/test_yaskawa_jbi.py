@@ -16,6 +16,7 @@ from lark import Lark
 from pipeline.errors import ConfigurationError
 from pipeline.files.poses import rpy_position_to_pose
 from pipeline.model.vendors import configurations, select_solution
+from pipeline.model.vendors.configuration import mismatched_field
 from pipeline.outputs.controllers.fanuc_ls import COMMENT_CHARS, controller_frame, rounding_bound
 from pipeline.outputs.controllers.yaskawa_jbi import PL_MM, UNUSED_RCONF, job_points, pl_level, write_jbi
 from pipeline.program.compile import compile_job
@@ -73,21 +74,30 @@ def test_rconf_is_the_joints_configuration_and_resolving_lands_on_the_exported_j
     """Joint waypoints too: without pulses per degree they are Cartesian data with RCONF."""
     program = programs[job]
     robot = program.robot
-    height, _ = controller_frame(robot, "yaskawa")
+    X_B_base, _ = controller_frame(robot, "yaskawa")
     written = written_points(jbi_parser, write_jbi(program, "JOB1", WHEN))
     for entry, point in zip(written, flat_points(program), strict=True):
         assert entry["rconf"] == (*configurations(robot, point.q, "yaskawa"), *[0] * UNUSED_RCONF)
-        X = rpy_position_to_pose(np.radians(entry["angles"]), entry["xyz"] / 1000.0 + [0.0, 0.0, height])
+        X = X_B_base @ rpy_position_to_pose(np.radians(entry["angles"]), entry["xyz"] / 1000.0)
         q = select_solution(robot, X, entry["rconf"][:6], "yaskawa")
         tolerance = rounding_bound(robot, point.q, 0.001, 0.01)
         assert np.all(np.abs(q - point.q) <= tolerance), (entry["name"], np.degrees(q - point.q), np.degrees(tolerance))
 
 
-def test_a_joint_target_on_a_turn_boundary_is_refused_not_written(programs):
-    """irb1600_joint_moves has axis 6 at exactly 180 deg: RCONF's "T >= 180" bit is decided by the last
-    digit, so the written pose could bring the controller to -180 deg instead (a full turn of axis 6)."""
-    with pytest.raises(ConfigurationError, match=r"C00002: .* configuration boundary"):
-        write_jbi(programs["irb1600_joint_moves"], "IRB", WHEN)
+def test_an_axis_at_exactly_180_deg_is_written_on_the_side_its_rounded_pose_selects(programs, jbi_parser):
+    """irb1600_joint_moves has axis 6 at exactly 180 deg, on RCONF's "T >= 180" boundary (the last digit
+    decides the side): C00002 is written, with an RCONF that describes its joint values (either side of the
+    boundary) and that, with the rounded pose, brings the controller back to 180 deg, not to -180 deg."""
+    program = programs["irb1600_joint_moves"]
+    robot = program.robot
+    X_B_base, _ = controller_frame(robot, "yaskawa")
+    entry = written_points(jbi_parser, write_jbi(program, "IRB", WHEN))[2]
+    q_target = flat_points(program)[2].q
+    assert (entry["name"], np.degrees(q_target[5])) == ("C00002", pytest.approx(180.0))
+    assert mismatched_field(robot, q_target, "yaskawa", entry["rconf"][:6]) is None
+    X = X_B_base @ rpy_position_to_pose(np.radians(entry["angles"]), entry["xyz"] / 1000.0)
+    q = select_solution(robot, X, entry["rconf"][:6], "yaskawa")
+    assert np.all(np.abs(q - q_target) <= rounding_bound(robot, q_target, 0.001, 0.01)), np.degrees(q - q_target)
 
 
 def test_gp7_targets_are_in_the_robot_frame_330_mm_above_the_mounting_face(programs, jbi_parser):
@@ -104,7 +114,7 @@ def test_moves_speeds_and_position_levels_of_the_gp7_job(programs):
     lines = [line for line in instructions(write_jbi(programs["gp7_pick_place"], "GP7", WHEN))
              if not line.startswith("'")]
     assert lines == ["MOVJ C00000 VJ=100.00", "MOVJ C00001 VJ=100.00", "MOVL C00002 V=500.0",
-                     "MOVL C00003 V=500.0 PL=3",
+                     "MOVL C00003 V=500.0",           # no PL into the arc, whose first MOVC repeats C00003
                      "MOVC C00004 V=500.0", "MOVC C00005 V=500.0", "MOVC C00006 V=500.0 PL=3",
                      "MOVL C00007 V=500.0", "MOVL C00008 V=500.0 PL=3", "MOVL C00009 V=500.0"]
 
@@ -124,7 +134,7 @@ def test_pl_is_the_largest_level_within_the_zone(zone_mm, level):
 
 def test_the_controllers_own_pl_distances_can_be_given(programs):
     lines = instructions(write_jbi(programs["gp7_pick_place"], "GP7", WHEN, pl_mm=(5, 10, 20, 40, 60, 80, 100, 120)))
-    assert "MOVL C00003 V=500.0 PL=5" in lines
+    assert "MOVC C00006 V=500.0 PL=5" in lines
     with pytest.raises(ConfigurationError, match="8 increasing distances"):
         write_jbi(programs["gp7_pick_place"], "GP7", WHEN, pl_mm=(1, 2, 3))
 

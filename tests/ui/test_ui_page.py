@@ -146,6 +146,18 @@ def test_a_program_built_on_the_page_runs_the_same_from_its_saved_job(robot_page
     assert [p.name for p in exported] == [f"{page.program.name}.mod"] and exported[0].read_text().startswith("MODULE")
 
 
+def test_urscript_for_the_gp7_is_refused_next_to_the_export_button_and_writes_nothing(robot_page, tmp_path):
+    """The GP7 is a Yaskawa arm: exporting URScript (offered for every robot) shows the refusal with its fix, before
+    any planning; it said only "plan and time the program first"."""
+    robot_page.path_text.value = str(tmp_path / "page_job.yaml")
+    robot_page.language.value = "urscript"
+    robot_page.export_button.value = True              # a click
+    shown = robot_page.program_error.content
+    assert "gp7: URScript runs only on a Universal Robots controller" in shown and "maker yaskawa" in shown, shown
+    assert "controller: {maker: ur}" in shown and "--lang jbi" in shown
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_a_headless_chromium_screenshot_of_the_page(shelf_page, tmp_path):
     if chromium() is None:

@@ -1,12 +1,11 @@
-"""Controller axis angles from our model's joint values: per vendor and preset, the zero offset and
-direction of each axis, and FANUC's J2/J3 coupling.
+"""Controller axis angles from our model's joint values: per vendor, the zero offset and direction of each
+axis, and FANUC's J2/J3 coupling.
 
-Every preset's joint variable is the manufacturer's axis angle as the ROS-Industrial description of
-the arm defines it (models/SOURCES.md, "Conventions every preset follows"): q = 0 is the controller's
-zero pose and the positive direction is the controller's. So the maps are the identity (offset 0 deg,
-direction +1), except that a FANUC controller shows J3 relative to the horizontal, J3 = q3 - q2
-(``pipeline.model.vendors.pendant``). A robot of another maker than the vendor (or of none, such as ``arm6``) gets the
-identity map, and ``AxisMap.source`` says so: no published map exists for it.
+The map is the robot file's ``controller`` section (``controller.controller_of``) when its maker is the
+vendor asked: the presets carry theirs (models/SOURCES.md, "Conventions every preset follows": q is the
+manufacturer's axis angle as ROS-Industrial defines it, so the maps are the identity except a FANUC
+pendant's J3 = q3 - q2, ``pipeline.model.vendors.pendant``). A robot of another maker than the vendor (or of
+none, such as ``arm6``) gets the identity map, and ``AxisMap.source`` says so.
 """
 
 from __future__ import annotations
@@ -16,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import VendorConfigurationError
-from .pendant import fanuc_serial_to_pendant
+from .controller import controller_for
+from .pendant import fanuc_pendant_to_serial, fanuc_serial_to_pendant
 
 #: The controllers whose configuration data this package computes.
 ABB, FANUC, YASKAWA, KUKA = "abb", "fanuc", "yaskawa", "kuka"
@@ -25,8 +25,8 @@ VENDORS = (ABB, FANUC, YASKAWA, KUKA)
 
 @dataclass(frozen=True)
 class AxisMap:
-    """Axis angle [deg] = ``direction`` * q [rad -> deg] + ``offset`` [deg] per joint (6,), then for a
-    FANUC pendant J3 = q3 - q2 when ``fanuc_j3`` is set; ``source`` says where the map comes from."""
+    """Axis angle [deg] = ``direction`` * q [rad -> deg], for a FANUC pendant (``fanuc_j3``) then J3 = q3 -
+    q2, plus ``offset`` [deg] per joint (6,); ``source`` says where the map comes from."""
 
     direction: tuple[int, ...]
     offset: tuple[float, ...]
@@ -35,20 +35,6 @@ class AxisMap:
 
 
 _IDENTITY, _ZERO = (1,) * 6, (0.0,) * 6
-
-#: (preset name, vendor) -> its map, with the facts it rests on.
-PRESET_MAPS = {
-    ("irb1600", ABB): AxisMap(_IDENTITY, _ZERO, False,
-                              "irb1600 on an ABB IRC5: identity; q is the ABB axis angle (ROS-Industrial "
-                              "abb_irb1600 description, models/SOURCES.md)"),
-    ("lrmate200id", FANUC): AxisMap(_IDENTITY, _ZERO, True,
-                                    "lrmate200id on a FANUC R-30iB: identity except the pendant's J3 = q3 - q2 "
-                                    "(ROS-Industrial fanuc_lrmate200id description, models/SOURCES.md, "
-                                    "pipeline.model.vendors.pendant)"),
-    ("gp7", YASKAWA): AxisMap(_IDENTITY, _ZERO, False,
-                              "gp7 on a Yaskawa controller: identity; q is the S, L, U, R, B, T axis angle "
-                              "(ROS-Industrial motoman_gp7 description, models/SOURCES.md)"),
-}
 
 
 def check_vendor(vendor) -> str:
@@ -59,16 +45,27 @@ def check_vendor(vendor) -> str:
 
 
 def axis_map(robot, vendor: str) -> AxisMap:
-    """The map of ``robot`` (a 6-joint Robot) to ``vendor``'s axis angles: the preset's own, else the
-    identity, whose ``source`` says that no published map exists for this robot on that controller."""
+    """The map of ``robot`` (a 6-joint Robot) to ``vendor``'s axis angles: its robot file's controller
+    section when that names ``vendor``, else the identity, whose ``source`` says why."""
     check_vendor(vendor)
     if robot.dof != 6:
         raise VendorConfigurationError(f"{robot.name}: controller axis angles need 6 joints, it has {robot.dof}")
-    known = PRESET_MAPS.get((robot.name, vendor))
-    if known is not None:
-        return known
-    return AxisMap(_IDENTITY, _ZERO, False, f"{robot.name} on a {vendor} controller: no published map, the identity "
-                                            "(q taken as the controller's axis angles)")
+    controller = controller_for(robot, vendor)
+    if controller is not None:
+        return AxisMap(controller.direction, controller.offset, controller.coupling == "fanuc_j2_j3",
+                       f"{robot.name} on a {vendor} controller: {controller.source}")
+    return AxisMap(_IDENTITY, _ZERO, False, f"{robot.name} on a {vendor} controller: no {vendor} controller section in "
+                                            "its robot file, the identity (q taken as the controller's axis angles)")
+
+
+def joint_values(robot, angles_deg, vendor: str) -> np.ndarray:
+    """``axis_angles`` inverted: our q [rad] (..., 6) of the controller's axis angles (..., 6) [deg] (offset,
+    then FANUC's pendant J3 back to the serial q3 = J3 + J2, then direction)."""
+    mapping = axis_map(robot, vendor)
+    q = np.radians(np.asarray(angles_deg, dtype=float) - np.array(mapping.offset))
+    if mapping.fanuc_j3:
+        q = fanuc_pendant_to_serial(q, "rad")
+    return q * np.array(mapping.direction)
 
 
 def axis_angles(robot, Q, vendor: str) -> np.ndarray:

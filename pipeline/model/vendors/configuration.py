@@ -30,8 +30,14 @@ from T = 160).
 
 KUKA ``S`` and ``T`` (KUKA's Status and Turn; Siemens SINUMERIK programming manual, STAT and TU of
 the KUKA-compatible robot transformation): Status bit 0 = 1 when the wrist centre is behind axis 1
-("overhead"), bit 1 = 1 elbow up (A3 >= phi, the zero pose's side), bit 2 = 1 when A5 < 0; Turn bit i
-= 1 when axis i + 1 < 0 (TU = 'B010011': A1, A2 and A5 negative).
+(x < 0 in the A1 frame, "overhead"), bit 1 = 1 elbow up (A3 >= phi, phi the A3 angle that puts the wrist
+centre on the line through A2 and A3: the side of the robot file's elbow-up pose, KUKA's mastering pose A2 =
+-90, A3 = +90 deg, ``sides``), bit 2 = 1 when A5 < 0 (the Sinumerik manual's reading; Beckhoff/ISG's
+KUKA-compatible documentation counts A5 > 0 instead, not followed); Turn bit i = 1 when axis i + 1 < 0 (TU =
+'B010011': A1, A2 and A5 negative).
+
+The elbow fields of every vendor ("up" above) mean the side of the controller section's ``elbow_up`` pose
+(q = 0 without a section), and the axis angles are the section's (``axes``).
 """
 
 from __future__ import annotations

@@ -3,7 +3,9 @@
 Our closed-form IK (``pipeline.model.ik.solve_ik_batch``, method ``analytic``) gives every in-limit branch of
 a pose; each is expanded into all its in-limit 2 pi variants (``ik.result.limit_variants``); the vendor
 configuration of every candidate is computed as ``configuration.configurations`` computes it from joint
-values, and the candidate whose configuration equals the one asked for is the answer. None, or two
+values, and the candidate whose configuration equals the one asked for is the answer; where none does, the
+candidate it describes with an axis on a field's boundary to within round-off (``configuration.
+mismatched_field``: KUKA's sign of an axis at 0 by round-off, ABB's quadrant at a multiple of 90 deg). None, or two
 different joint vectors with it (a configuration that does not fix every 2 pi variant, e.g. KUKA's Turn
 on an axis of more than +-360 deg), is a ``ConfigurationNotFoundError`` naming the pose, the
 configuration asked for and the ones the pose's solutions have.
@@ -17,7 +19,7 @@ from ...errors import ConfigurationNotFoundError, OutputError, VendorConfigurati
 from ..ik import solve_ik_batch
 from ..ik.result import check_targets, limit_variants
 from .axes import check_vendor
-from .configuration import configurations, format_configuration, parse_configuration
+from .configuration import configurations, format_configuration, mismatched_field, parse_configuration
 
 #: Two candidates closer than this (largest joint difference [rad]) are one solution listed twice.
 SAME_SOLUTION = 1e-6
@@ -45,6 +47,9 @@ def select_solutions(robot, X_targets, configs, vendor: str) -> np.ndarray:
     for n in range(len(X)):
         rows = slice(bounds[n], bounds[n + 1])
         found = _distinct(candidates[rows][match[rows]])
+        if not len(found):                         # an axis on a field's boundary by round-off: either side
+            found = _distinct(np.array([q for q in candidates[rows]
+                                        if mismatched_field(robot, q, vendor, wanted[n]) is None]).reshape(-1, 6))
         if len(found) != 1:
             raise _not_found(vendor, X[n], wanted[n], have[rows], found)
         out[n] = found[0]

@@ -11,8 +11,11 @@ through points r_i, and the wrist centre c):
   axis 2, compared with the zero pose's. It changes sign only where the forearm (axis 3 to the wrist
   centre) lines up with the lower arm (axis 2 to axis 3), the elbow singular set (stretched or folded),
   so it is the vendors' "elbow up / down", "wrist centre in front of / behind the lower arm" and KUKA's
-  "A3 against phi" with any A3-A4 offset (phi) taken into account. "Up" is the zero pose's side: every
-  preset's zero pose has the upper arm vertical and the forearm forward, the vendors' elbow-up pose.
+  "A3 against phi" with any A3-A4 offset (phi) taken into account. "Up" is the side of the pose the maker
+  calls elbow up: the robot file's controller section's ``elbow_up`` axis angles mapped back to our q
+  (``axes.joint_values``), else q = 0 (every other preset's zero pose has the upper arm vertical and the
+  forearm forward; KUKA's zero pose has the upper arm horizontal, its elbow-up mastering pose is A2 = -90,
+  A3 = +90 deg).
 
 Both come with a margin (the distance from the singular set: [m] for the shoulder, the sine of the
 elbow angle off stretched/folded for the elbow) so callers and tests can tell how decided a bit is.
@@ -27,12 +30,14 @@ import numpy as np
 from ...errors import VendorConfigurationError
 from ...files.branch_names import SPHERICAL_WRIST
 from ..ik.analytic import analytic_solver_for
+from .axes import VENDORS, joint_values
+from .controller import controller_of
 
 
 @dataclass(frozen=True)
 class ArmSides:
     """Per configuration (N,): ``behind`` (wrist centre behind axis 1), ``elbow_down`` (the elbow on the
-    other side than at the zero pose), ``shoulder_margin`` [m] (the wrist centre's distance from axis 1)
+    other side than at the elbow-up pose, ``elbow_up_q``), ``shoulder_margin`` [m] (the wrist centre's distance from axis 1)
     and ``elbow_margin`` [1] (|sin| of the angle between the lower arm and the forearm)."""
 
     behind: np.ndarray
@@ -67,6 +72,15 @@ def wrist_centres(robot, Q: np.ndarray) -> np.ndarray:
     return X[:, :3, :3] @ in_end + X[:, :3, 3]
 
 
+def elbow_up_q(robot) -> np.ndarray:
+    """Our joint values (6,) [rad] of the pose the maker calls elbow up: the controller section's
+    ``elbow_up`` axis angles through its maker's axis map, else q = 0 (module docstring)."""
+    controller = controller_of(robot)
+    if controller is None or controller.maker not in VENDORS:
+        return np.zeros(robot.dof)
+    return joint_values(robot, controller.elbow_up, controller.maker)
+
+
 def arm_sides(robot, Q) -> ArmSides:
     """The shoulder and elbow sides of configurations Q (N, 6) [rad] (module docstring)."""
     solver = _solver(robot)
@@ -81,16 +95,25 @@ def arm_sides(robot, Q) -> ArmSides:
     forward = R1 @ forward0
     along = np.einsum("ij,ij->i", forward, c - r[0]) / np.linalg.norm(forward0)
     radial = (c - r[0]) - np.outer((c - r[0]) @ w[0], w[0])
+    orientation, margin = _elbow_side(solver, Q, c)
+    q_up = elbow_up_q(robot)
+    reference, _ = _elbow_side(solver, q_up[None], wrist_centres(robot, q_up[None]))
+    if reference[0] == 0.0:
+        raise VendorConfigurationError(f"{robot.name}: its elbow-up pose q = {np.degrees(q_up).round(4).tolist()} deg "
+                                       "is on the elbow singular set (forearm in line with the lower arm), so it "
+                                       "cannot tell elbow up from down")
+    return ArmSides(along < 0.0, orientation != reference[0], np.linalg.norm(radial, axis=1), margin)
+
+
+def _elbow_side(solver, Q: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``_elbow`` of configurations Q (N, 6) [rad] with wrist centres c (N, 3) [m]: the lower arm from axis 2
+    to axis 3, the forearm from axis 3 to the wrist centre, about axis 2."""
+    w, r = solver.axes, solver.points
+    R1 = _rotations(w[0], Q[:, 0])
     p2 = r[0] + R1 @ (r[1] - r[0])
     upper = (r[1] - r[0]) + _rotations(w[1], Q[:, 1]) @ (r[2] - r[1])
     p3 = r[0] + np.einsum("nij,nj->ni", R1, upper)
-    w2 = R1 @ w[1]
-    orientation, margin = _elbow(p3 - p2, c - p3, w2)
-    reference, _ = _elbow((r[2] - r[1])[None], (c0 - r[2])[None], w[1][None])
-    if reference[0] == 0.0:
-        raise VendorConfigurationError(f"{robot.name}: the zero pose is on the elbow singular set (forearm in line "
-                                       "with the lower arm), so it cannot tell elbow up from down")
-    return ArmSides(along < 0.0, orientation != reference[0], np.linalg.norm(radial, axis=1), margin)
+    return _elbow(p3 - p2, c - p3, R1 @ w[1])
 
 
 def _elbow(lower: np.ndarray, forearm: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

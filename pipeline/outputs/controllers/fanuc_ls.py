@@ -23,6 +23,17 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   programmed speed (CNT100 rounds over about that distance, so the corner is not cut by more than the zone
   at the programmed speed); otherwise half the shorter of the two neighbouring TCP moves (the largest zone
   the program may have). The zone in mm and the reach are stated in a comment line before each CNT move.
+  Why CNT and not a distance: the corner-region option of the R-30iB writes ``CNT100 CR50`` (CR in mm), but it is
+  an option that not every controller generation or configuration has, and a program using it does not load
+  where it is missing; CNT loads on every controller, so it is written with the reason in the header.
+* Frames: ``/MN`` starts with ``UFRAME_NUM=0 ;`` and ``UTOOL_NUM=1 ;``, the frames every point names (``UF : 0,
+  UT : 1``): a point whose UF/UT differs from the active frame numbers stops the program with an INTP-250-class
+  alarm (user frame number mismatch; a third-party knowledge-base page, unverified for the tool frame).
+* Load: LS has no load data of its own (``PAYLOAD[n]`` selects a payload schedule whose mass and centre of mass
+  are system settings on the controller: not written here); the job's payload (mass [kg], centre of mass in
+  the flange frame [mm]) is a comment, or a PLACEHOLDER comment when the job gives none.
+* Name and job: the program name is never a word of the format or of the TP instructions (``names``); a comment
+  line records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
 * Points: ``P[i]{ GP1: UF : 0, UT : 1, CONFIG : 'F/N U/D T/B, t1, t4, t6', X Y Z W P R }`` for poses, the
   TCP in user frame 0 (FANUC's world frame) in mm, W P R in deg as FANUC defines them: rotations about the
   fixed x, y, z axes of the frame, R = Rz(R) Ry(P) Rx(W); CONFIG from ``pipeline.model.vendors.configuration``.
@@ -30,12 +41,15 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   (J3 = q3 - q2 on FANUC arms, ``pipeline.model.vendors.axes``). Values are rounded to 0.001 mm and 0.001 deg.
 * Checked before writing: each Cartesian point, as written (rounded) and with its written CONFIG, is solved
   again (``selection.select_solution``) and must land on the program's joint values within what the rounding
-  allows (``rounding_bound``); a point on or near a configuration boundary (an axis at exactly +-180 deg, a
-  singular set), where the rounding alone could send the controller to another branch or turn, is refused.
-* Frames: FANUC's world frame on the LR Mate 200iD is 330 mm above the mounting face (ROS-Industrial
-  ``fanuc_lrmate200id_support``: the ``base_link-base`` transform "to Fanuc World Coordinates"); any other
-  robot has no published world frame on this controller and is written in our base frame (the mounting
-  face). UT 1 must hold the job's tool (stated in the header comment; the identity when the job has none).
+  allows (``rounding_bound``); CONFIG is the one the written pose selects nearest the joint values
+  (``written_point_configuration``: an axis on a field's boundary, e.g. at exactly +-180 deg, may be written on
+  either side), and a point near a singular set, where the rounding alone could send the controller to
+  another branch, is refused.
+* Frames: points are in FANUC's world frame, the robot file's fanuc controller section's base frame
+  (``controller.controller_frames``; the LR Mate 200iD's is 330 mm above the mounting face, ROS-Industrial
+  ``fanuc_lrmate200id_support``: the ``base_link-base`` transform "to Fanuc World Coordinates"; a robot without
+  a section is written in our base frame). UT 1 must hold the job's tool on the controller's flange (faceplate)
+  frame, the section's flange (stated in the header comment; the identity when the job has none).
 
 ``program_points`` (the motions in the order they are written, with their points' joint values) and
 ``controller_frame`` are shared with the Yaskawa writer.
@@ -51,28 +65,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import ConfigurationError, ConfigurationNotFoundError
-from ...files.atomic import WRITTEN_BY
+from ...errors import ConfigurationError, ConfigurationNotFoundError, OutputError
+from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_position_to_pose
 from ...model.vendors.axes import FANUC, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
-from ...model.vendors.selection import select_solution
+from ...model.vendors.controller import controller_frames, frames_words
+from ...model.vendors.selection import select_solution, written_configuration
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
 
-#: (preset, vendor) -> height [m] of the controller's robot frame above our base frame (the mounting face),
-#: with its source (ROS-Industrial descriptions: the ``base_link-base`` transform to the maker's frame).
-CONTROLLER_FRAMES = {
-    ("lrmate200id", "fanuc"): (0.330, ("FANUC world frame: 330 mm above the mounting face (ROS-Industrial "
-                                       "fanuc_lrmate200id_support, base_link-base)")),
-    ("gp7", "yaskawa"): (0.330, ("Yaskawa robot frame: 330 mm above the mounting face (ROS-Industrial "
-                                 "motoman_gp7_support, base_link-base)")),
-}
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
 NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
 FANUC_SPEED_MM_S = (1, 2000)
 MM, DEG = 1000.0, 180.0 / math.pi
+#: The user frame and tool frame numbers every point names and /MN selects (module docstring, "Frames").
+USER_FRAME, TOOL_FRAME = 0, 1
 _SEPARATOR = ",\t"
 
 
@@ -133,19 +142,28 @@ def via_point(program: Program, move: Move, vendor: str) -> Point:
     return Point(select_solution(robot, X_via, config, vendor), X_via, False, True)
 
 
-def controller_frame(robot, vendor: str) -> tuple[float, str]:
-    """(height [m] of the controller's robot frame above our base frame, what it rests on)."""
-    known = CONTROLLER_FRAMES.get((robot.name, vendor))
-    if known is not None:
-        return known
-    return 0.0, f"{robot.name} has no published {vendor} robot frame: positions are in our base frame (mounting face)"
+def controller_frame(robot, vendor: str) -> tuple[np.ndarray, str]:
+    """(X_B_base (4, 4) [m]: the controller's robot frame in our base frame, the header's words on the frames):
+    the robot file's ``vendor`` controller section (``model.vendors.controller.controller_frames``)."""
+    return controller_frames(robot, vendor)[0], frames_words(robot, vendor, "robot frame", "flange", "configuration")
 
 
-def xyz_rpy(X_BT: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
-    """(x, y, z [mm] in the controller frame ``height`` [m] above the base, rotations about the fixed x, y, z
-    axes [deg] with R = Rz Ry Rx) of a TCP pose X_BT (4, 4) [m]."""
-    p = (X_BT[:3, 3] - [0.0, 0.0, height]) * MM
-    return p, rotation_to_rpy(X_BT[:3, :3]) * DEG
+def xyz_rpy(X_BT: np.ndarray, X_B_base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y, z [mm] in the controller's robot frame X_B_base (4, 4) [m], rotations about its fixed x, y, z
+    axes [deg] with R = Rz Ry Rx) of a TCP pose X_BT (4, 4) [m] in our base frame."""
+    X = np.linalg.inv(X_B_base) @ X_BT
+    return X[:3, 3] * MM, rotation_to_rpy(X[:3, :3]) * DEG
+
+
+def controller_pose(X_B_base: np.ndarray, xyz_mm, angles_deg) -> np.ndarray:
+    """``xyz_rpy`` inverted: the pose (4, 4) [m] in our base frame of x, y, z [mm] and rotations [deg] in the
+    controller's robot frame X_B_base (4, 4) [m]."""
+    return X_B_base @ rpy_position_to_pose(np.radians(angles_deg), np.asarray(xyz_mm, dtype=float) / MM)
+
+
+def tool_on_flange(robot, vendor: str, X_FT: np.ndarray) -> np.ndarray:
+    """A tool X_FT (4, 4) [m] on our end frame -> on the ``vendor`` controller's flange frame (its tool data)."""
+    return np.linalg.inv(controller_frames(robot, vendor)[1]) @ X_FT
 
 
 def rounding_bound(robot, q, mm_step: float, deg_step: float) -> np.ndarray:
@@ -161,25 +179,28 @@ def rounding_bound(robot, q, mm_step: float, deg_step: float) -> np.ndarray:
     return 2.0 * (np.linalg.norm(J_inv[:, :3], axis=1) * dp + np.linalg.norm(J_inv[:, 3:], axis=1) * dtheta) + 1e-9
 
 
-def check_written_point(robot, vendor: str, label: str, q, xyz_mm, angles_deg, height: float, config,
-                        steps: tuple[float, float]) -> None:
-    """ConfigurationError naming the point unless the pose as written (``xyz_mm`` [mm] in the controller
-    frame ``height`` [m] above the base, ``angles_deg`` [deg]) with its written ``config`` selects joint values
-    within ``rounding_bound`` (``steps``: the file's mm and deg steps) of q (6,) [rad]: a point on or near a
-    configuration boundary (a turn window's edge at +-180 deg, a singular set), where the rounding alone can
-    make the controller take another branch or 2 pi variant, is refused rather than written."""
-    X = rpy_position_to_pose(np.radians(angles_deg), np.asarray(xyz_mm) / MM + [0.0, 0.0, height])
+def written_point_configuration(robot, vendor: str, label: str, q, xyz_mm, angles_deg, X_B_base: np.ndarray,
+                                steps: tuple[float, float]) -> np.ndarray:
+    """The configuration fields to write with a Cartesian point whose file holds ``xyz_mm`` [mm] in the
+    controller's robot frame X_B_base (4, 4) [m] and ``angles_deg`` [deg] (as rounded to ``steps``: the file's
+    mm and deg steps) and whose joint values are q (6,) [rad]: ``selection.written_configuration`` of the pose as
+    written (q's own, or for an axis on a field's boundary, such as +-180 deg, the side the rounded pose
+    selects). ConfigurationError naming the point unless the pose as written with it selects joint values
+    within ``rounding_bound`` of q: a point near a singular set, where the rounding alone can make the
+    controller take another branch, is refused rather than written."""
+    X = controller_pose(X_B_base, xyz_mm, angles_deg)
+    bound = rounding_bound(robot, q, *steps)
     try:
+        config = written_configuration(robot, X, q, vendor, float(bound.max()), label)
         landed = select_solution(robot, X, config, vendor)
-        why = f"it selects {np.round(np.degrees(landed), 4).tolist()} deg"
-    except ConfigurationNotFoundError as error:
+        why = f"it selects {np.round(np.degrees(landed), 4).tolist()} deg with {format_configuration(vendor, config)}"
+    except (ConfigurationNotFoundError, OutputError) as error:
         landed, why = None, str(error)
-    if landed is None or np.any(np.abs(landed - q) > rounding_bound(robot, q, *steps)):
-        written = format_configuration(vendor, config)
-        raise ConfigurationError(f"{label}: joint values {np.round(np.degrees(q), 4).tolist()} deg lie on or near a "
-                                 f"{vendor} configuration boundary: the pose as written with {written} does not bring "
-                                 f"them back within the file's rounding ({why}); move the waypoint off the boundary "
-                                 "(e.g. an axis at exactly +-180 deg)")
+    if landed is None or np.any(np.abs(landed - q) > bound):
+        raise ConfigurationError(f"{label}: joint values {np.round(np.degrees(q), 4).tolist()} deg: the pose as "
+                                 f"written does not bring them back within the file's rounding ({why}); a "
+                                 "near-singular waypoint? move it off the singularity")
+    return config
 
 
 def rounded(values, decimals: int) -> np.ndarray:
@@ -192,9 +213,11 @@ def comment_lines(text: str) -> list[str]:
     return textwrap.wrap(re.sub(r"[;'\"!]", "", text), COMMENT_CHARS, break_on_hyphens=False)
 
 
-def tool_text(program: Program) -> str:
-    """The tool as x, y, z [mm] and rotations about the fixed x, y, z axes [deg] (R = Rz Ry Rx)."""
-    return "tool " + " ".join(f"{v:.3f}" for v in rounded(np.concatenate(xyz_rpy(program.tool.X_FT, 0.0)), 3))
+def tool_text(program: Program, vendor: str) -> str:
+    """The tool on the ``vendor`` controller's flange as x, y, z [mm] and rotations about the fixed x, y, z axes
+    [deg] (R = Rz Ry Rx)."""
+    X = tool_on_flange(program.robot, vendor, program.tool.X_FT)
+    return "tool " + " ".join(f"{v:.3f}" for v in rounded(np.concatenate(xyz_rpy(X, np.eye(4))), 3))
 
 
 def check_name(name: str, pattern: re.Pattern, what: str) -> str:
@@ -233,20 +256,21 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -
     waypoint (ControllerLintError)."""
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
-    height, frame = controller_frame(program.robot, FANUC)
-    comments = comment_lines(_header_text(program, frame))
+    X_B_base, frame = controller_frame(program.robot, FANUC)
+    comments = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+                *comment_lines(payload_text(program, "PAYLOAD schedule (UT 1)"))]
     motions = program_points(program, FANUC)
     zones = [line for motion in motions if motion.zone > 0.0 for line in comment_lines(_zone_comment(program, motion))]
     configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
     lint(program, FANUC_LS, name, comments + zones, configs)
-    lines = [f"!{line}" for line in comments]
+    lines = [f"UFRAME_NUM={USER_FRAME}", f"UTOOL_NUM={TOOL_FRAME}", *(f"!{line}" for line in comments)]
     positions, index = [], 0
     for motion in motions:
         labels = []
         for point in motion.points:
             index += 1
             labels.append(f"P[{index}]")
-            positions.append(_position(program, index, point, height))
+            positions.append(_position(program, index, point, X_B_base))
         if motion.zone > 0.0:
             lines.extend(f"!{line}" for line in comment_lines(_zone_comment(program, motion)))
         lines.append(_motion(program, motion, labels))
@@ -255,12 +279,29 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -
                       ""])
 
 
+def header_intro(program: Program, rounded_at: str) -> str:
+    """The first sentences of an LS or JBI header: the program, its robot and writer, and that the controller plans
+    its own speed profile (``rounded_at``: where its path differs from the certified one)."""
+    return (f"{program.name} on {program.robot.name}, written by {WRITTEN_BY}. The controller plans its own speed "
+            f"profile for each move, not the certified one: timing and the path {rounded_at} differ.")
+
+
 def _header_text(program: Program, frame: str) -> str:
-    return (f"{program.name} on {program.robot.name}, written by {WRITTEN_BY}. The controller plans its own "
-            "speed profile for each move, "
-            "not the certified one: timing and the path in zones differ. It stops (FINE) at every waypoint "
-            f"without a zone. UT 1 = {tool_text(program)} (x y z w p r, mm deg). {frame}. Loading .ls needs the "
-            "ASCII Program Loader option (or MakeTP offline).")
+    return (f"{header_intro(program, 'in zones')} It stops (FINE) at every waypoint without a zone. UT 1 = "
+            f"{tool_text(program, FANUC)} (x y z w p r, mm deg). {frame}. Loading .ls needs the "
+            "ASCII Program Loader option (or MakeTP offline). CNTn is a speed-dependent percentage, not a distance: "
+            "n is made from the zone (its mm stated before each CNT move); the CR option (mm) is not on every "
+            "controller.")
+
+
+def payload_text(program: Program, where: str) -> str:
+    """A comment: the job's payload (mass [kg], centre of mass in the flange frame [mm]) to set in ``where``, or a
+    PLACEHOLDER when the job gives none (the module docstring's "Load")."""
+    payload = program.payload
+    if payload is None:
+        return f"PLACEHOLDER: the job gives no payload: set the real one in {where}"
+    com = " ".join(f"{v:.1f}" for v in rounded(payload.com * MM, 1))
+    return f"payload {payload.mass:g} kg, com {com} mm (flange): set it in {where}"
 
 
 def _zone_comment(program: Program, motion: Motion) -> str:
@@ -298,16 +339,16 @@ def _motion(program: Program, motion: Motion, labels: list[str]) -> str:
     return f"L {labels[0]} {tail}"
 
 
-def _position(program: Program, index: int, point: Point, height: float) -> str:
+def _position(program: Program, index: int, point: Point, X_B_base: np.ndarray) -> str:
     """One /POS entry: joints as the pendant shows them, or CONFIG and X Y Z W P R."""
-    head = f"P[{index}]{{\n   GP1:\n\tUF : 0, UT : 1,"
+    head = f"P[{index}]{{\n   GP1:\n\tUF : {USER_FRAME}, UT : {TOOL_FRAME},"
     if point.in_joints:
         J = rounded(axis_angles(program.robot, point.q, FANUC), 3)
         values = [f"J{i + 1}= {v:10.3f} deg" for i, v in enumerate(J)]
         return f"{head}\n\t{_SEPARATOR.join(values[:3])},\n\t{_SEPARATOR.join(values[3:])}\n}};"
-    config = format_configuration(FANUC, configurations(program.robot, point.q, FANUC))
-    p, wpr = (rounded(v, 3) for v in xyz_rpy(point.X_BT, height))
-    check_written_point(program.robot, FANUC, f"P[{index}]", point.q, p, wpr, height, config, (0.001, 0.001))
+    p, wpr = (rounded(v, 3) for v in xyz_rpy(point.X_BT, X_B_base))
+    config = format_configuration(FANUC, written_point_configuration(program.robot, FANUC, f"P[{index}]", point.q, p,
+                                                                     wpr, X_B_base, (0.001, 0.001)))
     xyz = _SEPARATOR.join(f"{axis} = {v:10.3f}  mm" for axis, v in zip("XYZ", p))
     angles = _SEPARATOR.join(f"{axis} = {v:10.3f} deg" for axis, v in zip("WPR", wpr))
     return f"{head}\t\tCONFIG : '{config}',\n\t{xyz},\n\t{angles}\n}};"

@@ -7,8 +7,9 @@ Programming Instructions for System Integrators; the chapter and section named a
 * ``DEF name( )`` ... ``END`` in the .src and ``DEFDAT name`` ... ``ENDDAT`` in the .dat ("Structure
   of a KRL program", "Data lists"); names at most 24 characters ("Names"), checked by ``lint``.
 * No call of BAS: the .src sets what BAS(#INITMOV) would, and says what it assumes: ``$BASE =
-  $ROBROOT`` (targets in the robot's own base frame, which is our model's base frame), ``$TOOL`` the
-  job's tool in the flange frame ($FLANGE taken to be our model's end frame without the tool),
+  $ROBROOT`` (targets in the controller's base frame) and ``$TOOL`` the job's tool on its flange frame
+  $FLANGE, both from the robot file's kuka controller section (``model.vendors.controller``; without one:
+  our base frame and our end frame without the tool, as the header says),
   ``$IPO_MODE = #BASE``, ``$ORI_TYPE = #VAR`` (the orientation turns from start to end, as in our tool
   moves), ``$CIRC_TYPE = #BASE``, ``$ADVANCE = 3`` (approximation needs an advance run), accelerations
   ``$ACC_AXIS[i] = 100`` % and ``$ACC.CP`` the job's tcp_accel_max [m/s^2] (else the machine data's
@@ -23,12 +24,23 @@ Programming Instructions for System Integrators; the chapter and section named a
   ``CIRC aux, end`` with the via point as a FRAME (KRL ignores the auxiliary point's orientation
   and Status/Turn; we write the end's orientation). The first motion is a PTP to the start (the BCO run)
   at 10 % of the axes' speeds.
-* Zones: a move with a zone gets ``$APO.CDIS`` = the zone [mm] and ``C_DIS`` ("Approximate positioning":
-  approximation starts at the earliest when the TCP is closer than $APO.CDIS to the end point; KSS 8.x
-  accepts C_DIS on PTP as well, as its inline forms write it; a KR C2 / KSS 5.x controller needs
-  ``C_PTP C_DIS`` on a PTP instead); a zone of 0 is an exact stop (no approximation parameter), as are
-  both ends of a planned joint move and its planner vertices (``PTP XPk_i`` to E6AXIS targets: PTP is
-  straight in joint space, the segments the planner checked).
+* Zones: a move with a zone gets ``$APO.CDIS`` = the zone [mm] ("Approximate positioning": approximation
+  starts at the earliest when the TCP is closer than $APO.CDIS to the end point) and ``C_DIS`` on LIN and CIRC.
+  On PTP the approximation keyword depends on the controller generation (``GENERATIONS``, ``generation=``):
+  ``krc2`` (the default: KR C2 / KSS 5.x, and what a plain KRL parser accepts: the grammars-v4 ``kuka/krl.g4``
+  ANTLR grammar, BSD, takes only ``C_PTP`` after PTP, optionally followed by C_DIS/C_ORI/C_VEL for a PTP-CP
+  transition) writes ``PTP XPk C_PTP`` (``C_PTP C_DIS`` when a LIN or CIRC follows) with ``$APO.CPTP`` =
+  ceil(100 x zone / half the shorter neighbouring TCP move), 1..100 %: C_PTP is a percentage of the machine
+  data's $APO_DIS_PTP axis angle, not a distance, so this percentage is an assumption stated in the header
+  (KSS caps approximation at half a move); ``kss8`` (KR C4, KSS 8.x inline forms, robot-forum thread 14422)
+  writes ``PTP XPk C_DIS``. A zone of 0 is an exact stop (no approximation parameter), as are both ends of a
+  planned joint move and its planner vertices (``PTP XPk_i`` to E6AXIS targets: PTP is straight in joint
+  space, the segments the planner checked).
+* Load: ``$LOAD.M`` [kg] and ``$LOAD.CM`` {X, Y, Z [mm], A, B, C 0} (centre of mass in the flange frame) from the
+  job's ``payload`` ("$LOAD"; inertia not written: the machine data's); without a payload a PLACEHOLDER comment
+  says that the controller keeps its own $LOAD and to set it.
+* Names: the program name is never a KRL keyword nor an XP/XA point name (``names``: ``DEF END( )`` is not
+  KRL); the header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
 * E6POS ``{X, Y, Z, A, B, C, S, T, E1..E6}``: the TCP in the base frame, X, Y, Z [mm] rounded to 0.001
   mm, A, B, C [deg] rounded to 0.0001 deg in KUKA's convention R = Rz(A) Ry(B) Rx(C) (A about Z, then B
   about the new Y, then C about the newest X: "Orientation angles A, B, C"); S and T the KUKA Status and
@@ -42,16 +54,22 @@ Programming Instructions for System Integrators; the chapter and section named a
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ...errors import ConfigurationNotFoundError
-from ...files.atomic import WRITTEN_BY
+from ...errors import ConfigurationNotFoundError, OutputError
+from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_to_rotation
 from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
+from ...model.vendors.controller import controller_frames, frames_words
 from ...model.vendors.selection import select_solution, written_configuration
-from .lint import KRL, lint, written_speed
+from .lint import KRL, lint, move_lengths, written_speed
 
+#: Controller generations (module docstring): the approximation keyword of a PTP with a zone.
+KRC2, KSS8 = "krc2", "kss8"
+GENERATIONS = (KRC2, KSS8)
 #: Axis speed [% of the axes' maximum] of the first motion (the BCO run to the start).
 BCO_PERCENT = 10
 #: Decimal places written: positions [mm], angles [deg].
@@ -74,8 +92,11 @@ def abc_rotation(a: float, b: float, c: float) -> np.ndarray:
     return rpy_to_rotation(*np.radians([c, b, a]))
 
 
-def written_pose(X: np.ndarray) -> np.ndarray:
-    """The pose (4, 4) [m] the controller reads back from X (4, 4) [m] as ``frame_text`` writes it (rounded)."""
+def written_pose(X: np.ndarray, X_B_base: np.ndarray | None = None) -> np.ndarray:
+    """The pose (4, 4) [m] the controller reads back from X (4, 4) [m] as ``frame_text`` writes it (rounded);
+    with ``X_B_base`` (the controller's base frame in ours), X is in our base frame and written in its."""
+    if X_B_base is not None:
+        return X_B_base @ written_pose(np.linalg.inv(X_B_base) @ X)
     a, b, c = (round(v, DEG_DECIMALS) for v in kuka_abc(X[:3, :3]))
     out = np.eye(4)
     out[:3, :3] = abc_rotation(a, b, c)
@@ -88,7 +109,8 @@ def names_its_joints(robot, X: np.ndarray, status_turn, q: np.ndarray) -> bool:
     and no other in-limit solution (within SELECTED_TOL): Turn is a sign per axis, so on an axis of more
     than +-180 deg two 2 pi variants can share it, and rounding can move an axis near 0 across the sign."""
     try:
-        found = select_solution(robot, written_pose(X), tuple(int(v) for v in status_turn), KUKA)
+        found = select_solution(robot, written_pose(X, controller_frames(robot, KUKA)[0]),
+                                tuple(int(v) for v in status_turn), KUKA)
     except ConfigurationNotFoundError:
         return False
     return bool(np.abs(found - q).max() <= SELECTED_TOL)
@@ -123,13 +145,18 @@ def frame(name: str, X: np.ndarray) -> str:
     return f"DECL FRAME {name}={{{frame_text(X)}}}"
 
 
-def header(program, name: str) -> list[str]:
+def header(program, name: str, generation: str = KRC2) -> list[str]:
     """The comment lines at the top of the .src: what the controller does differently from the certified
     profile, and what the program assumes."""
     mapping = axis_map(program.robot, KUKA)
+    ptp = ("PTP zones: C_PTP with $APO.CPTP = the zone's share of half the shorter neighbouring move (a percentage "
+           "of $APO_DIS_PTP, not a distance: check on the controller); C_DIS after it for a PTP-CP transition"
+           if generation == KRC2 else "PTP zones: C_DIS (KSS 8 inline form)")
     return [
         f"{name}: {len(program.moves)} moves of job {program.name} on {program.robot.name}, written by "
         f"{WRITTEN_BY} (pipeline.outputs.controllers.krl)",
+        f"{job_mark(program.job_name or program.name)} generation={generation}",
+        ptp,
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "
         "jerk): the timing differs",
@@ -140,22 +167,32 @@ def header(program, name: str) -> list[str]:
         "- LIN and CIRC keep the start's configuration and ignore a target's S and T; only PTP uses them",
         "- PTP targets whose E6POS with S and T would name more than one joint solution are written as E6AXIS",
         "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
-        "Assumed (no BAS call): $ROBROOT = our base frame, $FLANGE = our end frame without the tool, no "
-        "external axes",
+        "Assumed (no BAS call): no external axes; "
+        + frames_words(program.robot, KUKA, "$ROBROOT", "$FLANGE", "S/T"),
         f"Axis angles: {mapping.source}",
     ]
 
 
+def load_lines(program) -> list[str]:
+    """``$LOAD.M`` and ``$LOAD.CM`` of the job's payload, or the PLACEHOLDER comment (module docstring)."""
+    payload = program.payload
+    if payload is None:
+        return ["; PLACEHOLDER: the job gives no payload: $LOAD is the controller's own; set the tool's mass and "
+                "centre of mass (payload: {mass, com} in the job)"]
+    com = ",".join(f"{k} {_num(v * 1000.0, MM_DECIMALS)}" for k, v in zip("XYZ", payload.com))
+    return [f"$LOAD.M = {payload.mass:.3f}", f"$LOAD.CM = {{{com},A 0.0,B 0.0,C 0.0}}"]
+
+
 def _init(program) -> list[str]:
     """The BAS-free initialisation of the .src (module docstring)."""
-    tool = frame_text(program.tool.X_FT)
+    tool = frame_text(np.linalg.inv(controller_frames(program.robot, KUKA)[1]) @ program.tool.X_FT)
     acc_cp = f"{program.tcp_accel_max:.3f}" if program.tcp_accel_max is not None else "$ACC_MA.CP"
     lines = ["$ADVANCE = 3", "$BASE = $ROBROOT", f"$TOOL = {{{tool}}}", "$IPO_MODE = #BASE",
              "$ORI_TYPE = #VAR", "$CIRC_TYPE = #BASE", f"$ACC.CP = {acc_cp}", "$ACC.ORI1 = $ACC_MA.ORI1",
              "$ACC.ORI2 = $ACC_MA.ORI2", "$VEL.ORI1 = $VEL_MA.ORI1", "$VEL.ORI2 = $VEL_MA.ORI2"]
     lines += [f"$ACC_AXIS[{i}] = 100" for i in range(1, 7)]
     lines += [f"$VEL_AXIS[{i}] = {BCO_PERCENT}" for i in range(1, 7)]
-    return lines
+    return lines + load_lines(program)
 
 
 def _speed_lines(program, move, current: dict) -> list[str]:
@@ -174,13 +211,24 @@ def _speed_lines(program, move, current: dict) -> list[str]:
     return [f"$VEL_AXIS[{i}] = {percent}" for i in range(1, 7)]
 
 
-def _motion(move, point: str, aux: str | None, zone_m: float) -> list[str]:
-    """The approximation distance and the motion line of ``move`` to ``point`` (via ``aux`` if circular)
-    with a zone of ``zone_m`` [m] (0: an exact stop)."""
-    zone = []
-    approx = ""
+def cptp_percent(program, move) -> int:
+    """$APO.CPTP [%] of a PTP's zone under ``KRC2``: ceil(100 x zone / half the shorter of the move and the next
+    one, TCP chords), 1..100 (module docstring)."""
+    lengths = move_lengths(program)[move.end - 1: move.end + 1]
+    reach = 0.5 * float(lengths.min())
+    return 100 if reach <= 0.0 else int(min(100, max(1, math.ceil(100.0 * move.zone / reach - 1e-9))))
+
+
+def _motion(program, move, point: str, aux: str | None, zone_m: float, generation: str) -> list[str]:
+    """The approximation settings and the motion line of ``move`` to ``point`` (via ``aux`` if circular)
+    with a zone of ``zone_m`` [m] (0: an exact stop) for the controller ``generation``."""
+    zone, approx = [], ""
     if zone_m > 0.0:
         zone, approx = [f"$APO.CDIS = {zone_m * 1000.0:.3f}"], " C_DIS"
+        if not move.is_tool_move and generation == KRC2:
+            following = program.moves[move.end] if move.end < len(program.moves) else None
+            zone.append(f"$APO.CPTP = {cptp_percent(program, move)}")
+            approx = " C_PTP C_DIS" if following is not None and following.is_tool_move else " C_PTP"
     if aux is not None:
         return zone + [f"CIRC {aux}, {point}{approx}"]
     return zone + [f"{'LIN' if move.is_tool_move else 'PTP'} {point}{approx}"]
@@ -193,7 +241,8 @@ def written_status_turn(program) -> np.ndarray:
     robot, poses = program.robot, [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
     own = configurations(robot, program.targets, KUKA)
     return np.array([own[k] if program.waypoints[k].method is None else
-                     written_configuration(robot, written_pose(X), q, KUKA, SELECTED_TOL, "the E6POS")
+                     written_configuration(robot, written_pose(X, controller_frames(robot, KUKA)[0]), q, KUKA,
+                                           SELECTED_TOL, "the E6POS")
                      for k, (X, q) in enumerate(zip(poses, program.targets))])
 
 
@@ -211,17 +260,18 @@ def _declarations(program, status_turn: np.ndarray, angles: np.ndarray) -> list[
     """The .dat declarations: waypoint k as XPk (E6AXIS or E6POS: ``_as_axes``), the via point of a
     circular move to waypoint k as XAk and vertex i of a planned move to waypoint k as XPk_i (E6AXIS)."""
     poses = [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
+    X_base_B = np.linalg.inv(controller_frames(program.robot, KUKA)[0])       # written in $ROBROOT
     lines = []
     for k, X in enumerate(poses):
         if _as_axes(program, k, X, status_turn[k]):
             lines.append(e6axis(f"XP{k}", angles[k]))
         else:
-            lines.append(e6pos(f"XP{k}", X, *status_turn[k]))
+            lines.append(e6pos(f"XP{k}", X_base_B @ X, *status_turn[k]))
     for move in program.moves:
         if move.via is not None:
             X = move.X_BT.copy()
             X[:3, 3] = move.via
-            lines.append(frame(f"XA{move.end}", X))
+            lines.append(frame(f"XA{move.end}", X_base_B @ X))
         lines += [e6axis(name, axis_angles(program.robot, q, KUKA)) for name, q in _vertices(move)]
     return lines
 
@@ -233,14 +283,17 @@ def _vertices(move) -> list[tuple[str, np.ndarray]]:
     return [(f"XP{move.end}_{i}", q) for i, q in enumerate(move.planned.waypoints[1:-1], start=1)]
 
 
-def write_krl(program, name: str) -> tuple[str, str]:
-    """The program's .src and .dat texts (module docstring) as program ``name``. ``lint`` runs first: a
-    ControllerLintError names what KRL cannot hold (a name over 24 characters, a zone over half a move, a
-    speed out of range, a configuration that does not match its joint values). A planned joint move (a
-    cell's collision-free detour) is a PTP to each planner vertex (E6AXIS), exact stops at the vertices and
-    at both ends of the move: PTP is straight in joint space, the segments the planner checked."""
+def write_krl(program, name: str, generation: str = KRC2) -> tuple[str, str]:
+    """The program's .src and .dat texts (module docstring) as program ``name`` for the controller
+    ``generation`` (``GENERATIONS``). ``lint`` runs first: a ControllerLintError names what KRL cannot hold (a
+    name over 24 characters or reserved, a zone over half a move, a speed out of range, a configuration that
+    does not match its joint values). A planned joint move (a cell's collision-free detour) is a PTP to each
+    planner vertex (E6AXIS), exact stops at the vertices and at both ends of the move: PTP is straight in joint
+    space, the segments the planner checked."""
+    if generation not in GENERATIONS:
+        raise OutputError(f"KRL controller generation {generation!r}: one of {', '.join(GENERATIONS)}")
     status_turn = written_status_turn(program)
-    comments = header(program, name)
+    comments = header(program, name, generation)
     lint(program, KRL, name, comments, status_turn)
     angles = axis_angles(program.robot, program.targets, KUKA)
     body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
@@ -248,8 +301,10 @@ def write_krl(program, name: str) -> tuple[str, str]:
         body += _speed_lines(program, move, speeds)
         body += [f"PTP {name}" for name, _ in _vertices(move)]
         zone = 0.0 if program.exact_stop_at(move) else move.zone
-        body += _motion(move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone)
+        body += _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone,
+                        generation)
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
-    dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}",
+    dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}, "
+           f"{job_mark(program.job_name or program.name)}",
            *_declarations(program, status_turn, angles), "ENDDAT"]
     return "\n".join(src) + "\n", "\n".join(dat) + "\n"

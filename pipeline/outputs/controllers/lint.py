@@ -5,7 +5,7 @@ writer calls ``lint(program, language, ...)`` once, before writing anything, and
 The rules, each with one table row per language (``LIMITS``, every limit with its source):
 
 * names and comments within the language's limits: the program (module, job) name's length and
-  characters, and every comment line the writer passes;
+  characters, not a reserved word (``names``), and every comment line the writer passes;
 * points per file: at most the positions one program file may hold, where the language has such a limit;
 * zones: a move's zone [m] no larger than half of either neighbouring move's length (the controller would
   silently shrink it: KUKA's approximation distance is at most half of the move, KSS expert programming,
@@ -32,9 +32,7 @@ from ...errors import ControllerLintError
 from ...model.vendors.configuration import FIELDS, configurations, mismatched_field
 from ...program.compile import ZONE_SLACK_M
 from ...program.tool_path import move_length
-
-RAPID, FANUC_LS, JBI, KRL, URSCRIPT = "rapid", "ls", "jbi", "krl", "urscript"
-LANGUAGES = (RAPID, FANUC_LS, JBI, KRL, URSCRIPT)
+from .names import FANUC_LS, JBI, KRL, LANGUAGES, NAME_MAX, PREFIX, RAPID, URSCRIPT, is_reserved
 
 
 @dataclass(frozen=True)
@@ -71,14 +69,14 @@ class LanguageLimits:
 _PERCENT = "% of the axes' speed limits"
 LIMITS = {
     RAPID: LanguageLimits(
-        "abb", 32, r"[A-Za-z][A-Za-z0-9_]*", None, None,
+        "abb", NAME_MAX[RAPID], r"[A-Za-z][A-Za-z0-9_]*", None, None,
         Speed(_PERCENT, 100.0, 1e-3, 0.0, 100.0, "RAPID has no joint percentage: its writer turns the fraction into "
               "speeddata; checked as a fraction of the robot's joint speed limits"),
         Speed("mm/s", 1000.0, 1e-3, 0.0, None, "RAPID reference manual, speeddata: v_tcp [mm/s], no bound of the "
               "language (the robot's own TCP speed bounds it)"),
         "RAPID kernel reference: identifiers are at most 32 characters, a letter first, then letters, digits, _"),
     FANUC_LS: LanguageLimits(
-        "fanuc", 8, r"[A-Z][A-Z0-9_]*", 32, 9999,
+        "fanuc", NAME_MAX[FANUC_LS], r"[A-Z][A-Z0-9_]*", 32, 9999,
         Speed(_PERCENT, 100.0, 1.0, 1.0, 100.0, "FANUC TP: J moves at an integer 1-100 %"),
         Speed("mm/sec", 1000.0, 1.0, 1.0, 2000.0, "FANUC TP: L/C moves at an integer 1-2000 mm/sec (the "
               "controller's default range; unverified against a manual here)"),
@@ -86,14 +84,14 @@ LIMITS = {
         "generation (R-30iA and later take up to 36, unverified here); comment lines (!) up to 32 characters; "
         "positions P[1]..P[9999] (unverified here)"),
     JBI: LanguageLimits(
-        "yaskawa", 8, r"[A-Z][A-Z0-9_]*", 32, 100000,
+        "yaskawa", NAME_MAX[JBI], r"[A-Z][A-Z0-9_]*", 32, 100000,
         Speed(_PERCENT, 100.0, 0.01, 0.01, 100.0, "INFORM MOVJ VJ=0.01 to 100.00 (%)"),
         Speed("mm/s", 1000.0, 0.1, 0.1, 1500.0, "INFORM MOVL/MOVC V=0.1 to 1500.0 mm/s (NX100 INFORM; "
               "unverified here)"),
         "NX100 operator's manual 4.1 (job data format): //NAME up to 8 characters, comments up to 32; teaching "
         "positions C00000..C99999 (5 digits in the job file; no smaller per-job limit found)"),
     KRL: LanguageLimits(
-        "kuka", 24, r"[A-Za-z_][A-Za-z0-9_]*", None, None,
+        "kuka", NAME_MAX[KRL], r"[A-Za-z_][A-Za-z0-9_]*", None, None,
         Speed(_PERCENT, 100.0, 1.0, 1.0, 100.0, "KSS expert programming, $VEL_AXIS[i]: INT, 1-100 % of the axis' "
               "maximum speed"),
         Speed("m/s", 1.0, 1e-3, 0.0, None, "KSS expert programming, $VEL.CP [m/s], bounded by the robot's "
@@ -101,7 +99,7 @@ LIMITS = {
         "KSS expert programming, 'Names': at most 24 characters, a letter or _ first, then letters, digits, _; "
         "comments (;) of any length; no published limit of the points in a .dat"),
     URSCRIPT: LanguageLimits(
-        None, None, r"[A-Za-z_][A-Za-z0-9_]*", None, None,
+        None, NAME_MAX[URSCRIPT], r"[A-Za-z_][A-Za-z0-9_]*", None, None,
         Speed(_PERCENT, 100.0, 1e-9, 0.0, 100.0, "URScript movej v [rad/s]: checked as a fraction of the joint "
               "speed limits"),
         Speed("m/s", 1.0, 1e-9, 0.0, None, "URScript movel/movec v [m/s], no bound of the language"),
@@ -142,6 +140,10 @@ def check_name(language: str, name: str) -> None:
     if not re.fullmatch(limits.name_pattern, name):
         raise ControllerLintError(language, None, "name", name, f"not a {language} name ({limits.name_pattern}; "
                                                                 f"{limits.sources})")
+    if is_reserved(language, name):
+        raise ControllerLintError(language, None, "name", name, f"a reserved word of {language} or a name its writer "
+                                                                f"declares (pipeline.outputs.controllers.names); "
+                                                                f"e.g. {PREFIX}{name}")
 
 
 def check_comment(language: str, line: str) -> None:

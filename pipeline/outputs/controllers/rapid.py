@@ -3,13 +3,23 @@
 What it writes, and the RAPID facts it follows (ABB, "Technical reference manual - RAPID Instructions,
 Functions and Data types", the entries named; "Technical reference manual - RAPID kernel" for names):
 
-* ``tooldata`` (robhold, tframe, tload): tframe is the job's tool X_FT [mm, quaternion]; the load (mass 1 kg,
-  centre of gravity at the flange, no inertia) is a PLACEHOLDER the header says to replace: the program has
-  no tool mass.
+* ``tooldata`` (robhold, tframe, tload): tframe is the job's tool X_FT [mm, quaternion]; tload ``[mass, cog,
+  [1,0,0,0], 0, 0, 0]`` is the job's payload (mass [kg], centre of gravity [mm] in the flange frame tool0,
+  "loaddata"; inertia 0: not known); without a payload the load (1 kg at the flange) is a PLACEHOLDER the
+  header says to replace.
+* Scope (RAPID kernel manual, "Data declarations", "Routine declarations": a module's data and routines are
+  global to the task unless declared ``LOCAL``): every data declaration is ``LOCAL``, so two written modules
+  never clash in one task; the entry routine is global and named ``main_<module>`` (cut to 32 characters), unique
+  per module: run it with "PP to Routine", or call it from the task's own ``main``. The module name is never a
+  name the module declares (``names``: a job ``tool_job`` becomes module ``P_tool_job``).
+* The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
+* Frames: the controller's base frame and tool0 are the robot file's abb controller section's (``controller.
+  controller_frames``; our base and end frames without one): robtargets are in its base frame, tframe is the
+  tool on its tool0, and a header line says where they come from (``controller.frames_words``).
 * ``wobjdata``: without a cell, or with the robot's base at the cell's origin, ``wobj0`` (targets in the
-  robot's base frame). Otherwise a work object whose user frame is the robot's base in the cell (X_WB), so
-  that the targets stay in the robot's base frame: the controller's base frame (system parameters) must then
-  be X_WB in its world frame, as in the cell.
+  controller's base frame). Otherwise a work object whose user frame is the controller's base frame in the
+  cell (X_WB X_B_base), so that the targets stay in that frame: the controller's base frame (system
+  parameters) must then be that pose in its world frame, as in the cell.
 * ``robtarget`` [trans, rot, robconf, extax]: the TCP in the work object, position [mm] rounded to 0.001 mm,
   orientation as the unit quaternion [q1 (scalar), q2, q3, q4] with q1 >= 0 rounded to 1e-6, ``confdata``
   [cf1, cf4, cf6, cfx] (``pipeline.model.vendors.configuration``; the axis map of ``pipeline.model.vendors.axes``
@@ -37,7 +47,7 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
 * ``ConfJ \\On`` and ``ConfL \\On``: the controller keeps the written configurations (its default after
   loading, written out so that a changed default cannot pick another branch).
 * Names: identifiers of at most 32 characters, letters, digits and underscores, starting with a letter,
-  not a reserved word.
+  not a reserved word (``names.RESERVED_WORDS``).
 """
 
 from __future__ import annotations
@@ -49,21 +59,16 @@ import textwrap
 import numpy as np
 
 from ...errors import OutputError
-from ...files.atomic import WRITTEN_BY
+from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ...model.vendors import selection
-from ...model.vendors.axes import ABB, axis_angles, axis_map
+from ...model.vendors.axes import ABB, axis_angles
+from ...model.vendors.controller import controller_frames, frames_words
 from ...model.vendors.configuration import format_configuration
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .lint import RAPID, lint
+from .names import RESERVED_WORDS
 
-#: RAPID's reserved words (RAPID kernel manual, "Reserved words"): no identifier may be one of them.
-RESERVED_WORDS = frozenset(("ALIAS", "AND", "BACKWARD", "CASE", "CONNECT", "CONST", "DEFAULT", "DIV", "DO", "ELSE",
-                            "ELSEIF", "ENDFOR", "ENDFUNC", "ENDIF", "ENDMODULE", "ENDPROC", "ENDRECORD", "ENDTEST",
-                            "ENDTRAP", "ENDWHILE", "ERROR", "EXIT", "FALSE", "FOR", "FROM", "FUNC", "GOTO", "IF",
-                            "INOUT", "LOCAL", "MOD", "MODULE", "NOSTEPIN", "NOT", "NOVIEW", "OR", "PERS", "PROC",
-                            "RAISE", "READONLY", "RECORD", "RETRY", "RETURN", "STEP", "SYSMODULE", "TASK", "TEST",
-                            "THEN", "TO", "TRUE", "TRYNEXT", "UNDO", "VAR", "VIEWONLY", "WHILE", "WITH", "XOR"))
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
 #: v_ori [deg/s], v_leax [mm/s], v_reax [deg/s] of every predefined speeddata v5..v7000.
 SPEED_REST = (500.0, 5000.0, 1000.0)
@@ -82,9 +87,11 @@ COMMENT_WIDTH = 96
 DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", "speeddata", "zonedata", "jointtarget",
                                                         "robtarget"))}
 #: How each data type is declared: tool and work object data persistent (as RobotStudio declares them), the rest
-#: constants.
-STORAGE = {"tooldata": "PERS", "wobjdata": "TASK PERS", "speeddata": "CONST", "zonedata": "CONST",
-           "jointtarget": "CONST", "robtarget": "CONST"}
+#: constants; all LOCAL to the module (module docstring, "Scope").
+STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "speeddata": "LOCAL CONST", "zonedata": "LOCAL CONST",
+           "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
+#: The global entry routine's name is this prefix and the module's name (module docstring, "Scope").
+ENTRY_PREFIX = "main_"
 
 
 def write_rapid(program: Program, module_name: str) -> str:
@@ -105,8 +112,8 @@ def check_identifier(name: str, what: str) -> str:
     if not isinstance(name, str) or not IDENTIFIER.match(name):
         raise OutputError(f"RAPID {what} {name!r}: an identifier is 1 to 32 letters, digits or underscores "
                           "starting with a letter")
-    if name.upper() in RESERVED_WORDS:
-        raise OutputError(f"RAPID {what} {name!r} is a reserved word")
+    if name.upper() in RESERVED_WORDS[RAPID]:
+        raise OutputError(f"RAPID {what} {name!r} is a reserved word (pipeline.outputs.controllers.names)")
     return name
 
 
@@ -127,9 +134,12 @@ def pose_text(X: np.ndarray) -> str:
     return f"[{numbers(position * 1e3, MM)},{numbers(quaternion, QUATERNION)}]"
 
 
-def written_pose(X: np.ndarray) -> np.ndarray:
+def written_pose(X: np.ndarray, X_B_base: np.ndarray | None = None) -> np.ndarray:
     """The pose (4, 4) [m] a controller reads from ``pose_text(X)``: the rounded position and the rounded
-    quaternion normalised."""
+    quaternion normalised; with ``X_B_base`` (the controller's base frame in ours), X is in our base frame and
+    written in its."""
+    if X_B_base is not None:
+        return X_B_base @ written_pose(np.linalg.inv(X_B_base) @ X)
     quaternion, position = pose_to_quaternion_position(X)
     quaternion = np.round(quaternion, QUATERNION)
     return quaternion_position_to_pose(quaternion / np.linalg.norm(quaternion), np.round(position * 1e3, MM) / 1e3)
@@ -140,7 +150,8 @@ def written_configuration(robot, X: np.ndarray, q: np.ndarray) -> np.ndarray:
     [rad]: ``selection.written_configuration`` of the pose as the module rounds it (``written_pose``), within
     WRITTEN_JOINTS_RAD of q (an axis on a quadrant boundary, a multiple of 90 deg, may be written on the side
     its rounded robtarget selects)."""
-    return selection.written_configuration(robot, written_pose(X), q, ABB, WRITTEN_JOINTS_RAD,
+    return selection.written_configuration(robot, written_pose(X, controller_frames(robot, ABB)[0]), q, ABB,
+                                           WRITTEN_JOINTS_RAD,
                                              f"the robtarget, rounded to {MM} decimals of mm and {QUATERNION} of "
                                              "the quaternion,")
 
@@ -188,6 +199,20 @@ def via_target(program: Program, move: Move) -> tuple[np.ndarray, np.ndarray]:
     return X, q
 
 
+def load_text(program: Program) -> str:
+    """The tooldata's tload ``[mass,[x,y,z],[1,0,0,0],0,0,0]`` [kg, mm]: the job's payload, else the 1 kg
+    PLACEHOLDER at the flange (module docstring)."""
+    payload = program.payload
+    if payload is None:
+        return "[1,[0,0,0],[1,0,0,0],0,0,0]"
+    return f"[{number(payload.mass, MM)},{numbers(payload.com * 1e3, MM)},[1,0,0,0],0,0,0]"
+
+
+def entry_routine(module_name: str) -> str:
+    """The global entry routine of a module (module docstring, "Scope")."""
+    return (ENTRY_PREFIX + module_name)[:32]
+
+
 class _Module:
     """The declarations and instructions of one module, gathered move by move."""
 
@@ -197,9 +222,12 @@ class _Module:
         self.instructions: list[str] = []
         X_WB = None if program.cell is None else program.cell.X_WB
         self.wobj = "" if X_WB is None or np.allclose(X_WB, np.eye(4), atol=1e-12) else f"\\WObj:={WOBJ}"
-        self.declare(TOOL, "tooldata", f"[TRUE,{pose_text(program.tool.X_FT)},[1,[0,0,0],[1,0,0,0],0,0,0]]")
-        if self.wobj:
-            self.declare(WOBJ, "wobjdata", f"[FALSE,TRUE,\"\",{pose_text(X_WB)},[[0,0,0],[1,0,0,0]]]")
+        self.X_B_base, X_E_flange = controller_frames(program.robot, ABB)
+        tframe = np.linalg.inv(X_E_flange) @ program.tool.X_FT                 # on the controller's tool0
+        self.declare(TOOL, "tooldata", f"[TRUE,{pose_text(tframe)},{load_text(program)}]")
+        if self.wobj:                                       # uframe: the controller's base frame in the cell
+            uframe = pose_text(X_WB @ self.X_B_base)
+            self.declare(WOBJ, "wobjdata", f"[FALSE,TRUE,\"\",{uframe},[[0,0,0],[1,0,0,0]]]")
 
     def declare(self, name: str, datatype: str, value: str | None) -> None:
         if value is not None:
@@ -213,7 +241,8 @@ class _Module:
     def robtarget(self, name: str, X: np.ndarray, q: np.ndarray) -> str:
         robot = self.program.robot
         conf = format_configuration(ABB, written_configuration(robot, X, q))
-        self.declare(name, "robtarget", f"[{pose_text(X)[1:-1]},{conf},{EXTERNAL_AXES}]")
+        pose = pose_text(np.linalg.inv(self.X_B_base) @ X)                   # in the controller's base frame
+        self.declare(name, "robtarget", f"[{pose[1:-1]},{conf},{EXTERNAL_AXES}]")
         return name
 
     def speed(self, move: Move) -> str:
@@ -282,8 +311,12 @@ class _Module:
             "  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move",
             f"- joint moves are axis-interpolated, not the job's path shape ({program.path or 'default'})",
             "confdata [cf1,cf4,cf6,cfx] from each target's joint values; ConfJ/ConfL \\On keep them.",
-            f"Axis map: {axis_map(program.robot, ABB).source}.",
-            f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one.",
+            frames_words(program.robot, ABB, "the base frame", "tool0", "confdata and jointtargets") + ".",
+            job_mark(program.job_name or program.name),
+            (f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one."
+             if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (no inertia)."),
+            (f"Data are LOCAL to this module; run {entry_routine(module_name)} (PP to Routine, or call it from the "
+             "task's main)."),
             (f"{WOBJ}: the robot's base in the cell; the controller's base frame must be set the same."
              if self.wobj else "Targets in the robot's base frame (wobj0)."),
             f"MoveAbsJ j0 at {APPROACH_SPEED} is an approach to the start, not part of the program.",
@@ -296,6 +329,6 @@ class _Module:
                       for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ", break_on_hyphens=False)]
         for name, (datatype, value) in sorted(self.declarations.items(), key=lambda item: DATA_ORDER[item[1][0]]):
             lines.append(f"  {STORAGE[datatype]} {datatype} {name} := {value};")
-        lines += ["  PROC main()"] + [f"    {instruction}" for instruction in self.instructions]
+        lines += [f"  PROC {entry_routine(module_name)}()"] + [f"    {instruction}" for instruction in self.instructions]
         lines += ["  ENDPROC", "ENDMODULE"]
         return "\n".join(lines) + "\n"

@@ -6,9 +6,9 @@ Function" manual HW0481924 section 4.1 "Job Data Format" and the DX100 manual 15
 upper case as the manuals give them, any spacing, CR LF line ends, ``'`` comments between instructions). Then:
 
 * Points: ``///POSTYPE ROBOT`` Cartesian data, ``Cxxxxx=X,Y,Z,Rx,Ry,Rz``: the TCP in the robot frame in mm and
-  deg, R = Rz Ry Rx (rotations about the fixed x, y, z axes, DX100 manual section 4.3); the robot frame's
-  height above our base frame is undone as the writer applied it (``fanuc_ls.controller_frame``: 330 mm on
-  the GP7, 0 elsewhere). The ``///RCONF`` in force (its first six fields: Flip, Upper/Lower arm, Front/Rear,
+  deg, R = Rz Ry Rx (rotations about the fixed x, y, z axes, DX100 manual section 4.3); the robot frame is the
+  robot file's yaskawa controller section's base frame, as the writer applied it (``fanuc_ls.controller_frame``:
+  330 mm up on the GP7). The ``///RCONF`` in force (its first six fields: Flip, Upper/Lower arm, Front/Rear,
   R, T, S >= 180) selects the one joint solution (``selection.select_solution``), whose closed-form branch
   is the waypoint's ``config``; the first point's joint values are the job's ``start``.
 * Moves: the first motion instruction is the job's first waypoint (its speed is not a job quantity);
@@ -20,8 +20,9 @@ upper case as the manuals give them, any spacing, CR LF line ends, ``'`` comment
   of level n in ``pl_mm`` (the writer's table ``yaskawa_jbi.PL_MM`` unless the caller gives the
   controller's S1CxG033..S1CxG040 values): the controller rounds by the level's distance, not by the zone
   the writer's ``'zone`` comment states (a zone between two levels was written as the lower one).
-* Tool: ``///TOOL n``'s data lives on the controller: the caller's ``tool`` X_FT (4, 4) [m], else the
-  ``TOOL 1 = tool x y z rx ry rz`` the writer states in its header comments, else none (the flange).
+* Tool: ``///TOOL n``'s data lives on the controller: the caller's ``tool`` (4, 4) [m], else the
+  ``TOOL 1 = tool x y z rx ry rz`` the writer states in its header comments, else none; both on the
+  controller's flange frame (the section's flange), carried to our end frame (``read_ls.tool_frame``).
 
 ``read_ls.ControllerProgramError`` names the file, the instruction or point and what is wrong.
 """
@@ -31,11 +32,10 @@ from __future__ import annotations
 import numpy as np
 from lark import Tree
 
-from ...files.poses import rpy_position_to_pose
 from ...model.robot import robot_with_tool
 from ...model.vendors.axes import YASKAWA
-from .fanuc_ls import MM, controller_frame
-from .read_ls import ControllerProgramError, as_robot, comment_tool, job_document, parse_text, pose_waypoint
+from .fanuc_ls import MM, controller_frame, controller_pose
+from .read_ls import ControllerProgramError, as_robot, job_document, parse_text, pose_waypoint, tool_frame
 from .yaskawa_jbi import PL_MM
 
 #: An arc's first MOVC point and the previous move's end agree within this [mm] (the file's rounding).
@@ -44,20 +44,21 @@ SAME_POINT_MM = 0.001 + 1e-9
 
 def read_jbi(text: str, robot, tool: np.ndarray | None = None, pl_mm=PL_MM, source: str = "<jbi>") -> dict:
     """The job document of a Yaskawa ``.jbi`` job (module docstring). ``robot``: a Robot, preset name or
-    robot file; ``tool``: TOOL as X_FT (4, 4) [m] (None: the writer's header comment, else none); ``pl_mm``
+    robot file; ``tool``: TOOL 1 on the controller's flange (4, 4) [m] (None: the writer's header comment, else
+    none); ``pl_mm``
     the PL1..PL8 distances [mm]; ``source``: the file's name for errors."""
     robot, reference = as_robot(robot)
     tree = parse_text("yaskawa_jbi", text, source)
     points = _points(tree)
     instructions, comments = _instructions(tree)
-    X_FT = tool if tool is not None else comment_tool(comments)
+    X_FT = tool_frame(robot, YASKAWA, tool, comments)
     tool_robot = robot if X_FT is None else robot_with_tool(robot, X_FT)
-    height = controller_frame(robot, YASKAWA)[0]
+    X_B_base = controller_frame(robot, YASKAWA)[0]
     moves = _moves(instructions, points, source)
     solved = {}
     for name in {name for move in moves for name in move["points"]}:
         data = points[name]
-        X = rpy_position_to_pose(np.radians(data["angles"]), np.array(data["xyz"]) / MM + [0.0, 0.0, height])
+        X = controller_pose(X_B_base, data["xyz"], data["angles"])
         solved[name] = pose_waypoint(tool_robot, X, data["rconf"], YASKAWA, name, source)
     waypoints = [dict(solved[moves[0]["points"][-1]][0])]
     for move in moves[1:]:

@@ -26,9 +26,12 @@ pendant wrote in that subset reads the same. What is read, and the KRL facts it 
   axes -> ``speed`` [%]; a LIN's or CIRC's ``$VEL.CP`` [m/s] -> ``speed`` [m/s]. ``$ACC.CP`` [m/s^2], when a number
   and the program has tool moves -> ``tcp_accel_max``.
 * Zones ("Approximate positioning"): ``C_DIS`` -> ``zone`` = ``$APO.CDIS`` [mm -> m]; no approximation parameter
-  -> 0 (an exact stop). ``C_PTP``, ``C_VEL``, ``C_ORI`` (a percentage, a speed, an angle: no distance) are refused.
+  -> 0 (an exact stop). A PTP's ``C_PTP`` (alone or with ``C_DIS``, as ``write_krl`` writes for a KR C2) is a
+  percentage of an axis angle, no distance: it is read only with ``$APO.CDIS`` set, whose distance is the zone.
+  ``C_VEL``, ``C_ORI`` (a speed, an angle: no distance) are refused.
 * ``$TOOL`` {X, Y, Z, A, B, C} (the TCP in the flange frame) -> the job's ``tool``; ``$BASE`` must be ``$ROBROOT``
-  (targets in the robot's base frame) and ``$IPO_MODE`` ``#BASE`` (a robot-held tool) where they are set.
+  (targets in the robot's base frame); $ROBROOT and $FLANGE are where the robot file's kuka controller section
+  puts them in our base and end frames (``model.vendors.controller``; ours without one) and ``$IPO_MODE`` ``#BASE`` (a robot-held tool) where they are set.
 
 The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`` deg, ``tool``, ``start``,
 ``tcp_accel_max``, ``waypoints``. Anything else (another statement, a missing point, a speed that is not a
@@ -52,6 +55,7 @@ from ...model.ik.result import limit_variants
 from ...model.robot import Robot, load_robot, robot_with_tool
 from ...model.vendors.axes import KUKA, axis_map
 from ...model.vendors.configuration import configurations
+from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from .krl import abc_rotation
 from .read_ls import grammar_parser
@@ -212,7 +216,7 @@ class _Reader:
         if not isinstance(tool, dict):
             self.fail(motions[0], "$TOOL", "must be a frame {X, Y, Z, A, B, C} here (a tool data set is not read)",
                       tool)
-        self.X_FT = self.frame(tool, motions[0], "$TOOL")
+        self.X_FT = controller_frames(self.robot, KUKA)[1] @ self.frame(tool, motions[0], "$TOOL")
         self.robot_tool = robot_with_tool(self.robot, self.X_FT)
 
     def frame(self, values: dict, motion: _Motion, name: str) -> np.ndarray:
@@ -224,6 +228,10 @@ class _Reader:
         X[:3, :3] = abc_rotation(values["A"], values["B"], values["C"])
         X[:3, 3] = np.array([values["X"], values["Y"], values["Z"]]) / 1000.0
         return X
+
+    def in_base(self, X: np.ndarray) -> np.ndarray:
+        """A pose (4, 4) [m] in $ROBROOT (the robot file's kuka controller base frame) -> in our base frame."""
+        return controller_frames(self.robot, KUKA)[0] @ X
 
     def point(self, name: str, motion: _Motion) -> _Point:
         point = self.points.get(name)
@@ -255,7 +263,7 @@ class _Reader:
                 return {"joints": joints, **self.speed_and_zone(motion)}
             waypoint = self.pose_waypoint(self.robot_tool.fk(q), configuration_labels(self.robot_tool, q[None])[0])
         else:
-            X = self.frame(point.values, motion, motion.target)
+            X = self.in_base(self.frame(point.values, motion, motion.target))
             waypoint = self.pose_waypoint(X, self.branch(X, point, motion, first))
         if first:
             return waypoint
@@ -265,7 +273,7 @@ class _Reader:
             if aux.type not in POSE_TYPES:
                 self.fail(motion, motion.aux, f"is an {aux.type}: a CIRC's auxiliary point here is a FRAME, POS or "
                           "E6POS")
-            waypoint["via"] = {"xyz": self.frame(aux.values, motion, motion.aux)[:3, 3].tolist()}
+            waypoint["via"] = {"xyz": self.in_base(self.frame(aux.values, motion, motion.aux))[:3, 3].tolist()}
         return {**waypoint, **self.speed_and_zone(motion)}
 
     def pose_waypoint(self, X: np.ndarray, label: str) -> dict:
@@ -304,15 +312,16 @@ class _Reader:
     def speed_and_zone(self, motion: _Motion) -> dict:
         """``speed`` ($VEL_AXIS [%] of a PTP, $VEL.CP [m/s] of a LIN or CIRC) and ``zone`` [m] (C_DIS)."""
         out = {"speed": self.speed(motion)}
-        extra = [a for a in motion.approx if a != "C_DIS"]
+        allowed = ("C_DIS", "C_PTP") if motion.kind == "ptp" else ("C_DIS",)
+        extra = [a for a in motion.approx if a not in allowed]
         if extra:
-            self.fail(motion, extra[0], "is not read here: only C_DIS (an approximation distance, $APO.CDIS [mm]) "
-                      "gives a zone")
-        if "C_DIS" in motion.approx:
+            self.fail(motion, extra[0], "is not read here: only C_DIS (an approximation distance, $APO.CDIS [mm]), "
+                      "or C_PTP on a PTP with $APO.CDIS set, gives a zone")
+        if motion.approx:
             cdis = motion.settings.get("$APO.CDIS")
             if not isinstance(cdis, float) or cdis <= 0.0:
-                self.fail(motion, "$APO.CDIS", "must be set to a positive distance [mm] before a motion with C_DIS",
-                          cdis)
+                self.fail(motion, "$APO.CDIS", f"must be set to a positive distance [mm] before a motion with "
+                          f"{' '.join(motion.approx)}", cdis)
             out["zone"] = cdis / 1000.0
         return out
 

@@ -18,17 +18,18 @@ and the controller print them, any spacing, tabs, CR LF line ends, ``!`` comment
   reach / 100 above the zone written; CNT100 stands for every zone from 0.99 reach up and reads as the reach.
 * Points: ``UF : 0`` only (user frame 0 is FANUC's world frame; another user frame's data is on the
   controller, not in the file). A Cartesian point is the TCP in the world frame, X Y Z [mm], W P R [deg]
-  with R = Rz(R) Ry(P) Rx(W); the world frame's height above our base frame is undone as the writer
-  applied it (``fanuc_ls.controller_frame``: 330 mm on the LR Mate 200iD, 0 elsewhere). Its CONFIG selects
+  with R = Rz(R) Ry(P) Rx(W); the world frame is the robot file's fanuc controller section's base frame, as
+  the writer applied it (``fanuc_ls.controller_frame``: 330 mm up on the LR Mate 200iD). Its CONFIG selects
   the one joint solution (``selection.select_solution``, the robot with its tool), whose closed-form branch
   (``pipeline.model.ik.branches.configuration_labels``) is the waypoint's ``config`` mapping; the first
   Cartesian point's joint values are the job's ``start`` (the IK seed of the first pose), so its turns
   (t1, t4, t6) are the ones the file gives. Joint points are J1..J6 [deg] as the pendant shows them, turned
-  back into model joint values (``model_joints``: the inverse of ``axes.axis_angles``, FANUC's J3 = q3 - q2).
-* Tool: UT's data lives on the controller, not in the file: the caller's ``tool`` X_FT (4, 4) [m], else the
-  ``UT 1 = tool x y z w p r`` the writer states in its header comment, else none (the flange).
+  back into model joint values (``axes.joint_values``: the inverse of ``axes.axis_angles``, FANUC's J3 = q3 - q2).
+* Tool: UT's data lives on the controller, not in the file: the caller's ``tool`` (4, 4) [m], else the
+  ``UT 1 = tool x y z w p r`` the writer states in its header comment, else none; both on the controller's
+  flange frame (the section's flange, ``controller.controller_frames``), carried to our end frame.
 
-``ControllerProgramError`` names the file, the line or point and what is wrong. ``model_joints``,
+``ControllerProgramError`` names the file, the line or point and what is wrong. ``tool_frame``,
 ``zone_from_cnt`` and ``pose_waypoint`` are shared with the Yaskawa reader.
 """
 
@@ -46,10 +47,10 @@ from ...errors import ConfigurationNotFoundError, FileFormatError
 from ...files.poses import pose_to_quaternion_position, rotation_to_rpy, rpy_position_to_pose
 from ...model.ik.branches import configuration_labels
 from ...model.robot import Robot, load_robot, robot_with_tool
-from ...model.vendors.axes import FANUC, axis_map
-from ...model.vendors.pendant import fanuc_pendant_to_serial
+from ...model.vendors.axes import FANUC, joint_values
+from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
-from .fanuc_ls import MM, controller_frame
+from .fanuc_ls import MM, controller_frame, controller_pose
 
 #: The writer's zone comment (``fanuc_ls._zone_comment``): zone [mm] and CNT n.
 ZONE_COMMENT = re.compile(r"zone\s+(\d+(?:\.\d+)?)\s*mm\s+CNT\s*(\d+)", re.IGNORECASE)
@@ -99,14 +100,12 @@ def as_robot(robot) -> tuple[Robot, str]:
     return load_robot(robot), str(robot)
 
 
-def model_joints(robot, angles_deg, vendor: str) -> np.ndarray:
-    """Model joint values q (6,) [rad] of a controller's axis angles (6,) [deg]: ``axes.axis_angles``
-    inverted (offset, then FANUC's pendant J3 back to the serial q3 = J3 + J2, then direction)."""
-    mapping = axis_map(robot, vendor)
-    q = np.radians(np.asarray(angles_deg, dtype=float) - np.array(mapping.offset))
-    if mapping.fanuc_j3:
-        q = fanuc_pendant_to_serial(q, "rad")
-    return q * np.array(mapping.direction)
+def tool_frame(robot, vendor: str, tool: np.ndarray | None, comments: list[str]) -> np.ndarray | None:
+    """X_FT (4, 4) [m] on our end frame of the controller's tool data on its flange frame: ``tool`` (4, 4) [m],
+    else the writer's header comment (``comment_tool``), else none (the flange); None for our end frame."""
+    X = tool if tool is not None else comment_tool(comments)
+    X_FT = controller_frames(robot, vendor)[1] @ (np.eye(4) if X is None else X)
+    return None if np.allclose(X_FT, np.eye(4), atol=1e-12) else X_FT
 
 
 def comment_tool(comments: list[str]) -> np.ndarray | None:
@@ -175,10 +174,10 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
     tree = parse_text("fanuc_ls", text, source)
     positions = {index: data for index, data in map(_position, tree.find_data("position"))}
     moves, comments, header = _motions(tree)
-    X_FT = tool if tool is not None else comment_tool(header)
+    X_FT = tool_frame(robot, FANUC, tool, header)
     tool_robot = robot if X_FT is None else robot_with_tool(robot, X_FT)
-    height = controller_frame(robot, FANUC)[0]
-    points = [_point(robot, tool_robot, positions, ref, height, source) for move in moves for ref in move["refs"]]
+    X_B_base = controller_frame(robot, FANUC)[0]
+    points = [_point(robot, tool_robot, positions, ref, X_B_base, source) for move in moves for ref in move["refs"]]
     return _document(reference, X_FT, moves, comments, points, tcp_accel_max)
 
 
@@ -190,6 +189,8 @@ def _motions(tree: Tree) -> tuple[list[dict], list[list[str]], list[str]]:
         node = statement.children[0]
         if node.data == "comment":
             pending.append(str(node.children[0])[1:])
+            continue
+        if node.data == "frame_select":         # UFRAME_NUM / UTOOL_NUM: the frames the points name
             continue
         header = pending if header is None else header
         refs = [int(ref.children[0]) for ref in node.find_data("point_ref")]
@@ -218,7 +219,7 @@ def _position(node: Tree) -> tuple[int, dict]:
     return index, data
 
 
-def _point(robot, tool_robot, positions: dict, ref: int, height: float, source: str) -> dict:
+def _point(robot, tool_robot, positions: dict, ref: int, X_B_base: np.ndarray, source: str) -> dict:
     """{waypoint: the job's pose or joint fields, q [rad], p [m]: the TCP position} of point P[ref]."""
     where = f"P[{ref}]"
     if ref not in positions:
@@ -229,10 +230,10 @@ def _point(robot, tool_robot, positions: dict, ref: int, height: float, source: 
                                      "another user frame's data is on the controller, not in the file".format(**data),
                                      line=data["line"])
     if "joints" in data:
-        q = model_joints(robot, data["joints"], FANUC)
+        q = joint_values(robot, data["joints"], FANUC)
         return {"waypoint": {"joints": [float(v) for v in np.degrees(q)]}, "q": q, "p": tool_robot.fk(q)[:3, 3],
                 "pose": pose_fields(tool_robot, tool_robot.fk(q), q)}
-    X = rpy_position_to_pose(np.radians(data["wpr"]), np.array(data["xyz"]) / MM + [0.0, 0.0, height])
+    X = controller_pose(X_B_base, data["xyz"], data["wpr"])
     waypoint, q = pose_waypoint(tool_robot, X, data["config"], FANUC, where, source)
     return {"waypoint": waypoint, "q": q, "p": X[:3, 3], "pose": waypoint}
 

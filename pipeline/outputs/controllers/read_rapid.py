@@ -29,10 +29,12 @@ program a pendant or RobotStudio wrote in that subset reads the same. What is re
   zonedata -> its pzone_tcp [mm]; \\Z:= overrides pzone_tcp; all -> ``zone`` [m]. The last waypoint's zone is 0
   (the program ends at rest there).
 * ``tooldata`` [robhold, tframe, tload]: every move must use one tool; tframe [mm, quaternion] -> the job's ``tool``
-  (none for ``tool0`` or an identity tframe); robhold FALSE (a stationary tool) is refused. ``wobjdata``
-  [robhold, ufprog, ufmec, uframe, oframe]: targets are in uframe x oframe, in the controller's world frame;
-  ``base_in_world`` (4, 4) [m] is the robot's base frame in that world (identity: the world is the robot's base,
-  as with ``wobj0``; ``write_rapid``'s ``wobj_base`` has uframe = the base in the cell, so pass that pose).
+  (none for ``tool0`` or an identity tframe), tframe being on the controller's tool0 (the robot file's abb
+  controller section's flange, ``controller.controller_frames``); robhold FALSE (a stationary tool) is refused.
+  ``wobjdata`` [robhold, ufprog, ufmec, uframe, oframe]: targets are in uframe x oframe, in the controller's world
+  frame; ``base_in_world`` (4, 4) [m] is our base frame in that world (default: the world is the section's base
+  frame, as with ``wobj0``; ``write_rapid``'s ``wobj_base`` has uframe = the controller's base frame in the cell,
+  so pass our base's pose in the cell).
 
 The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`` deg, ``tool``, ``waypoints``.
 """
@@ -50,7 +52,8 @@ from ...files.branch_names import label_parts
 from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ...model.ik.branches import configuration_labels
 from ...model.robot import Robot, load_robot, robot_with_tool
-from ...model.vendors.axes import ABB, axis_map
+from ...model.vendors.axes import ABB, joint_values
+from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from .read_ls import parse_subset
 
@@ -112,13 +115,17 @@ class _Values(lark.Transformer):
 
 def read_rapid(text: str, robot: str, base_in_world: np.ndarray | None = None) -> dict:
     """The job document of a RAPID module ``text`` (module docstring) for ``robot`` (a preset name or robot file
-    path, written into the document as given); ``base_in_world`` (4, 4) [m]: the robot's base in the
-    controller's world frame (None: identity). RapidReadError names what cannot be read."""
+    path, written into the document as given); ``base_in_world`` (4, 4) [m]: our base frame in the
+    controller's world frame (None: the world is the robot file's abb controller section's base frame, our base
+    frame without one). RapidReadError names what cannot be read."""
     tree = _Values().transform(parse_subset("rapid", "RAPID", text, RapidReadError, SOURCE))
     module = tree.children[0]
     data = _declarations(module)
     calls = _main_calls(module)
-    reader = _Reader(load_robot(robot), data, np.eye(4) if base_in_world is None else np.asarray(base_in_world))
+    robot_model = load_robot(robot)
+    base_in_world = (np.linalg.inv(controller_frames(robot_model, ABB)[0]) if base_in_world is None
+                     else np.asarray(base_in_world))
+    reader = _Reader(robot_model, data, base_in_world)
     waypoints = [reader.waypoint(call) for call in calls if call.name.lower() in MOVES]
     if not waypoints:
         raise RapidReadError(SOURCE, "main", "the procedure has no move instruction")
@@ -177,7 +184,7 @@ class _Reader:
     def __init__(self, robot: Robot, data: _Data, base_in_world: np.ndarray):
         self.robot, self.data, self.base_in_world = robot, data, base_in_world
         self.tool_name: str | None = None
-        self.X_FT = np.eye(4)
+        self.X_FT = controller_frames(robot, ABB)[1]          # tool0: the controller's, on our end frame
         self.q_previous: np.ndarray | None = None
 
     def waypoint(self, call: _Call) -> dict:
@@ -216,13 +223,12 @@ class _Reader:
                 robhold, tframe, _ = self.data.get(name, "tooldata", call.name)
                 if not robhold:
                     raise RapidReadError(SOURCE, name, "is a stationary tool (robhold FALSE): not read here")
-                self.X_FT = _frame(tframe)
+                self.X_FT = controller_frames(self.robot, ABB)[1] @ _frame(tframe)     # tframe: on tool0
             self.robot_tool = robot_with_tool(self.robot, self.X_FT)
 
     def joint_target(self, value, call: _Call) -> np.ndarray:
         robax = np.array(self.data.get(value, "jointtarget", call.name)[0], dtype=float)
-        mapping = axis_map(self.robot, ABB)
-        return np.radians((robax - np.array(mapping.offset)) * np.array(mapping.direction))
+        return joint_values(self.robot, robax, ABB)
 
     def pose(self, target, call: _Call) -> np.ndarray:
         """A robtarget's TCP pose (4, 4) [m] in the robot's base frame."""

@@ -10,8 +10,10 @@ the URScript facts it follows ("Module motion" of the Script Manual, the functio
   profile), else the program's own body. The servoj replay (``def certified_replay()``, and the ``if`` that
   chooses between the two) is SKIPPED: it is the certified profile sampled every controller period, not a list
   of waypoints. Statements read: ``set_tcp(pose)`` (the job's ``tool``, set before the first move), variable
-  assignments (``global p1 = p[...]``, used by name in the moves), ``movej``, ``movel``, ``movec``; any other call
-  is a ``UrscriptReadError`` naming it.
+  assignments (``global p1 = p[...]``, used by name in the moves), ``movej``, ``movel``, ``movec``,
+  ``set_payload(m, cog)`` (the job's ``payload``: mass [kg], centre of mass [m]); any other call is a
+  ``UrscriptReadError`` naming it. After the program's ``end`` one call of the program itself may follow (the
+  writer's trailing ``name()``); a call of another name is refused.
 * Arguments by position or keyword, as the manual orders them: ``movej(q, a, v, t, r)``, ``movel(pose, a, v, t,
   r)``, ``movec(pose_via, pose_to, a, v, r, mode)``; ``t`` (a move time) is refused, ``mode`` must be 0 (the
   orientation interpolated from start to target, as the writer's).
@@ -108,6 +110,10 @@ def read_urscript(text: str, robot: str) -> dict:
     file path, written into the document as given). UrscriptReadError names what cannot be read."""
     program = _Values().transform(parse_subset("urscript", "URScript", text, UrscriptReadError, SOURCE)).children[0]
     body = program.children[1]
+    run = program.children[2] if len(program.children) > 2 else None
+    if run is not None and str(run.children[0]) != str(program.children[0]):
+        raise UrscriptReadError(SOURCE, f"{run.children[0]}()", f"after the program: only its own call "
+                                f"{program.children[0]}() is read", line=run.meta.line)
     functions = {str(node.children[0]): node.children[1] for node in body.children
                  if isinstance(node, lark.Tree) and node.data == "function_def"}
     reader = _Reader(load_robot(robot))
@@ -129,6 +135,7 @@ class _Reader:
         self.waypoints: list[dict] = []
         self.q_previous: np.ndarray | None = None
         self.tcp_accel: list[float] = []
+        self.payload: dict | None = None
 
     def statements(self, body: lark.Tree, replay_choice: bool) -> None:
         """Read a body's statements; ``replay_choice``: the body chooses between native_moves and the replay
@@ -152,11 +159,14 @@ class _Reader:
             if self.waypoints:
                 raise UrscriptReadError(SOURCE, name, "after the first move: a job has one tool", line=node.meta.line)
             self.X_FT = self.pose(arguments[0], name).matrix()
+        elif name == "set_payload" and len(arguments) == 2 and isinstance(arguments[1], list):
+            mass, com = self.resolve(arguments[0], name), [self.resolve(v, name) for v in arguments[1]]
+            self.payload = {"mass": mass, "com": com}
         elif name in PARAMETERS:
             self.move(name, self.arguments(name, arguments, node.meta.line), node.meta.line)
         else:
-            raise UrscriptReadError(SOURCE, name, "is not a function of the subset read here (set_tcp, movej, "
-                                    "movel, movec)", line=node.meta.line)
+            raise UrscriptReadError(SOURCE, name, "is not a function of the subset read here (set_tcp, set_payload "
+                                    "(m, [x, y, z]), movej, movel, movec)", line=node.meta.line)
 
     def arguments(self, name: str, arguments: list, line: int) -> dict:
         """The move's arguments by parameter name (the manual's defaults for those left out)."""
@@ -243,6 +253,8 @@ class _Reader:
         doc = {"robot": str(robot), "length_unit": "m", "angle_unit": "deg", "waypoints": self.waypoints}
         if self.tcp_accel:
             doc["tcp_accel_max"] = max(self.tcp_accel)
+        if self.payload is not None:
+            doc["payload"] = self.payload
         if not np.allclose(self.X_FT, np.eye(4), atol=1e-12):
             quaternion = Rotation.from_matrix(self.X_FT[:3, :3]).as_quat()
             doc["tool"] = {"xyz": self.X_FT[:3, 3].tolist(),

@@ -28,7 +28,19 @@ lists and poses; "Module motion" for the functions):
   ``use_certified_replay`` chooses which one runs. servoj: t is how long the call controls the robot [s]
   (0.002 s on e-Series, 0.008 s on CB3: ``period``), lookahead_time [s] in [0.03, 0.2] smooths the target
   over that horizon and delays it, gain in [100, 2000] is the proportional gain of the tracking (the manual's
-  defaults: 0.1 s and 300).
+  defaults: 0.1 s and 300). A replay holds at most MAX_REPLAY_LINES servoj lines: a longer one is refused, saying
+  how long the profile is and which period would fit.
+* The file defines the program ``def name(): ... end`` and then calls it (``name()`` on the last line): sent to
+  the secondary interface (port 30002) as a script, the trailing call is what runs it; loaded as a program, the
+  controller runs the file's top-level statements, and the call runs the program once (a file that only
+  defines one function is run by the controller as a program, but whether a Script node does so is unconfirmed:
+  the explicit call does not depend on it).
+* ``set_payload(m, cog)`` [kg, m in the flange frame] from the job's payload; without one a PLACEHOLDER comment
+  (the controller keeps its installation's payload).
+* The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``); the name is never a keyword
+  nor a name the program defines (``names``).
+* Arms: ``check_arm`` refuses what URScript cannot move (the one place an arm's maker is checked): an arm
+  that is not 6-joint, or whose robot file has no controller section of maker ``ur`` (Universal Robots).
 """
 
 from __future__ import annotations
@@ -42,16 +54,14 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation
 
 from ...errors import OutputError
-from ...files.atomic import WRITTEN_BY
+from ...files.atomic import WRITTEN_BY, job_mark
+from ...model.vendors.controller import controller_of
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...timing.profile import Profile
-from .lint import URSCRIPT, lint
+from .lint import LIMITS, URSCRIPT, lint
+from .names import RESERVED_WORDS
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-#: URScript's keywords and the names this module defines: no program name may be one of them.
-RESERVED = frozenset(("def", "end", "if", "elif", "else", "while", "for", "return", "thread", "run", "kill",
-                      "global", "local", "and", "or", "not", "xor", "True", "False", "halt", "sec", "native_moves",
-                      "certified_replay", "use_certified_replay"))
 #: The Script Manual's defaults: movej a [rad/s^2], v [rad/s]; movel a [m/s^2].
 MOVEJ_DEFAULT_A, MOVEJ_DEFAULT_V, MOVEL_DEFAULT_A = 1.4, 1.05, 1.2
 #: servoj: the manual's default lookahead_time [s] and gain, and the ranges it allows.
@@ -77,14 +87,14 @@ def write_urscript(program: Program, name: str, profile: Profile | None = None, 
     the name and the header comments (ControllerLintError; URScript writes no configuration data)."""
     check_name(name)
     _check_replay_options(period, lookahead_time, gain)
-    if program.robot.dof != 6:
-        raise OutputError(f"{program.robot.name}: URScript moves a 6-joint arm, this one has {program.robot.dof}")
+    check_arm(program.robot)
     header = _header(program, name, profile, period, lookahead_time, gain)
     lint(program, URSCRIPT, name, header)
     moves = _native_moves(program)
     lines = [f"def {name}():"]
     lines += [f"  # {line}" for line in header]
     lines.append(f"  set_tcp({pose(program.tool.X_FT)})")
+    lines.append(f"  {payload_line(program)}")
     if profile is None:
         lines += [f"  {move}" for move in moves]
     else:
@@ -93,12 +103,35 @@ def write_urscript(program: Program, name: str, profile: Profile | None = None, 
         lines += ["  end", "  def certified_replay():"] + [f"    {m}" for m in replay]
         lines += ["  end", "  if use_certified_replay:", "    certified_replay()", "  else:", "    native_moves()",
                   "  end"]
-    return "\n".join(lines + ["end", ""])
+    return "\n".join(lines + ["end", f"{name}()", ""])
+
+
+def check_arm(robot) -> None:
+    """OutputError unless URScript can move ``robot`` (a Robot): a 6-joint arm whose robot file's controller
+    section names the maker ``ur`` (a Universal Robots controller runs URScript, no other does)."""
+    if robot.dof != 6:
+        raise OutputError(f"{robot.name}: URScript moves a 6-joint arm, this one has {robot.dof}")
+    maker = getattr(controller_of(robot), "maker", None)
+    if maker != "ur":
+        has = "no controller section" if maker is None else f"a controller section of maker {maker}"
+        own = [language for language, limits in LIMITS.items() if limits.vendor and maker in (None, limits.vendor)]
+        raise OutputError(f"{robot.name}: URScript runs only on a Universal Robots controller, and the robot file "
+                          f"{robot.spec.source} has {has}: for a UR arm add 'controller: {{maker: ur}}' to the robot "
+                          "file (models/README.md, \"The controller section\"); else write the program in its "
+                          f"maker's language (--lang {'/'.join(own)})")
+
+
+def payload_line(program: Program) -> str:
+    """``set_payload(m, [cx, cy, cz])`` of the job's payload [kg, m], or a PLACEHOLDER comment."""
+    payload = program.payload
+    if payload is None:
+        return "# PLACEHOLDER: the job gives no payload: the installation's payload is used; set_payload(m, cog)"
+    return f"set_payload({number(payload.mass)}, {joints(payload.com)})"
 
 
 def check_name(name: str) -> str:
     """``name`` if it can name the program's ``def``, else OutputError naming the rule."""
-    if not isinstance(name, str) or not IDENTIFIER.match(name) or name in RESERVED:
+    if not isinstance(name, str) or not IDENTIFIER.match(name) or name in RESERVED_WORDS[URSCRIPT]:
         raise OutputError(f"URScript program name {name!r}: a name is letters, digits and underscores starting "
                           "with a letter, and not a keyword or a name the program defines")
     return name
@@ -189,8 +222,12 @@ def resample(profile: Profile, period: float) -> np.ndarray:
     t = profile.t - profile.t[0]
     count = max(1, math.ceil(t[-1] / period - 1e-9))
     if count > MAX_REPLAY_LINES:
+        fits = math.ceil(t[-1] / MAX_REPLAY_LINES * 1e3) / 1e3
+        hint = (f"--servo-period {fits:g} would fit" if fits <= PERIOD_RANGE[1] else
+                f"no servoj period up to {PERIOD_RANGE[1]:g} s fits it (that would need {fits:g} s)")
         raise OutputError(f"the servoj replay of this {t[-1]:.1f} s profile every {period:g} s would be {count:,} "
-                          f"lines, more than {MAX_REPLAY_LINES:,}: split the job or write it without the replay")
+                          f"lines, more than {MAX_REPLAY_LINES:,} ({MAX_REPLAY_LINES * period:g} s at this period): "
+                          f"{hint}; or split the job, or write it without the replay")
     times = np.minimum(np.arange(1, count + 1) * period, t[-1])
     return CubicHermiteSpline(t, profile.q, profile.qd)(times)
 
@@ -212,6 +249,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
     lines = [
         (f"{name}: the compiled program {program.name!r} (robot {program.robot.name}, {len(program.moves)} moves), "
          f"written by {WRITTEN_BY} (pipeline.outputs.controllers.urscript)."),
+        job_mark(program.job_name or program.name),
         "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
         ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
          "not the certified profile:"),

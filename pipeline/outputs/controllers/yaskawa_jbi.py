@@ -22,17 +22,24 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
   doubling per level), to be set on the controller or replaced by the controller's values through
   ``pl_mm``. A zone z > 0 gets the largest level whose distance is <= z (so the controller never rounds more
   than the certified zone), PL=0 when z is below PL1's distance; a move without a zone gets no PL (the
-  controller stops at its point, as PL=0).
+  controller stops at its point, as PL=0). A move followed by an arc gets no PL (``written_zone``): the arc's
+  first MOVC repeats that point, a zero-length segment, into which the controller cannot round.
+* Job: ``NOP`` first and ``END`` last (a job without them is refused on loading: "ERROR 3200: NOP or END
+  instruction not found", ros-industrial/motoman issue 142); a comment line records the job (``job=NAME``,
+  ``pipeline.files.atomic.job_mark``) and the name is never an INFORM word (``names``).
+* Load: INFORM jobs hold no load data (the tool file's W and Xg, Yg, Zg on the controller do): the job's payload
+  is a comment to set there, or a PLACEHOLDER comment when the job gives none.
 * Points: every point in Cartesian data (``POSTYPE ROBOT``): the TCP in the robot frame, X, Y, Z in mm to
   0.001 mm, Rx, Ry, Rz in deg to 0.01 deg, the rotations "in the order Rz, Ry, Rx" of the frame (DX100
   manual, section 4.3: R = Rz Ry Rx, rotations about the fixed x, y, z axes), with ``///RCONF`` from
   ``pipeline.model.vendors.configuration``. Pulse data (``POSTYPE PULSE``) would need each axis's pulses per
   degree, which the robot files do not give: joint waypoints are written as Cartesian data too. Each point
   is solved again as written, with its RCONF, and must land on the program's joint values within the
-  rounding (``fanuc_ls.check_written_point``): a joint waypoint with R, T or S at exactly +-180 deg, where
-  the ">= 180" bit is decided by the last digit, is refused (it needs pulse data).
-* Frames: the GP7's robot frame is 330 mm above its mounting face (``fanuc_ls.CONTROLLER_FRAMES``); other
-  robots are written in our base frame. ``///TOOL 1`` must hold the job's tool (stated in the comments).
+  rounding (``fanuc_ls.written_point_configuration``): an axis R, T or S at exactly +-180 deg, where the ">= 180"
+  bit is decided by the last digit, gets the bit of the side its rounded pose lies on.
+* Frames: the robot frame is the robot file's yaskawa controller section's base frame (the GP7's 330 mm above
+  its mounting face; ``fanuc_ls.controller_frame``); robots without one are written in our base frame. ``///TOOL 1``
+  must hold the job's tool on the controller's flange frame, the section's flange (stated in the comments).
 """
 
 from __future__ import annotations
@@ -44,12 +51,12 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import ConfigurationError
-from ...files.atomic import WRITTEN_BY
+from ...files.atomic import job_mark
 from ...model.vendors.axes import YASKAWA
 from ...model.vendors.configuration import configurations
 from ...program.model import CIRCULAR, JOINT, Move, Program
-from .fanuc_ls import (MM, Motion, check_name, check_six_joints, check_written_point, comment_lines, controller_frame,
-                       program_points, rounded, tool_text, xyz_rpy)
+from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
+                       payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
@@ -74,8 +81,9 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     check_six_joints(program)
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
-    height, frame = controller_frame(program.robot, YASKAWA)
-    header = comment_lines(_header_text(program, frame))
+    X_B_base, frame = controller_frame(program.robot, YASKAWA)
+    header = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+              *comment_lines(payload_text(program, "tool file 1 (W, Xg, Yg, Zg)"))]
     motions = job_points(program)
     zones = [f"zone {m.zone * MM:.1f}mm PL{pl_level(m.zone, pl_mm)}" for m in motions if m.zone > 0.0]
     lint(program, JBI, name, header + zones, configurations(program.robot, program.targets, YASKAWA))
@@ -84,7 +92,7 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
         labels = []
         for point in motion.points:
             labels.append(f"C{index:05d}")
-            positions.extend(_position(program, labels[-1], point.q, point.X_BT, height, positions))
+            positions.extend(_position(program, labels[-1], point.q, point.X_BT, X_B_base, positions))
             index += 1
         following = motions[k + 1].move if k + 1 < len(motions) else None
         instructions.extend(_instructions(program, motion, labels, following, pl_mm))
@@ -96,30 +104,37 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
                       "///GROUP1 RB1", "NOP", *comments, *instructions, "END", ""])
 
 
+def written_zone(program: Program, move: Move) -> float:
+    """The zone [m] written at the end of ``move`` (module docstring): 0 before an arc (whose first MOVC repeats
+    this point) and where the program stops, else the move's zone."""
+    following = program.moves[move.end] if move.end < len(program.moves) else None
+    stop = program.exact_stop_at(move) or (following is not None and following.kind == CIRCULAR)
+    return 0.0 if stop else move.zone
+
+
 def job_points(program: Program) -> list[Motion]:
     """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous motion's end) as the
-    first of its three MOVC points: the points in the order C00000, C00001, ... are written."""
+    first of its three MOVC points and no zone into an arc (``written_zone``): the points in the order C00000,
+    C00001, ... are written."""
     motions = program_points(program, YASKAWA)
+    motions = [replace(m, zone=written_zone(program, m.move)) if m.zone > 0.0 else m for m in motions]
     return [replace(m, points=[motions[k - 1].points[-1], *m.points]) if m.move is not None and m.move.kind == CIRCULAR
             else m for k, m in enumerate(motions)]
 
 
 def _header_text(program: Program, frame: str) -> str:
-    return (f"{program.name} on {program.robot.name}, written by {WRITTEN_BY}. The controller plans its own "
-            "speed profile for each move, "
-            "not the certified one: timing and the path at PL points differ. TOOL 1 = "
-            f"{tool_text(program)} (x y z rx ry rz, mm deg). {frame}. All points are Cartesian data: the robot "
+    return (f"{header_intro(program, 'at PL points')} TOOL 1 = "
+            f"{tool_text(program, YASKAWA)} (x y z rx ry rz, mm deg). {frame}. All points are Cartesian data: the robot "
             "file gives no pulses per degree for pulse data.")
 
 
-def _position(program: Program, label: str, q, X_BT, height: float, written: list[str]) -> list[str]:
+def _position(program: Program, label: str, q, X_BT, X_B_base: np.ndarray, written: list[str]) -> list[str]:
     """The lines of one Cartesian point: ///RCONF when it differs from the last one written, then Cxxxxx=."""
-    config = configurations(program.robot, q, YASKAWA)
+    p, angles = xyz_rpy(X_BT, X_B_base)
+    p, angles = rounded(p, 3), rounded(angles, 2)
+    config = written_point_configuration(program.robot, YASKAWA, label, q, p, angles, X_B_base, (0.001, 0.01))
     rconf = "///RCONF " + ",".join(str(int(v)) for v in [*config, *([0] * UNUSED_RCONF)])
     last = next((line for line in reversed(written) if line.startswith("///RCONF")), None)
-    p, angles = xyz_rpy(X_BT, height)
-    p, angles = rounded(p, 3), rounded(angles, 2)
-    check_written_point(program.robot, YASKAWA, label, q, p, angles, height, config, (0.001, 0.01))
     values = [f"{v:.3f}" for v in p] + [f"{v:.2f}" for v in angles]
     return ([] if rconf == last else [rconf]) + [f"{label}={','.join(values)}"]
 
