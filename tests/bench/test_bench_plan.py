@@ -76,6 +76,7 @@ def test_dense_points_keep_the_vertices_and_the_step():
     assert len(S) == 21 and np.allclose(S[::10], V) and np.allclose(S[5], [0.5, 0.0])
 
 
+@pytest.mark.slow
 def test_the_report_has_every_figure_and_goal(report):
     (cell,) = report.cells
     assert cell.pairs == PAIRS == len(cell.records) and cell.direct + cell.search == PAIRS

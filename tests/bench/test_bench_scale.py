@@ -25,6 +25,7 @@ def test_the_step_gives_about_the_poses_asked_for():
     assert plan_map(robot, step=step, orientations=4).poses == pytest.approx(50_000, rel=0.1)
 
 
+@pytest.mark.slow
 def test_the_report_has_every_figure_and_an_honest_verdict(report):
     assert report.identical and report.robot == "irb1600"
     assert report.measure_poses == pytest.approx(6_000, rel=0.2) and report.map_poses == pytest.approx(12_000, rel=0.2)
@@ -63,6 +64,7 @@ def test_the_cli_refuses_no_poses(capsys):
     assert "--poses" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_the_cli_runs_the_suite_with_its_options_and_writes_json(report, tmp_path, monkeypatch, capsys):
     import pipeline.bench.scale
 

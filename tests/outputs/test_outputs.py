@@ -105,6 +105,7 @@ def kill_trials(tmp_path: Path, trials: int, seed: int) -> None:
     assert_one_complete_run(out, references)
 
 
+@pytest.mark.slow
 def test_a_killed_run_leaves_the_previous_complete_output(tmp_path):
     kill_trials(tmp_path, trials=3, seed=1)
 

@@ -150,6 +150,7 @@ def test_the_map_has_its_figures_of_merit(irb_map):
     assert irb_map.reach_m <= irb_map.reach_from_base_origin_m and irb_map.poses > 0
 
 
+@pytest.mark.slow
 def test_in_a_cell_voxels_inside_obstacles_are_never_reached():
     cell = load_cell(CELL)
     free = reachability_map(cell.load_robot(), step=0.15, orientations=2, tool_axis_cone=20)
@@ -255,6 +256,7 @@ def check_datasheet_reach(reach_map) -> None:
     assert round(reach, 1) == IRB1600_DATASHEET_REACH_M
 
 
+@pytest.mark.slow
 def test_the_irb1600_reaches_its_datasheet_reach_coarse_map():
     reach_map = reachability_map("irb1600", step=0.1, orientations=4, point="wrist")
     check_datasheet_reach(reach_map)

@@ -141,6 +141,7 @@ def test_all_demo_jobs_on_two_workers_equal_their_serial_runs_file_for_file(clie
     check_batch_equals_serial_runs(client, files, serial_runs(files), tmp_path)
 
 
+@pytest.mark.slow
 def test_the_summary_csv_is_the_same_byte_for_byte_in_this_process_and_on_workers(client, tmp_path):
     bad = tmp_path / "jobs" / "broken.yaml"
     bad.parent.mkdir()
@@ -331,6 +332,7 @@ def test_bad_cluster_options_are_typed_errors_naming_them(monkeypatch):
 
 
 # -- the command line -----------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_cli_batch_in_this_process_writes_a_folder_per_job_and_exits_1_when_one_failed(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["batch", str(JOBS / "arm6_joint_rad.yaml"), "--out", str(out), "--workers", "1"]) == 0

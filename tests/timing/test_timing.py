@@ -73,7 +73,7 @@ TOPPRA_COUNT = 20
 SLOW_COUNT = 50
 RANDOM_RUNS = [
     pytest.param(method, shape, count, id=f"{method}-{shape}-{count}",
-                 marks=[pytest.mark.slow] if method == "topp3" else [])
+                 marks=[pytest.mark.slow] if method in ("topp3", "ruckig") else [])
     for method, shapes in (("toppra", PATH_SHAPES), ("ruckig", ("monotone",)), ("topp3", ("monotone", "spline")))
     for shape in shapes
     for count in ({"topp3": SLOW_COUNT, "toppra": TOPPRA_COUNT}.get(method, SUITE["random_paths"]["count"]),)

@@ -228,6 +228,7 @@ def random_chain_urdf(rng: np.random.Generator, dof: int) -> str:
     return "\n".join(lines)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("convention", ["standard", "modified"])
 def test_random_chains_import_with_the_urdfs_fk(convention, tmp_path):
     rng = np.random.default_rng(6)
