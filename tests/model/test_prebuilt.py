@@ -6,6 +6,7 @@ and (slow: a build) the prebuilt kernels answer as the just-in-time ones do."""
 from __future__ import annotations
 
 import json
+import pickle
 import shutil
 
 import numpy as np
@@ -53,7 +54,7 @@ def test_only_arguments_of_exactly_the_signature_reach_the_machine_code():
     read_only = args[3].copy()
     read_only.flags.writeable = False
     good = {"Fortran-ordered pose": np.asfortranarray(args[3]), "read-only pose": read_only,
-            "strided seed": np.zeros(12)[::2]}
+            "strided seed": np.zeros(12)[::2], "unpickled pose": pickle.loads(pickle.dumps(args[3]))}
     for name, value in good.items():
         index = 4 if "seed" in name else 3
         assert _routed(closed_form.solve_one, *args[:index], value, *args[index + 1:]) == "machine code", name

@@ -162,13 +162,15 @@ def _guarded(function: Callable, kernel) -> Callable:
 
 def _fits(name: str, argument_type) -> str:
     """A Python expression, True when the argument ``name`` is exactly what the machine code was built for:
-    a float64 ndarray (not a subclass; native byte order) of the type's dimensions, C-contiguous, aligned and
+    a float64 ndarray (not a subclass; native byte order; an unpickled array's dtype is an equal copy, not
+    NumPy's own instance, so a dtype that is not NumPy's is compared by ``==``) of the type's dimensions, C-contiguous, aligned and
     writable where the type is a writable C-contiguous array (``flags.carray``), writable where it is writable;
     an int or int64 within int64 where the type is int64."""
     if isinstance(argument_type, types.Array):
         if argument_type.dtype != types.float64:
             raise TypeError(f"prebuilt kernels take float64 arrays and int64 values, not {argument_type}")
-        test = f"type({name}) is ndarray and {name}.dtype is float64 and {name}.ndim == {argument_type.ndim}"
+        test = (f"type({name}) is ndarray and ({name}.dtype is float64 or {name}.dtype == float64) "
+                f"and {name}.ndim == {argument_type.ndim}")
         if argument_type.layout == "C":
             if not argument_type.mutable:
                 raise TypeError(f"prebuilt kernels take writable C-contiguous or any-layout arrays, not {argument_type}")
