@@ -11,24 +11,34 @@ from pathlib import Path
 import numpy as np
 
 from ...files.poses import rotation_to_rpy
+from ...files.robot_spec import ControllerSection
 
 
 @dataclass(frozen=True, eq=False)
 class Controller:
-    """``maker``; axis angle [deg] = ``direction`` * q [rad -> deg], coupled (``coupling``: None or
-    ``fanuc_j2_j3``, J3 = q3 - q2), plus ``offset`` [deg]; ``X_B_base`` the controller's base frame
-    ($ROBROOT, the robot frame) in our base frame and ``X_E_flange`` its flange frame ($FLANGE, tool0) in
-    our end frame, (4, 4) [m]; ``elbow_up`` (6,) the axis angles [deg] of a pose the maker calls elbow up;
-    ``source`` the file that says so."""
+    """The robot file's controller ``section`` (SI units: ``pipeline.files.robot_spec.ControllerSection``, the maker,
+    the axis map, ``X_B_base`` the controller's base frame ($ROBROOT, the robot frame) in our base frame and
+    ``X_E_flange`` its flange frame ($FLANGE, tool0) in our end frame) and ``source``, the file that says so; the
+    axis map's ``offset`` and the ``elbow_up`` pose's axis angles in degrees, as controllers write them."""
 
-    maker: str
-    direction: tuple[int, ...]
-    offset: tuple[float, ...]
-    coupling: str | None
-    X_B_base: np.ndarray
-    X_E_flange: np.ndarray
-    elbow_up: tuple[float, ...]
+    section: ControllerSection
     source: str
+
+    maker = property(lambda self: self.section.maker)
+    direction = property(lambda self: self.section.direction)
+    coupling = property(lambda self: self.section.coupling)
+    X_B_base = property(lambda self: self.section.X_B_base)
+    X_E_flange = property(lambda self: self.section.X_E_flange)
+
+    @property
+    def offset(self) -> tuple[float, ...]:
+        """Axis angle at q = 0 per joint [deg]."""
+        return tuple(float(np.degrees(v)) for v in self.section.offset)
+
+    @property
+    def elbow_up(self) -> tuple[float, ...]:
+        """The axis angles [deg] of a pose the maker calls elbow up."""
+        return tuple(float(np.degrees(v)) for v in self.section.elbow_up)
 
     def base_pose(self, X_BT: np.ndarray) -> np.ndarray:
         """A pose X_BT (..., 4, 4) [m] in our base frame -> in the controller's base frame."""
@@ -55,10 +65,7 @@ def controller_of(robot) -> Controller | None:
     section = robot.spec.controller
     if section is None:
         return None
-    return Controller(section.maker, section.direction, tuple(float(np.degrees(v)) for v in section.offset),
-                      section.coupling, section.X_B_base, section.X_E_flange,
-                      tuple(float(np.degrees(v)) for v in section.elbow_up),
-                      f"the controller section of {Path(robot.spec.source).name}")
+    return Controller(section, f"the controller section of {Path(robot.spec.source).name}")
 
 
 def controller_for(robot, vendor: str) -> Controller | None:

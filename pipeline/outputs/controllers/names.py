@@ -10,7 +10,7 @@ name is an ordinary identifier, which every reader takes back.
 Reserved words, per language:
 
 * RAPID: the reserved words of ABB's "Technical reference manual - RAPID kernel", section "Reserved words".
-* KRL: the keywords of the ANTLR grammar ``kuka/krl.g4`` (antlr/grammars-v4, BSD licence; its lexer's keyword
+* KRL: the keywords of the ANTLR grammar ``kuka/krl.g4`` (antlr/grammars-v4, LGPL-3.0; its lexer's keyword
   tokens, KSS 5/8 syntax), e.g. ``DEF END( )`` is not KRL.
 * INFORM (JBI): the job file's section and instruction words the writer uses or a job may call (``NOP``, ``END``,
   ``MOVJ`` ...; NX100 operator's manual, "INFORM instructions"). Whether a controller refuses them as job names
