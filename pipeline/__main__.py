@@ -247,7 +247,7 @@ def cmd_program(args) -> int:
     checked before any work; each file is written atomically."""
     from .program.job import load_job
     from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, program_name, program_texts,
-                         timed_program)
+                         timed_program, written_motion)
 
     from .outputs.controllers.krl import KRC2
     from .outputs.controllers.urscript import check_servo_period
@@ -263,9 +263,18 @@ def cmd_program(args) -> int:
     for path in targets.values():
         prepare_file_target(path, args.force, job.name, _keep_both(args.lang, name, path))
     program, _, profile = timed_program(job, args.max_samples, args.max_duration)
-    texts = program_texts(job, args.lang, program, profile, name, period, args.krl_generation or KRC2)
+    written = written_motion(job, args.lang, program, profile)
+    texts = program_texts(job, args.lang, program, profile, name, period, args.krl_generation or KRC2, written)
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
+    if written is not None:
+        certificate = written.certificate
+        print(f"as written: {written.timing.duration_s:.4f} s (certified {profile.duration:.4f} s), written-program "
+              f"certificate {'passed' if certificate.passed else 'FAILED'}, {written.exact_stops} exact stops"
+              + ("" if certificate.max_deviation_rad is None else
+                 f", largest deviation from the certified path {certificate.max_deviation_rad:.4f} rad"))
+        for change in written.changes:
+            print(f"zone changed: {change}")
     for suffix, text in texts.items():
         print(f"wrote {write_text_atomic(targets[suffix], text, args.force)}")
     return 0

@@ -209,15 +209,32 @@ def check_language_arm(robot, language: str) -> None:
 SERVO_PERIOD_S = 0.002
 
 
+#: Languages written as the certified motion (``controller_motion.certified_moves``; the others follow, issue 36).
+CERTIFIED_MOTION_LANGUAGES = ("rapid", "krl")
+
+
+def written_motion(job: Job, language: str, program: Program, profile: Profile):
+    """The certified motion as ``language`` writes it (``controller_motion.certified_moves``: a planned move as
+    joint targets on the certified path, zones wherever it does not stop, its certificate in the job's cell and
+    its cycle time as written), or None for a language not yet written so (CERTIFIED_MOTION_LANGUAGES) or a
+    profile without its waypoints' passages."""
+    if language not in CERTIFIED_MOTION_LANGUAGES or getattr(profile.details, "passages_s", None) is None:
+        return None
+    from .outputs.controllers.controller_motion import certified_moves
+
+    return certified_moves(program, profile, collision_model(job))
+
+
 def program_texts(job: Job, language: str, program: Program, profile: Profile,
                   name: str | None = None, servo_period: float = SERVO_PERIOD_S,
-                  krl_generation: str = "krc2") -> dict[str, str]:
+                  krl_generation: str = "krc2", written=None) -> dict[str, str]:
     """The job's ``program`` in a controller's ``language`` (rapid, ls, jbi, krl, urscript) as program
     ``name`` (None: ``program_name`` of the job's name): file suffix -> text (KRL: .src and .dat). When
     the name differs from the job's, the writer's header says so (the program's name it states becomes
     "job name (written as NAME: the language's rule)", the rule when the name was made from the job's).
     URScript gets the certified ``profile``'s servoj replay every ``servo_period`` [s], KRL is written for the
-    controller generation ``krl_generation`` (``krl.GENERATIONS``).
+    controller generation ``krl_generation`` (``krl.GENERATIONS``). RAPID and KRL write ``written`` (None: computed
+    here, ``written_motion``), the certified motion with its certificate in the header.
     OutputError names the job file (and the waypoint whose move breaks a rule of the language) and what
     the writer refused."""
     name = program_name(language, job.name) if name is None else name
@@ -225,7 +242,8 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
         rule = f": {NAME_RULES[language]}" if name == program_name(language, program.name) else ""
         program = replace(program, name=f"{program.name} (written as {name}{rule})")
     try:
-        return _program_texts(language, program, profile, name, servo_period, krl_generation)
+        written = written_motion(job, language, program, profile) if written is None else written
+        return _program_texts(language, program, profile, name, servo_period, krl_generation, written)
     except PipelineError as exc:
         move = getattr(exc, "move", None)
         where = job.source if move is None else job.location(("waypoints", move))
@@ -233,7 +251,7 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
 
 
 def _program_texts(language: str, program: Program, profile: Profile, name: str,
-                   servo_period: float, krl_generation: str) -> dict[str, str]:
+                   servo_period: float, krl_generation: str, written=None) -> dict[str, str]:
     from .outputs.controllers.fanuc_ls import write_ls
     from .outputs.controllers.krl import write_krl
     from .outputs.controllers.rapid import write_rapid
@@ -241,8 +259,8 @@ def _program_texts(language: str, program: Program, profile: Profile, name: str,
     from .outputs.controllers.yaskawa_jbi import write_jbi
 
     if language == "krl":
-        return dict(zip((".src", ".dat"), write_krl(program, name, krl_generation)))
-    writers = {"rapid": lambda: {".mod": write_rapid(program, name)}, "ls": lambda: {".ls": write_ls(program, name)},
+        return dict(zip((".src", ".dat"), write_krl(program, name, krl_generation, written)))
+    writers = {"rapid": lambda: {".mod": write_rapid(program, name, written)}, "ls": lambda: {".ls": write_ls(program, name)},
                "jbi": lambda: {".jbi": write_jbi(program, name)},
                "urscript": lambda: {".script": write_urscript(program, name, profile, servo_period)}}
     return writers[language]()

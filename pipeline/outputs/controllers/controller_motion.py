@@ -19,9 +19,17 @@ with its zone as written), and gives
   distance queries), with the smallest clearance and, per move, the largest joint-space distance from the
   modelled path to the certified profile's path.
 
-``written_moves(program, exact_stops=..., pass_through_zone_m=..., flow_zone_m=...)`` gives the moves today's
-writers write for a Program (planned moves as the planner's raw vertices, each an exact stop;
+``written_moves(program, exact_stops=..., pass_through_zone_m=..., flow_zone_m=...)`` gives the moves the writers
+write for a Program without its certified profile (planned moves as the planner's raw vertices, each an exact stop;
 ``Program.exact_stop_at``), or variants of it; ``written_program_certificate`` runs the three steps.
+
+``certified_moves(program, certified, scene)`` -> ``WrittenProgram`` is the one place that chooses what RAPID and KRL
+write with the certified profile (``runner.written_motion``; the writers only render it): a planned move as joint
+targets sampled from the certified path (as few as keep the joint segments within half of WRITTEN_DEVIATION_RAD of
+it), zones wherever the certified motion does not stop (the program's own, INNER_ZONE_M at most half the shorter TCP
+chord at the inner targets), exact stops only at ``program.stops``; then the written moves' certificate, the zones at
+fault halved (or dropped) until it passes and the inner targets' deviation is within WRITTEN_DEVIATION_RAD, each change
+recorded with its reason (``WrittenProgram.changes``, in the file's header and printed by ``program``).
 
 The model (what is published, and what is assumed):
 
@@ -626,3 +634,187 @@ def written_program_certificate(program: Program, moves: list[WrittenMove], cert
     path = controller_path(program.robot, program.waypoints[0].q, moves, step)
     timing = time_written(program, path, method)
     return path, timing, certify_written(program, path, timing, certified, scene)
+
+
+# -- the certified motion as written ---------------------------------------------------------------------------
+#: The largest joint-space distance [rad] of the modelled controller path of a planned move, as written, from the
+#: certified profile's path: 0.01 rad (0.57 deg; on a 6-axis arm of about 0.7 m reach a TCP offset of at most a few
+#: mm, well inside a cell's clearance margins of 10 mm and more, and far below the planner's own edge tolerance of a
+#: straight joint segment). Half of it goes to the joint segments between written targets (their chords), half to
+#: the zones at the targets (a corner within the hull of its segments, ``ControllerMove.hull_bound_rad``).
+WRITTEN_DEVIATION_RAD = 0.01
+#: Share of WRITTEN_DEVIATION_RAD the chords between written targets may take.
+CHORD_SHARE = 0.5
+#: Zone [m] at an inner target of a planned move (a point the certified motion flows through), before shrinking:
+#: at most half the shorter TCP chord of its two segments.
+INNER_ZONE_M = 0.05
+#: Inner zones are rounded down to whole mm (as a programmer writes them).
+ZONE_STEP_M = 0.001
+#: Zone [m] at a waypoint the certified motion passes through without a zone of its own (RAPID's z0: 0.3 mm).
+PASS_THROUGH_ZONE_M = 0.0003
+#: Zones are halved at most this many times (then dropped: an exact stop) until the written program certifies.
+SHRINK_ROUNDS = 6
+#: A zone smaller than this [m] is dropped (an exact stop).
+SMALLEST_ZONE_M = 0.0005
+
+
+@dataclass(frozen=True, eq=False)
+class WrittenProgram:
+    """What a writer writes for a Program with its certified profile (``certified_moves``): ``moves`` (the written
+    moves, a planned move as joint targets sampled from the certified path, then its end), the modelled ``path``,
+    ``timing`` and ``certificate`` of those moves, ``changes`` (per written move a zone changed or dropped, with its
+    reason), ``deviation_bound_rad`` the bound its planned moves were sampled for."""
+
+    moves: tuple[WrittenMove, ...]
+    path: ControllerPath
+    timing: WrittenTiming
+    certificate: WrittenCertificate
+    changes: tuple[str, ...]
+    deviation_bound_rad: float
+    bounded: tuple[int, ...] = ()
+
+    @property
+    def bounded_deviation_rad(self) -> float | None:
+        """The largest deviation over the written moves the bound holds for (``bounded``: the inner targets of
+        planned moves not beside a zone of the program's own, whose corner is the controller's, not the certified
+        blend)."""
+        d = self.certificate.deviation_rad
+        return None if d is None or not self.bounded else float(d[list(self.bounded)].max())
+
+    def of(self, end: int) -> list[WrittenMove]:
+        """The written moves of the program's move to waypoint ``end`` (the last: to its target)."""
+        return [w for w in self.moves if w.source == end]
+
+    @property
+    def exact_stops(self) -> int:
+        return sum(not w.has_zone for w in self.moves)
+
+    def header_lines(self) -> list[str]:
+        """One or two comment lines: the written program's certificate, clearance, deviation and cycle time."""
+        c = self.certificate
+        clearance = "" if c.min_clearance_m is None else f", smallest clearance {c.min_clearance_m * 1e3:.1f} mm"
+        deviation = "" if c.max_deviation_rad is None else (f", largest deviation from the certified path "
+                                                           f"{c.max_deviation_rad:.4f} rad")
+        if self.bounded_deviation_rad is not None:
+            deviation += (f" ({self.bounded_deviation_rad:.4f} rad away from the job's own zones, bound "
+                          f"{self.deviation_bound_rad:g} rad)")
+        certified = "" if c.certified_duration_s is None else f" (certified {c.certified_duration_s:.3f} s)"
+        lines = [(f"As written (pipeline.outputs.controllers.controller_motion): certificate "
+                  f"{'PASSED' if c.passed else 'FAILED'}{clearance}{deviation}; cycle time as written "
+                  f"{c.duration_s:.3f} s{certified}; {self.exact_stops} exact stops.")]
+        if self.changes:
+            lines.append("Zones changed: " + "; ".join(self.changes))
+        return lines
+
+
+def _tcp(robot, q: np.ndarray) -> np.ndarray:
+    return robot.fk_batch(np.atleast_2d(q))[:, :3, 3]
+
+
+def _chord_targets(samples: np.ndarray, tolerance: float) -> list[int]:
+    """Indices of ``samples`` (n, dof) to keep, the first and last included, as few as keep every sample within
+    ``tolerance`` [rad] of the straight joint segments between consecutive kept ones (greedy: the farthest)."""
+    kept, a, n = [0], 0, len(samples)
+    while a < n - 1:
+        b = a + 1
+        while b + 1 < n and point_to_polyline(samples[a: b + 2], samples[[a, b + 1]]).max() <= tolerance:
+            b += 1
+        kept.append(b)
+        a = b
+    return kept
+
+
+def _planned_targets(program: Program, certified: Profile, move, zone_before: float, zone_after: float,
+                     tolerance: float) -> list[np.ndarray]:
+    """Joint targets (each a sample of ``certified``) of the planned ``move`` between its ends: the certified path's
+    samples between its passages of the move's start and end waypoints, outside the zones at both ends (there the
+    controller's corner takes over), thinned to as few as keep the joint segments within ``tolerance``."""
+    passages = certified.details.passages_s
+    t0, t1 = passages[move.end - 1], passages[move.end]
+    inside = (certified.t > t0) & (certified.t < t1)
+    samples = certified.q[inside]
+    if len(samples) == 0:
+        return []
+    robot = program.robot
+    tcp = _tcp(robot, samples)
+    start = _tcp(robot, program.targets[move.end - 1])[0]
+    end = _tcp(robot, move.target)[0]
+    keep = (np.linalg.norm(tcp - start, axis=1) >= zone_before) & (np.linalg.norm(tcp - end, axis=1) >= zone_after)
+    samples = samples[keep]
+    if len(samples) == 0:
+        return []
+    # an end the certified motion stops at is on its path: the chords run from and to it
+    first = [program.targets[move.end - 1]] if zone_before <= 0.0 else []
+    last = [move.target] if zone_after <= 0.0 else []
+    points = np.array([*first, *samples, *last])
+    kept = [i - len(first) for i in _chord_targets(points, tolerance)]
+    return [samples[i] for i in kept if 0 <= i < len(samples)]
+
+
+def certified_moves(program: Program, certified: Profile, scene=None,
+                    deviation_rad: float = WRITTEN_DEVIATION_RAD, method: str | None = None) -> WrittenProgram:
+    """The moves a writer writes for ``program`` so that the controller follows its ``certified`` profile: a planned
+    move as joint targets sampled from the certified path (``_planned_targets``: as few as keep the joint segments
+    within CHORD_SHARE x ``deviation_rad``), then its end; zones wherever the certified motion does not stop (the
+    program's own; INNER_ZONE_M at the inner targets, at most half the shorter TCP chord beside them;
+    PASS_THROUGH_ZONE_M where it passes a waypoint without one), exact stops only at ``program.stops``. The written
+    moves are then certified (``written_program_certificate``, in ``scene``): while the certificate fails, or an inner
+    target's modelled path deviates more than ``deviation_rad`` from the certified one, the zones at fault are
+    halved (after SHRINK_ROUNDS, or below SMALLEST_ZONE_M, dropped), each change recorded with its reason."""
+    robot = program.robot
+    moves: list[WrittenMove] = []
+    inner: set[int] = set()                       # indices of the inner targets of planned moves
+    for move in program.moves:
+        stop = move.end in program.stops
+        end_zone = 0.0 if stop else (move.zone or PASS_THROUGH_ZONE_M)
+        if move.planned is not None:
+            before = moves[-1].zone_m if moves else 0.0
+            targets = _planned_targets(program, certified, move, before, end_zone, CHORD_SHARE * deviation_rad)
+            points = [program.targets[move.end - 1], *targets, move.target]
+            chords = np.linalg.norm(np.diff(_tcp(robot, np.array(points)), axis=0), axis=1)
+            for i, q in enumerate(targets):
+                zone = min(INNER_ZONE_M, 0.5 * float(min(chords[i], chords[i + 1])))
+                zone = float(np.floor(zone / ZONE_STEP_M + 1e-9)) * ZONE_STEP_M if zone >= ZONE_STEP_M else zone
+                inner.add(len(moves))
+                moves.append(WrittenMove(JOINT, np.asarray(q, dtype=float), move.speed, zone, source=move.end))
+            moves.append(WrittenMove(JOINT, move.target, move.speed, end_zone, source=move.end))
+            continue
+        speed = program.tool_speed(move) / program.speed_scale if move.is_tool_move else move.speed
+        moves.append(WrittenMove(move.kind, move.target, speed, end_zone, move.X_BT if move.is_tool_move else None,
+                                 move.via, source=move.end))
+    changes: dict[int, str] = {}
+    original = [w.zone_m for w in moves]
+    for round_ in range(SHRINK_ROUNDS + 1):
+        path, timing, certificate = written_program_certificate(program, moves, certified, scene, method)
+        at_fault = set()
+        if certificate.deviation_rad is not None:
+            # move m's samples: the second half of the corner at m - 1, its segment, the first half of its corner;
+            # beside a program's own zone the corner is the controller's, not the certified blend (reported, kept)
+            for m in np.flatnonzero(certificate.deviation_rad > deviation_rad):
+                ends = [j for j in (m - 1, m) if j >= 0]
+                if any(moves[j].has_zone and j not in inner for j in ends):
+                    continue
+                at_fault |= {j for j in ends if j in inner and moves[j].has_zone}
+        reason = f"deviation from the certified path over {deviation_rad:.3f} rad"
+        if not certificate.passed:
+            at_fault = {k for k, w in enumerate(moves) if w.has_zone and k in inner} or \
+                       {k for k, w in enumerate(moves) if w.has_zone}
+            reason = f"the written program's certificate failed ({certificate.limits})"
+        if not at_fault or round_ == SHRINK_ROUNDS:
+            break
+        for k in at_fault:
+            w = moves[k]
+            zone = w.zone_m / 2.0
+            if zone < SMALLEST_ZONE_M or round_ == SHRINK_ROUNDS - 1:
+                zone = 0.0
+            moves[k] = dataclasses.replace(w, zone_m=zone)
+            changes[k] = reason
+    notes = []
+    for k in sorted(changes):
+        w = moves[k]
+        what = "dropped (an exact stop)" if w.zone_m == 0.0 else f"{original[k] * 1e3:.1f} -> {w.zone_m * 1e3:.1f} mm"
+        where = f"target {k + 1} (move to waypoint {w.source})"
+        notes.append(f"{where}: zone {what}: {changes[k]}")
+    own = {k for k, w in enumerate(moves) if w.has_zone and k not in inner}
+    bounded = tuple(k for k in sorted(inner) if k - 1 not in own and k not in own)
+    return WrittenProgram(tuple(moves), path, timing, certificate, tuple(notes), deviation_rad, bounded)

@@ -32,7 +32,10 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   CirPoint (its orientation and confdata where the program's track passes it; RAPID uses the CirPoint's
   orientation only to choose the way of reorientation). A planned joint move passes its planner vertices
   by ``MoveAbsJ ... fine`` each: axis interpolation is straight in joint space, the segments the planner
-  checked.
+  checked. With the certified motion (``written``: ``controller_motion.certified_moves``, what ``program``
+  writes) a planned move is ``MoveAbsJ`` to joint targets sampled from the certified path instead, each with a
+  zone, and ``fine`` stands only where the certified motion stops; the header carries the written program's
+  certificate, smallest clearance, largest deviation and cycle time as written.
 * ``speeddata`` [v_tcp, v_ori, v_leax, v_reax]: a tool move's TCP speed (x the job's speed scale, capped by
   its safety TCP limit) [mm/s] as v_tcp, the rest (500 deg/s, 5000 mm/s, 1000 deg/s) as in every predefined
   speeddata v5..v7000. A joint move runs at a fraction s of the joint speed limits; RAPID has no such
@@ -63,9 +66,10 @@ from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ...model.vendors import selection
 from ...model.vendors.axes import ABB, axis_angles
-from ...model.vendors.controller import controller_frames, frames_words
 from ...model.vendors.configuration import format_configuration
+from ...model.vendors.controller import controller_frames, frames_words
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from .controller_motion import PASS_THROUGH_ZONE_M, WrittenProgram
 from .lint import RAPID, lint
 from .names import RESERVED_WORDS
 
@@ -94,14 +98,17 @@ STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "speeddata": "LOC
 ENTRY_PREFIX = "main_"
 
 
-def write_rapid(program: Program, module_name: str) -> str:
+def write_rapid(program: Program, module_name: str, written: WrittenProgram | None = None) -> str:
     """The RAPID module text of ``program`` (see the module docstring), named ``module_name`` (a RAPID
     identifier). OutputError names what cannot be written (a bad name, a robot without 6 joints); ``lint``
-    runs first on the name, the header comments and the confdata of the robtargets (ControllerLintError)."""
+    runs first on the name, the header comments and the confdata of the robtargets (ControllerLintError).
+    ``written`` (``controller_motion.certified_moves``): the certified motion, its targets and zones (a planned
+    move as MoveAbsJ to joint targets on the certified path, zones wherever it does not stop) and its certificate
+    in the header; None: the planner's vertices with exact stops (``Program.exact_stop_at``)."""
     check_identifier(module_name, "module name")
     if program.robot.dof != 6:
         raise OutputError(f"{program.robot.name}: a RAPID robtarget needs a 6-joint arm, it has {program.robot.dof}")
-    module = _Module(program)
+    module = _Module(program, written)
     lint(program, RAPID, module_name, module.header(module_name), written_configurations(program))
     module.add_moves()
     return module.text(module_name)
@@ -166,9 +173,17 @@ def zone_name(program: Program, move: Move) -> tuple[str, str | None]:
     """(the zonedata name, its value or None for a predefined one) at the end of ``move``."""
     if program.exact_stop_at(move):
         return "fine", None
-    if move.zone <= 0.0:
+    return zone_data(move.zone)
+
+
+def zone_data(zone_m: float, stop: bool = False) -> tuple[str, str | None]:
+    """(the zonedata name, its value or None for a predefined one) of a zone of ``zone_m`` [m]: ``fine`` at a
+    ``stop``, ``z0`` for no zone (or RAPID's z0 itself, PASS_THROUGH_ZONE_M) where the motion passes through."""
+    if stop:
+        return "fine", None
+    if zone_m <= PASS_THROUGH_ZONE_M + 1e-12:
         return "z0", None
-    mm = move.zone * 1e3
+    mm = zone_m * 1e3
     name = "zone_" + number(mm, MM).replace(".", "_")
     fields = [number(mm, MM), *[number(mm * ZONE_MM_RATIO, MM)] * 2, number(mm * ZONE_DEG_PER_MM, MM),
               number(mm * ZONE_MM_RATIO, MM), number(mm * ZONE_DEG_PER_MM, MM)]
@@ -216,8 +231,9 @@ def entry_routine(module_name: str) -> str:
 class _Module:
     """The declarations and instructions of one module, gathered move by move."""
 
-    def __init__(self, program: Program):
+    def __init__(self, program: Program, written: WrittenProgram | None = None):
         self.program = program
+        self.written = written
         self.declarations: dict[str, tuple[str, str]] = {}          # name -> (data type, value)
         self.instructions: list[str] = []
         X_WB = None if program.cell is None else program.cell.X_WB
@@ -257,9 +273,25 @@ class _Module:
         return f"vmax\\T:={number(seconds, 3)}" if seconds > 0.0 else "vmax"
 
     def zone(self, move: Move) -> str:
+        if self.written is not None:
+            return self.zone_of(self.written.of(move.end)[-1].zone_m)
         name, value = zone_name(self.program, move)
         self.declare(name, "zonedata", value)
         return name
+
+    def zone_of(self, zone_m: float) -> str:
+        """The zonedata of a written move's zone [m] (0: ``fine``, the certified motion stops there)."""
+        name, value = zone_data(zone_m, stop=zone_m <= 0.0)
+        self.declare(name, "zonedata", value)
+        return name
+
+    def inner_targets(self, move: Move) -> list[tuple[np.ndarray, str]]:
+        """(joint values, zonedata) of the joint targets a planned move passes before its end."""
+        if move.planned is None:
+            return []
+        if self.written is None:
+            return [(vertex, "fine") for vertex in move.planned.waypoints[1:-1]]
+        return [(w.target, self.zone_of(w.zone_m)) for w in self.written.of(move.end)[:-1]]
 
     def add_moves(self) -> None:
         program = self.program
@@ -273,12 +305,11 @@ class _Module:
         q_from = program.targets[k - 1]
         tail = f"{self.zone(move)}, {TOOL}{self.wobj};"
         if move.kind == JOINT:
-            if move.planned is not None:
-                for i, vertex in enumerate(move.planned.waypoints[1:-1], start=1):
-                    name = self.jointtarget(f"j{k}_{i}", vertex)
-                    self.instructions.append(f"MoveAbsJ {name}, {self.timed(q_from, vertex, move.speed)}, fine, "
-                                             f"{TOOL};")
-                    q_from = vertex
+            for i, (vertex, zone) in enumerate(self.inner_targets(move), start=1):
+                name = self.jointtarget(f"j{k}_{i}", vertex)
+                self.instructions.append(f"MoveAbsJ {name}, {self.timed(q_from, vertex, move.speed)}, {zone}, "
+                                         f"{TOOL};")
+                q_from = vertex
             speed = self.timed(q_from, move.target, move.speed)
             if program.waypoints[k].method is None:
                 self.instructions.append(f"MoveAbsJ {self.jointtarget(f'j{k}', move.target)}, {speed}, {tail}")
@@ -308,7 +339,9 @@ class _Module:
             f"- no acceleration limit is written (the job's TCP limit: {accel}); RAPID sets",
             "  acceleration only as a percentage of the controller's own (AccSet)",
             "- zones are the controller's corner paths, not the program's blends; fine stops exactly;",
-            "  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move",
+            ("  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move"
+             if self.written is None else "  z0 where the program passes through a waypoint without a zone; "
+             "fine only where the certified motion stops; a planned move's joint targets lie on the certified path"),
             f"- joint moves are axis-interpolated, not the job's path shape ({program.path or 'default'})",
             "confdata [cf1,cf4,cf6,cfx] from each target's joint values; ConfJ/ConfL \\On keep them.",
             frames_words(program.robot, ABB, "the base frame", "tool0", "confdata and jointtargets") + ".",
@@ -320,6 +353,7 @@ class _Module:
             (f"{WOBJ}: the robot's base in the cell; the controller's base frame must be set the same."
              if self.wobj else "Targets in the robot's base frame (wobj0)."),
             f"MoveAbsJ j0 at {APPROACH_SPEED} is an approach to the start, not part of the program.",
+            *([] if self.written is None else self.written.header_lines()),
         ]
 
     def text(self, module_name: str) -> str:
