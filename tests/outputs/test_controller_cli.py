@@ -258,6 +258,20 @@ def test_read_program_writes_the_programs_own_units(written, ur5_job, tmp_path, 
         assert all(orientation in w for w in poses)
 
 
+def test_a_joint_waypoints_zone_is_written_back_in_the_programs_length_unit():
+    """A joint waypoint with a zone reads back in mm like a pose's (a 40 mm zone came back as 0.04 mm)."""
+    from pipeline.outputs.controllers.read_units import in_program_units
+
+    document = {"length_unit": "m", "angle_unit": "deg", "waypoints": [
+        [0, 0, 0, 0, 0, 0], {"q": [10, 0, 0, 0, 0, 0], "zone": 0.04}, {"xyz": [0.5, 0, 0.4], "rpy": [180, 0, 0],
+                                                                        "zone": 0.025}]}
+    for language in ("rapid", "ls", "jbi", "krl"):
+        waypoints = in_program_units(document, language)["waypoints"]
+        assert waypoints[0] == [0, 0, 0, 0, 0, 0] and waypoints[1] == {"q": [10, 0, 0, 0, 0, 0], "zone": 40.0}
+        assert waypoints[2]["zone"] == 25.0 and waypoints[2]["xyz"] == [500.0, 0.0, 400.0]
+    assert in_program_units(document, "urscript") == document
+
+
 def test_a_jbi_round_trip_of_the_arm6_demo_runs(tmp_path, capsys):
     """program -> read-program -> run on the arm6 demo: every waypoint read back names its configuration, and
     a branch change the configurations name is no error (it was refused as an unnamed one)."""

@@ -34,8 +34,10 @@ def in_program_units(document: dict, language: str) -> dict:
 
 
 def _waypoint(waypoint, as_rpy: bool):
-    if not isinstance(waypoint, dict) or "xyz" not in waypoint:
+    if not isinstance(waypoint, dict):
         return waypoint                                     # joint values: degrees already
+    if "xyz" not in waypoint:                               # joint values with move keys: the zone is a length
+        return {**waypoint, "zone": _mm(waypoint["zone"])} if "zone" in waypoint else waypoint
     out = _pose(waypoint, as_rpy)
     if "via" in out:
         out["via"] = {**out["via"], "xyz": _mm(out["via"]["xyz"])}
