@@ -27,8 +27,12 @@ write for a Program without its certified profile (planned moves as the planner'
 write with the certified profile (``runner.written_motion``; the writers only render it): a planned move as joint
 targets sampled from the certified path (as few as keep the joint segments within half of WRITTEN_DEVIATION_RAD of
 it), zones wherever the certified motion does not stop (the program's own, INNER_ZONE_M at most half the shorter TCP
-chord at the inner targets), exact stops only at ``program.stops``; then the written moves' certificate, the zones at
-fault halved (or dropped) until it passes and the inner targets' deviation is within WRITTEN_DEVIATION_RAD, each change
+chord at the inner targets), exact stops only at ``program.stops``; a plain joint move likewise where its certified
+path departs from the straight joint segment by more than WRITTEN_DEVIATION_RAD (joint targets on it with corners as
+large as the controller makes them; written straight, and reported, for jerk-limited timing, where the modelled
+corners cost more than the departure), its target an exact stop where the certified motion rests there, else a
+zone (the certified blend's TCP reach where the path misses the target, a corner where it passes it); then the
+written moves' certificate, the zones at fault halved (or dropped) until it passes and the inner targets' deviation is within WRITTEN_DEVIATION_RAD, each change
 recorded with its reason (``WrittenProgram.changes``, in the file's header and printed by ``program``).
 
 The model (what is published, and what is assumed):
@@ -103,8 +107,9 @@ MIN_PIECE_SAMPLES = 8
 TOPP3_SAMPLE_STEP_RAD = 0.04
 #: Samples of a move's end half where the path's distance to the zone's centre is evaluated.
 ZONE_SAMPLES = 400
-#: Consecutive samples closer than this [rad or m] are one.
-SAME_SAMPLE = 1e-10
+#: Consecutive samples closer than this [rad or m] are one (a move's kept part between two corners that each take
+#: half of it has no length, and its samples, a few 1e-8 apart, left the jerk-limited solver without a profile).
+SAME_SAMPLE = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -645,6 +650,10 @@ def written_program_certificate(program: Program, moves: list[WrittenMove], cert
 WRITTEN_DEVIATION_RAD = 0.01
 #: Share of WRITTEN_DEVIATION_RAD the chords between written targets may take.
 CHORD_SHARE = 0.5
+#: Share of WRITTEN_DEVIATION_RAD the chords between the written targets of a joint move may take: a flowing curve
+#: of curvature k cut into chords of length L within d of it turns by about k L at each target, and a corner at half
+#: the chord cuts it by about k L^2 / 4 = 2 d more; a quarter leaves the corners room within the bound.
+JOINT_CHORD_SHARE = 0.5
 #: Zone [m] at an inner target of a planned move (a point the certified motion flows through), before shrinking:
 #: at most half the shorter TCP chord of its two segments.
 INNER_ZONE_M = 0.05
@@ -703,7 +712,7 @@ class WrittenProgram:
                   f"{'PASSED' if c.passed else 'FAILED'}{clearance}{deviation}; cycle time as written "
                   f"{c.duration_s:.3f} s{certified}; {self.exact_stops} exact stops.")]
         if self.changes:
-            lines.append("Zones changed: " + "; ".join(self.changes))
+            lines.append("Changed from the certified motion: " + "; ".join(self.changes))
         return lines
 
 
@@ -751,19 +760,101 @@ def _planned_targets(program: Program, certified: Profile, move, zone_before: fl
     return [samples[i] for i in kept if 0 <= i < len(samples)]
 
 
+def _window(certified: Profile, t0: float, t1: float) -> np.ndarray:
+    """The certified profile's samples with t0 < t <= t1."""
+    return certified.q[(certified.t > t0) & (certified.t <= t1)]
+
+
+def _flow_zone(program: Program, certified: Profile, move, tolerance: float) -> tuple[float, bool]:
+    """The zone [m] to write at the end of joint ``move`` where the certified motion flows through its target
+    without a zone of the program's own, and whether it is the certified corner's own (the certified path misses
+    the target by more than ``tolerance``, as a path of lines with blended corners does: the zone is the TCP
+    reach of the blend, the samples around the passage farther than ``tolerance`` from the straight segments, rounded
+    up to whole mm) or a flow zone (the path passes the target: INNER_ZONE_M, capped later as an inner target's)."""
+    passages = certified.details.passages_s
+    j = move.end
+    t = passages[j]
+    at = certified.q[int(np.argmin(np.abs(certified.t - t)))]
+    if np.linalg.norm(at - move.target) <= tolerance or j + 1 >= len(passages):
+        return INNER_ZONE_M, False
+    a, b, c = program.targets[j - 1], move.target, program.targets[j + 1]
+    inside = (certified.t > passages[j - 1]) & (certified.t < passages[j + 1])
+    samples, times = certified.q[inside], certified.t[inside]
+    off = point_to_polyline(samples, np.array([a, b, c])) > tolerance
+    # the run of deviating samples around the passage
+    k = int(np.argmin(np.abs(times - t)))
+    if not off[k]:
+        return INNER_ZONE_M, False
+    lo = k
+    while lo > 0 and off[lo - 1]:
+        lo -= 1
+    hi = k
+    while hi + 1 < len(off) and off[hi + 1]:
+        hi += 1
+    reach = float(np.linalg.norm(_tcp(program.robot, samples[lo: hi + 1]) - _tcp(program.robot, b)[0], axis=1).max())
+    return float(np.ceil(reach / ZONE_STEP_M - 1e-9)) * ZONE_STEP_M, True
+
+
+def _at_rest(certified: Profile, t: float) -> bool:
+    """Whether the certified motion is at rest (every joint speed within 1e-6) at its sample nearest ``t``."""
+    return float(np.abs(certified.qd[int(np.argmin(np.abs(certified.t - t)))]).max()) <= 1e-6
+
+
+def _departure(program: Program, certified: Profile, move) -> float:
+    """The largest joint-space distance [rad] of the certified path between the passages of ``move``'s ends from
+    the straight joint segment between its targets."""
+    passages = certified.details.passages_s
+    samples = certified.q[(certified.t >= passages[move.end - 1]) & (certified.t <= passages[move.end])]
+    ends = np.array([program.targets[move.end - 1], move.target])
+    return float(point_to_polyline(samples, ends).max()) if len(samples) else 0.0
+
+
+def _joint_targets(program: Program, certified: Profile, move, zone_before: float, zone_after: float,
+                   tolerance: float, departure: float) -> list[np.ndarray]:
+    """Joint targets (samples of ``certified``) of the joint ``move`` between its ends, where the certified path
+    departs from the straight joint segment between its targets by more than ``departure`` (none where it does not):
+    the samples between its passages outside the zones at both ends, thinned (``_chord_targets``) with the move's
+    start and end as the chords' first and last points."""
+    passages = certified.details.passages_s
+    samples = certified.q[(certified.t > passages[move.end - 1]) & (certified.t < passages[move.end])]
+    if len(samples) == 0:
+        return []
+    a, b = program.targets[move.end - 1], move.target
+    robot = program.robot
+    tcp = _tcp(robot, samples)
+    keep = ((np.linalg.norm(tcp - _tcp(robot, a)[0], axis=1) >= zone_before)
+            & (np.linalg.norm(tcp - _tcp(robot, b)[0], axis=1) >= zone_after)
+            # a target next to an end would be a second target at it
+            & (np.linalg.norm(samples - a, axis=1) >= tolerance) & (np.linalg.norm(samples - b, axis=1) >= tolerance))
+    samples = samples[keep]
+    if len(samples) == 0 or point_to_polyline(samples, np.array([a, b])).max() <= departure:
+        return []
+    kept = _chord_targets(np.array([a, *samples, b]), tolerance)
+    return [samples[i - 1] for i in kept if 1 <= i <= len(samples)]
+
+
 def certified_moves(program: Program, certified: Profile, scene=None,
                     deviation_rad: float = WRITTEN_DEVIATION_RAD, method: str | None = None) -> WrittenProgram:
     """The moves a writer writes for ``program`` so that the controller follows its ``certified`` profile: a planned
     move as joint targets sampled from the certified path (``_planned_targets``: as few as keep the joint segments
     within CHORD_SHARE x ``deviation_rad``), then its end; zones wherever the certified motion does not stop (the
     program's own; INNER_ZONE_M at the inner targets, at most half the shorter TCP chord beside them;
-    PASS_THROUGH_ZONE_M where it passes a waypoint without one), exact stops only at ``program.stops``. The written
+    PASS_THROUGH_ZONE_M where it passes a waypoint without one), exact stops only at ``program.stops``. A plain joint
+    move: joint targets sampled from the certified path (``_joint_targets``: where it departs from the straight
+    segment by more than ``deviation_rad``, as few as keep the chords within JOINT_CHORD_SHARE x ``deviation_rad``;
+    none for a jerk-limited program, topp3, whose modelled corners cost more time than stops: the move is written
+    straight and the departure reported in ``changes``), an exact stop at its target where the certified motion is at
+    rest there (``_at_rest``), else the zone of ``_flow_zone``; the zones at the targets it flows through as large as
+    the controller's corner can be (the larger TCP reach over the two half segments). The written
     moves are then certified (``written_program_certificate``, in ``scene``): while the certificate fails, or an inner
     target's modelled path deviates more than ``deviation_rad`` from the certified one, the zones at fault are
     halved (after SHRINK_ROUNDS, or below SMALLEST_ZONE_M, dropped), each change recorded with its reason."""
     robot = program.robot
     moves: list[WrittenMove] = []
     inner: set[int] = set()                       # indices of the inner targets of planned moves
+    flowing: set[int] = set()                     # targets of joint moves flowed through: zones sized below
+    straight: list[str] = []                      # joint moves written straight where the certified path is not
+    jerk_limited = (method or {"ruckig": "topp3"}.get(program.timing, program.timing)) == "topp3"
     for move in program.moves:
         stop = move.end in program.stops
         end_zone = 0.0 if stop else (move.zone or PASS_THROUGH_ZONE_M)
@@ -779,9 +870,52 @@ def certified_moves(program: Program, certified: Profile, scene=None,
                 moves.append(WrittenMove(JOINT, np.asarray(q, dtype=float), move.speed, zone, source=move.end))
             moves.append(WrittenMove(JOINT, move.target, move.speed, end_zone, source=move.end))
             continue
+        if move.kind == JOINT:
+            # the certified motion at rest at the target (ruckig's waypoint to waypoint): an exact stop
+            stop = stop or _at_rest(certified, certified.details.passages_s[move.end])
+            end_zone = 0.0 if stop else end_zone
+            # a joint move as joint targets on the certified path where it departs from the straight segment, its
+            # target with a zone where the certified motion flows (the certified corner's reach where the path
+            # misses the target, else a flow zone capped as an inner target's)
+            own_corner = False
+            if not stop and not move.zone:
+                end_zone, own_corner = _flow_zone(program, certified, move, CHORD_SHARE * deviation_rad)
+            # samples inside a flow zone stay (the certified path passes its target; the corner is sized later)
+            before = moves[-1].zone_m if moves and len(moves) - 1 not in inner else 0.0
+            after = end_zone if own_corner or move.zone else 0.0
+            targets = _joint_targets(program, certified, move, before, after, JOINT_CHORD_SHARE * deviation_rad,
+                                     deviation_rad)
+            if targets and jerk_limited:
+                straight.append(f"move to waypoint {move.end}: written as one joint move; the certified path departs "
+                                f"from it by up to {_departure(program, certified, move):.3f} rad (joint targets along "
+                                f"it, with corners as modelled, cost more than the departure under jerk-limited timing)")
+                targets = []
+            for q in targets:
+                inner.add(len(moves))
+                flowing.add(len(moves))
+                moves.append(WrittenMove(JOINT, np.asarray(q, dtype=float), move.speed, INNER_ZONE_M,
+                                         source=move.end))
+            if not stop and not move.zone and not own_corner:
+                inner.add(len(moves))
+                flowing.add(len(moves))
+            moves.append(WrittenMove(JOINT, move.target, move.speed, end_zone, source=move.end))
+            continue
         speed = program.tool_speed(move) / program.speed_scale if move.is_tool_move else move.speed
         moves.append(WrittenMove(move.kind, move.target, speed, end_zone, move.X_BT if move.is_tool_move else None,
                                  move.via, source=move.end))
+    # the zones at the targets of joint moves flowed through: the corner as large as the controller makes it (half
+    # of either joint segment): the larger TCP reach from the target over the two half segments, up to whole mm (a
+    # wrist's turn moves the TCP little and not along a line: half the TCP chord cut a corner of a few % of a move)
+    for k in sorted(flowing):
+        w = moves[k]
+        if k + 1 >= len(moves):
+            continue
+        before = moves[k - 1].target if k > 0 else program.targets[0]
+        half = np.linspace(0.0, 0.5, 64)[:, None]
+        around = np.vstack([w.target + half * (before - w.target), w.target + half * (moves[k + 1].target - w.target)])
+        reach = float(np.linalg.norm(_tcp(robot, around) - _tcp(robot, w.target)[0], axis=1).max())
+        zone = max(float(np.ceil(reach / ZONE_STEP_M - 1e-9)) * ZONE_STEP_M, ZONE_STEP_M)
+        moves[k] = dataclasses.replace(w, zone_m=zone)
     changes: dict[int, str] = {}
     original = [w.zone_m for w in moves]
     for round_ in range(SHRINK_ROUNDS + 1):
@@ -809,7 +943,7 @@ def certified_moves(program: Program, certified: Profile, scene=None,
                 zone = 0.0
             moves[k] = dataclasses.replace(w, zone_m=zone)
             changes[k] = reason
-    notes = []
+    notes = list(straight)
     for k in sorted(changes):
         w = moves[k]
         what = "dropped (an exact stop)" if w.zone_m == 0.0 else f"{original[k] * 1e3:.1f} -> {w.zone_m * 1e3:.1f} mm"

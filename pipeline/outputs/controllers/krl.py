@@ -283,13 +283,13 @@ def _declarations(program, status_turn: np.ndarray, angles: np.ndarray,
 
 
 def _vertices(move, written: WrittenProgram | None = None) -> list[tuple[str, np.ndarray, float]]:
-    """(name, joint values (6,) [rad], zone [m]) of each joint target of a planned move between its ends: the
-    written certified motion's targets on the certified path (``written``), else the planner's vertices, exact
-    stops."""
-    if move.planned is None:
-        return []
+    """(name, joint values (6,) [rad], zone [m]) of each joint target of a joint move between its ends: the
+    written certified motion's targets on the certified path (``written``: a planned move's, or a curved joint
+    move's), else a planned move's vertices, exact stops."""
     if written is not None:
         return [(f"XP{move.end}_{i}", w.target, w.zone_m) for i, w in enumerate(written.of(move.end)[:-1], start=1)]
+    if move.planned is None:
+        return []
     return [(f"XP{move.end}_{i}", q, 0.0) for i, q in enumerate(move.planned.waypoints[1:-1], start=1)]
 
 

@@ -40,9 +40,13 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   its safety TCP limit) [mm/s] as v_tcp, the rest (500 deg/s, 5000 mm/s, 1000 deg/s) as in every predefined
   speeddata v5..v7000. A joint move runs at a fraction s of the joint speed limits; RAPID has no such
   speed, so it is written as ``vmax \\T:=T`` (\\T: the total time of the move, which replaces the
-  speeddata): T = max_i |dq_i| / (s x speed scale x qd_max_i) [s], rounded up to 1 ms, the time the leading
+  speeddata): T = max_i |dq_i| / (s x speed scale x qd_max_i) [s], rounded up to 0.1 ms, the time the leading
   axis needs at that speed without accelerating. The controller adds its own acceleration and keeps its
   own axis limits, so the move takes at least that long.
+* ``PathAccLim TRUE\\AccMax:=A, TRUE\\DecelMax:=A`` [m/s^2] after the approach, for a program with tool moves and
+  a TCP acceleration limit: A = the job's ``tcp_accel_max`` x the speed scale squared (``path_acceleration``; the
+  certified timing's; ``read_rapid`` reads it back as ``tcp_accel_max``: without it a read-back job's tool moves
+  accelerated freely and its cycle time came out below the certified one).
 * ``zonedata`` [finep, pzone_tcp, pzone_ori, pzone_eax, zone_ori, zone_leax, zone_reax]: ``fine`` at the
   program's stops and at both ends of a planned joint move (``Program.exact_stop_at``); a zone of R mm as pzone_tcp = R with the other fields in the ratios of the predefined
   z10..z200 (1.5 R mm for pzone_ori, pzone_eax, zone_leax; 0.15 R deg for zone_ori, zone_reax); ``z0`` (the
@@ -83,7 +87,8 @@ TOOL, WOBJ = "tool_job", "wobj_base"
 APPROACH_SPEED = "v100"
 #: Decimals written: positions [mm], quaternions, joint angles [deg], speeds [mm/s], times [s].
 MM, QUATERNION, DEG, SPEED = 3, 6, 4, 3
-TIME_STEP_S = 1e-3
+#: \\T is rounded up to 0.1 ms (1 ms took up to 7 % off the 14 ms joint moves between a planned move's targets).
+TIME_STEP_S = 1e-4
 #: The written pose's joint values must lie this close to the program's [rad] (``written_configuration``).
 WRITTEN_JOINTS_RAD = 1e-3
 #: Header comment lines are wrapped to this many characters; the declarations are written in this order.
@@ -190,6 +195,15 @@ def zone_data(zone_m: float, stop: bool = False) -> tuple[str, str | None]:
     return name, f"[FALSE,{','.join(fields)}]"
 
 
+def path_acceleration(program: Program) -> float | None:
+    """The TCP acceleration and deceleration limit [m/s^2] written as ``PathAccLim`` (RAPID Instructions manual,
+    PathAccLim: \\AccMax, \\DecelMax in m/s^2, at least 0.1): the job's ``tcp_accel_max`` x the speed scale squared
+    (the certified timing's), None without one or without a tool move (RAPID's limit acts on the TCP only)."""
+    if program.tcp_accel_max is None or not any(m.is_tool_move for m in program.moves):
+        return None
+    return max(float(program.tcp_accel_max) * program.speed_scale**2, 0.1)
+
+
 def joint_move_time(program: Program, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> float:
     """The time [s] the leading axis needs from q_from to q_to (6,) [rad] at ``fraction`` x the speed scale x
     its speed limit, rounded up to TIME_STEP_S (0: no motion)."""
@@ -270,7 +284,7 @@ class _Module:
 
     def timed(self, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> str:
         seconds = joint_move_time(self.program, q_from, q_to, fraction)
-        return f"vmax\\T:={number(seconds, 3)}" if seconds > 0.0 else "vmax"
+        return f"vmax\\T:={number(seconds, 4)}" if seconds > 0.0 else "vmax"
 
     def zone(self, move: Move) -> str:
         if self.written is not None:
@@ -286,17 +300,23 @@ class _Module:
         return name
 
     def inner_targets(self, move: Move) -> list[tuple[np.ndarray, str]]:
-        """(joint values, zonedata) of the joint targets a planned move passes before its end."""
+        """(joint values, zonedata) of the joint targets a joint move passes before its end: with the certified motion
+        (``written``) the ones written for it (a planned move's, or a curved joint move's, on the certified path),
+        else a planned move's vertices."""
+        if self.written is not None:
+            return [(w.target, self.zone_of(w.zone_m)) for w in self.written.of(move.end)[:-1]]
         if move.planned is None:
             return []
-        if self.written is None:
-            return [(vertex, "fine") for vertex in move.planned.waypoints[1:-1]]
-        return [(w.target, self.zone_of(w.zone_m)) for w in self.written.of(move.end)[:-1]]
+        return [(vertex, "fine") for vertex in move.planned.waypoints[1:-1]]
 
     def add_moves(self) -> None:
         program = self.program
         start = self.jointtarget("j0", program.targets[0])
         self.instructions += ["ConfJ\\On;", "ConfL\\On;", f"MoveAbsJ {start}, {APPROACH_SPEED}, fine, {TOOL};"]
+        accel = path_acceleration(program)
+        if accel is not None:
+            # after the approach: PathAccLim acts on the TCP of the moves that follow
+            self.instructions.append(f"PathAccLim TRUE\\AccMax:={number(accel, 3)}, TRUE\\DecelMax:={number(accel, 3)};")
         for move in program.moves:
             self.add_move(move)
 
@@ -336,8 +356,10 @@ class _Module:
             "- tool moves run at their TCP speed (speeddata v_tcp); joint moves take \\T, the time the",
             "  leading axis needs at the move's fraction of its speed limit without accelerating,",
             "  and the controller adds its own acceleration",
-            f"- no acceleration limit is written (the job's TCP limit: {accel}); RAPID sets",
-            "  acceleration only as a percentage of the controller's own (AccSet)",
+            *([f"- no acceleration limit is written (the job's TCP limit: {accel}); RAPID sets",
+               "  acceleration only as a percentage of the controller's own (AccSet)"]
+              if path_acceleration(program) is None else
+              [f"- the job's TCP acceleration limit ({accel} x the speed scale squared) as PathAccLim [m/s^2]"]),
             "- zones are the controller's corner paths, not the program's blends; fine stops exactly;",
             ("  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move"
              if self.written is None else "  z0 where the program passes through a waypoint without a zone; "
