@@ -40,14 +40,6 @@ class Controller:
         """The axis angles [deg] of a pose the maker calls elbow up."""
         return tuple(float(np.degrees(v)) for v in self.section.elbow_up)
 
-    def base_pose(self, X_BT: np.ndarray) -> np.ndarray:
-        """A pose X_BT (..., 4, 4) [m] in our base frame -> in the controller's base frame."""
-        return np.linalg.inv(self.X_B_base) @ X_BT
-
-    def tool_on_flange(self, X_ET: np.ndarray) -> np.ndarray:
-        """A tool X_ET (4, 4) [m] on our end frame -> on the controller's flange frame."""
-        return np.linalg.inv(self.X_E_flange) @ X_ET
-
     def describe(self) -> str:
         """One line: what the section says of the frames (for a program's header)."""
         def words(X, ours):
@@ -78,6 +70,11 @@ def controller_frames(robot, vendor: str) -> tuple[np.ndarray, np.ndarray]:
     """(X_B_base, X_E_flange) (4, 4) [m] of the robot's ``vendor`` controller section, identities without one."""
     controller = controller_for(robot, vendor)
     return (np.eye(4), np.eye(4)) if controller is None else (controller.X_B_base, controller.X_E_flange)
+
+
+def tool_on_flange(robot, vendor: str, X_FT: np.ndarray) -> np.ndarray:
+    """A tool X_FT (4, 4) [m] on our end frame -> on the ``vendor`` controller's flange frame (its tool data)."""
+    return np.linalg.inv(controller_frames(robot, vendor)[1]) @ X_FT
 
 
 def frames_words(robot, vendor: str, base: str, flange: str, fields: str) -> str:

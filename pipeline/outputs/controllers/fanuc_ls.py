@@ -78,7 +78,7 @@ from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_position_to_pose
 from ...model.vendors.axes import FANUC, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
-from ...model.vendors.controller import controller_frames, frames_words
+from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
@@ -194,11 +194,6 @@ def controller_pose(X_B_base: np.ndarray, xyz_mm, angles_deg) -> np.ndarray:
     """``xyz_rpy`` inverted: the pose (4, 4) [m] in our base frame of x, y, z [mm] and rotations [deg] in the
     controller's robot frame X_B_base (4, 4) [m]."""
     return X_B_base @ rpy_position_to_pose(np.radians(angles_deg), np.asarray(xyz_mm, dtype=float) / MM)
-
-
-def tool_on_flange(robot, vendor: str, X_FT: np.ndarray) -> np.ndarray:
-    """A tool X_FT (4, 4) [m] on our end frame -> on the ``vendor`` controller's flange frame (its tool data)."""
-    return np.linalg.inv(controller_frames(robot, vendor)[1]) @ X_FT
 
 
 def rounding_bound(robot, q, mm_step: float, deg_step: float) -> np.ndarray:

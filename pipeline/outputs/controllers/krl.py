@@ -67,7 +67,7 @@ from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_to_rotation
 from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
-from ...model.vendors.controller import controller_frames, frames_words
+from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
@@ -190,7 +190,7 @@ def load_lines(program) -> list[str]:
 
 def _init(program) -> list[str]:
     """The BAS-free initialisation of the .src (module docstring)."""
-    tool = frame_text(np.linalg.inv(controller_frames(program.robot, KUKA)[1]) @ program.tool.X_FT)
+    tool = frame_text(tool_on_flange(program.robot, KUKA, program.tool.X_FT))
     acc_cp = f"{program.tcp_accel_max:.3f}" if program.tcp_accel_max is not None else "$ACC_MA.CP"
     lines = ["$ADVANCE = 3", "$BASE = $ROBROOT", f"$TOOL = {{{tool}}}", "$IPO_MODE = #BASE",
              "$ORI_TYPE = #VAR", "$CIRC_TYPE = #BASE", f"$ACC.CP = {acc_cp}", "$ACC.ORI1 = $ACC_MA.ORI1",

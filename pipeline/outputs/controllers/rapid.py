@@ -71,7 +71,7 @@ from ...files.poses import pose_to_quaternion_position, quaternion_position_to_p
 from ...model.vendors import selection
 from ...model.vendors.axes import ABB, axis_angles
 from ...model.vendors.configuration import format_configuration
-from ...model.vendors.controller import controller_frames, frames_words
+from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .controller_motion import PASS_THROUGH_ZONE_M, WrittenProgram
 from .lint import RAPID, lint
@@ -252,8 +252,8 @@ class _Module:
         self.instructions: list[str] = []
         X_WB = None if program.cell is None else program.cell.X_WB
         self.wobj = "" if X_WB is None or np.allclose(X_WB, np.eye(4), atol=1e-12) else f"\\WObj:={WOBJ}"
-        self.X_B_base, X_E_flange = controller_frames(program.robot, ABB)
-        tframe = np.linalg.inv(X_E_flange) @ program.tool.X_FT                 # on the controller's tool0
+        self.X_B_base = controller_frames(program.robot, ABB)[0]
+        tframe = tool_on_flange(program.robot, ABB, program.tool.X_FT)          # on the controller's tool0
         self.declare(TOOL, "tooldata", f"[TRUE,{pose_text(tframe)},{load_text(program)}]")
         if self.wobj:                                       # uframe: the controller's base frame in the cell
             uframe = pose_text(X_WB @ self.X_B_base)
