@@ -388,12 +388,14 @@ def _read_text(path: Path) -> str:
 
 
 def _read_program(language: str, path: Path, robot: str) -> dict:
-    """The job document of the program at ``path`` in ``language``; every reader error names ``path``."""
+    """The job document of the program at ``path`` in ``language``, with the timing settings its header marks
+    (``settings_mark.with_written_settings``); every reader error names ``path``."""
     from .outputs.controllers.read_jbi import read_jbi
     from .outputs.controllers.read_krl import read_krl
     from .outputs.controllers.read_ls import read_ls
     from .outputs.controllers.read_rapid import read_rapid
     from .outputs.controllers.read_urscript import read_urscript
+    from .outputs.controllers.settings_mark import with_written_settings
 
     text = _read_text(path)
     dat = _dat_file(path) if language == "krl" else None
@@ -402,7 +404,7 @@ def _read_program(language: str, path: Path, robot: str) -> dict:
                "krl": lambda: read_krl(text, _read_text(dat), robot, str(path), str(dat)),
                "urscript": lambda: read_urscript(text, robot)}
     try:
-        return readers[language]()
+        return with_written_settings(readers[language](), text)
     except FileFormatError as exc:
         if exc.source in (str(path), str(dat)):
             raise

@@ -82,6 +82,7 @@ from ...model.vendors.controller import controller_frames, frames_words, tool_on
 from ...model.vendors.selection import select_solution, written_configuration
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
+from .settings_mark import settings_mark
 
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
@@ -288,7 +289,8 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
     X_B_base, frame = controller_frame(program.robot, FANUC)
-    comments = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+    comments = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
+                *comment_lines(_header_text(program, frame)),
                 *comment_lines(payload_text(program, "PAYLOAD schedule (UT 1)"))]
     if written is not None:
         comments += [line for text in [WRITTEN_CNT_RULE, *written.header_lines(), *cnt_differences(program, written)]

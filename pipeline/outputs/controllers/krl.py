@@ -71,6 +71,7 @@ from ...model.vendors.controller import controller_frames, frames_words, tool_on
 from ...model.vendors.selection import select_solution, written_configuration
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
+from .settings_mark import settings_mark
 
 #: Controller generations (module docstring): the approximation keyword of a PTP with a zone.
 KRC2, KSS8 = "krc2", "kss8"
@@ -161,6 +162,7 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         f"{name}: {len(program.moves)} moves of job {program.name} on {program.robot.name}, written by "
         f"{WRITTEN_BY} (pipeline.outputs.controllers.krl)",
         f"{job_mark(program.job_name or program.name)} generation={generation}",
+        settings_mark(program),
         ptp,
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "

@@ -76,6 +76,7 @@ from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .controller_motion import PASS_THROUGH_ZONE_M, WrittenProgram
 from .lint import RAPID, lint
 from .names import RESERVED_WORDS
+from .settings_mark import settings_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
 #: v_ori [deg/s], v_leax [mm/s], v_reax [deg/s] of every predefined speeddata v5..v7000.
@@ -368,6 +369,7 @@ class _Module:
             "confdata [cf1,cf4,cf6,cfx] from each target's joint values; ConfJ/ConfL \\On keep them.",
             frames_words(program.robot, ABB, "the base frame", "tool0", "confdata and jointtargets") + ".",
             job_mark(program.job_name or program.name),
+            settings_mark(program),
             (f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one."
              if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (no inertia)."),
             (f"Data are LOCAL to this module; run {entry_routine(module_name)} (PP to Routine, or call it from the "

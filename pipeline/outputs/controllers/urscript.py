@@ -63,6 +63,7 @@ from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...timing.profile import Profile
 from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
+from .settings_mark import settings_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 #: The Script Manual's defaults: movej a [rad/s^2], v [rad/s]; movel a [m/s^2].
@@ -270,6 +271,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
         (f"{name}: the compiled program {program.name!r} (robot {program.robot.name}, {len(program.moves)} moves), "
          f"written by {WRITTEN_BY} (pipeline.outputs.controllers.urscript)."),
         job_mark(program.job_name or program.name),
+        settings_mark(program),
         "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
         ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
          "not the certified profile:"),

@@ -64,6 +64,7 @@ from ...program.model import CIRCULAR, JOINT, Move, Program
 from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
                        payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
+from .settings_mark import settings_mark
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
@@ -125,7 +126,8 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     X_B_base, frame = controller_frame(program.robot, YASKAWA)
-    header = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+    header = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
+              *comment_lines(_header_text(program, frame)),
               *comment_lines(payload_text(program, "tool file 1 (W, Xg, Yg, Zg)"))]
     if written is not None:
         levels = "/".join(f"{v:g}" for v in pl_mm)
