@@ -321,15 +321,12 @@ def _program_targets(language: str, name: str, out: Path) -> tuple[str, dict[str
     return name, {suffix: out.with_suffix(suffix) for suffix in suffixes}
 
 
-#: Program file suffix -> the language read (KRL: a .src with its .dat beside it).
-READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".script": "urscript"}
-
-
 def cmd_read_program(args) -> int:
     """Read a controller program back into a job document (``pipeline.outputs.controllers.read_*``), in the
     program's own units, check it as a job, and write it as YAML to --out (atomically) or print it."""
     import yaml
 
+    from .outputs.controllers.read_program import READ_SUFFIXES
     from .program.job import parse_job
     from .runner import LANGUAGE_TITLES
 
@@ -390,21 +387,12 @@ def _read_text(path: Path) -> str:
 def _read_program(language: str, path: Path, robot: str) -> dict:
     """The job document of the program at ``path`` in ``language``, with the timing settings its header marks
     (``settings_mark.with_written_settings``); every reader error names ``path``."""
-    from .outputs.controllers.read_jbi import read_jbi
-    from .outputs.controllers.read_krl import read_krl
-    from .outputs.controllers.read_ls import read_ls
-    from .outputs.controllers.read_rapid import read_rapid
-    from .outputs.controllers.read_urscript import read_urscript
-    from .outputs.controllers.settings_mark import with_written_settings
+    from .outputs.controllers.read_program import read_program_text
 
     text = _read_text(path)
     dat = _dat_file(path) if language == "krl" else None
-    readers = {"rapid": lambda: read_rapid(text, robot), "ls": lambda: read_ls(text, robot, source=str(path)),
-               "jbi": lambda: read_jbi(text, robot, source=str(path)),
-               "krl": lambda: read_krl(text, _read_text(dat), robot, str(path), str(dat)),
-               "urscript": lambda: read_urscript(text, robot)}
     try:
-        return with_written_settings(readers[language](), text)
+        return read_program_text(language, text, robot, str(path), dat and _read_text(dat), str(dat))
     except FileFormatError as exc:
         if exc.source in (str(path), str(dat)):
             raise
@@ -514,7 +502,12 @@ def cmd_bench(args) -> int:
     elif args.suite == "cycle":
         from .bench.cycle import CELLS, run_cycle_benchmark
 
-        report = run_cycle_benchmark(_names(args.cells, CELLS), programs=args.programs, seed=args.seed)
+        report = run_cycle_benchmark(_names(args.cells, CELLS), programs=args.programs or 20, seed=args.seed)
+    elif args.suite == "written":
+        from .bench.cycle import CELLS
+        from .bench.written import run_written_benchmark
+
+        report = run_written_benchmark(_names(args.cells, CELLS), programs=args.programs or 5, seed=args.seed)
     elif args.suite == "scale":
         from .bench.scale import run_scale_benchmark
 
@@ -808,8 +801,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "Time one part of the pipeline beside the libraries it is compared with, in the same run (the\n"
                   "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
                   ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale", "job",
-                                         "ui"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "written", "scale",
+                                         "job", "ui"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -826,9 +819,10 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                        "(default: all; cubbies, gp7_box, ...: pipeline.bench.plan_sets.SET_NAMES)")
     bench.add_argument("--count", type=POSITIVE, default=100, metavar="N",
                        help="plan only: queries per problem set (default 100; cubbies has its 30 always)")
-    bench.add_argument("--programs", type=POSITIVE, default=20, metavar="N",
-                       help="cycle only: seeded random pick-and-place programs per cell (default 20)")
-    bench.add_argument("--cells", help="cycle only: comma-separated demo cells (default gp7_wall_cell,gp7_shelf_cell)")
+    bench.add_argument("--programs", type=POSITIVE, default=None, metavar="N",
+                       help="cycle, written: seeded random pick-and-place programs per cell (default 20; written: 5)")
+    bench.add_argument("--cells", help="cycle, written: comma-separated demo cells (default gp7_wall_cell,"
+                       "gp7_shelf_cell,irb1600_wall_cell)")
     bench.add_argument("--jobs", help="job only: comma-separated job files (default: the demo jobs with a cell)")
     bench.add_argument("--repeats", type=POSITIVE, default=5, metavar="N",
                        help="job only: fresh processes per job and measurement (default 5)")

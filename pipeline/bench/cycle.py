@@ -86,7 +86,7 @@ from .plan import peer_setup
 log = logging.getLogger(__name__)
 
 #: The demo cells, and the demo cell jobs (in the checkout's trajectories/jobs/) with their cells.
-CELLS = ("gp7_wall_cell", "gp7_shelf_cell")
+CELLS = ("gp7_wall_cell", "gp7_shelf_cell", "irb1600_wall_cell")
 DEMO_JOBS = {"gp7_cell_pick_place": "gp7_wall_cell"}
 DEMO_JOB_DIR = Path(__file__).resolve().parents[2] / "trajectories" / "jobs"
 #: The goals (issue 23): median and max cycle / bound, the largest time_stretch [1].
@@ -165,7 +165,7 @@ def _shelf_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
 
 
 #: How each demo cell draws its stations.
-STATIONS = {"gp7_wall_cell": _wall_stations, "gp7_shelf_cell": _shelf_stations}
+STATIONS = {"gp7_wall_cell": _wall_stations, "gp7_shelf_cell": _shelf_stations, "irb1600_wall_cell": _wall_stations}
 
 
 def _zone(rng: np.random.Generator, line_mm: float) -> float:
