@@ -246,9 +246,8 @@ def cmd_program(args) -> int:
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
     from .program.job import load_job
-    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, collision_model,
-                         language_zones_certificate, language_zones_line, program_name, program_texts, timed_program,
-                         written_motion, written_report)
+    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, language_written, language_zones_line,
+                         program_name, program_texts, timed_program, written_motion, written_report)
 
     from .outputs.controllers.krl import KRC2
     from .outputs.controllers.urscript import check_servo_period
@@ -264,7 +263,7 @@ def cmd_program(args) -> int:
     for path in targets.values():
         prepare_file_target(path, args.force, job.name, _keep_both(args.lang, name, path))
     program, _, profile = timed_program(job, args.max_samples, args.max_duration)
-    written = written_motion(job, args.lang, program, profile)
+    written, own = language_written(job, args.lang, program, profile, written_motion(job, args.lang, program, profile))
     texts = program_texts(job, args.lang, program, profile, name, period, args.krl_generation or KRC2, written)
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
@@ -274,7 +273,6 @@ def cmd_program(args) -> int:
               f"certificate {'passed' if certificate.passed else 'FAILED'}, {written.exact_stops} exact stops"
               + ("" if certificate.max_deviation_rad is None else
                  f", largest deviation from the certified path {certificate.max_deviation_rad:.4f} rad"))
-        own = language_zones_certificate(args.lang, program, profile, written, collision_model(job))
         report = written_report(written, args.lang, program, profile, own)
         for change in report["zone_changes"]:
             print(f"zone changed: {change['change']} (cost {change['cost_s']:+.4f} s)")

@@ -170,13 +170,12 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     timing (``check_duration``)."""
     with staged_output(out_dir) as staging:
         program, profile, report = reported_program(job, max_samples, max_duration_s)
-        written = {}
+        written, motion = {}, None
         for language in (k for k in job.outputs if k in PROGRAM_FILES):
             # the certified motion as written is the same for every language: computed once
-            same = next(iter(written.values()), None)
-            written[language] = same if same is not None else written_motion(job, language, program, profile)
+            motion = motion or written_motion(job, language, program, profile)
+            written[language], own = language_written(job, language, program, profile, motion)
             if written[language] is not None:
-                own = language_zones_certificate(language, program, profile, written[language], collision_model(job))
                 report.setdefault("written_programs", {})[language] = written_report(
                     written[language], language, program, profile, own)
         writers = _writers(job, profile, report, program, written)
@@ -252,6 +251,15 @@ def written_motion(job: Job, language: str, program: Program, profile: Profile):
         return None
 
 
+def language_written(job: Job, language: str, program: Program, profile: Profile, written):
+    """(``written`` with, for FANUC and Yaskawa, the certificate of the zones the language writes instead in its
+    header ``notes``, that certificate as ``language_zones_certificate`` gives it, or None); (None, None) for None."""
+    own = language_zones_certificate(language, program, profile, written, collision_model(job))
+    if own is None:
+        return written, None
+    return replace(written, notes=(f"{LANGUAGE_TITLES[language]} {language_zones_line(language, own)}",)), own
+
+
 def zone_differences(language: str, program: Program, written) -> list[str]:
     """Per written move, where ``language`` cannot write the certified zone exactly, what it writes instead and the
     difference (FANUC CNT: ``fanuc_ls.cnt_differences``; Yaskawa PL: ``yaskawa_jbi.pl_differences``); RAPID,
@@ -276,15 +284,13 @@ def language_zones_certificate(language: str, program: Program, profile: Profile
     those zones cannot be timed; None for a language that writes the zones exactly."""
     if written is None or language not in ("ls", "jbi"):
         return None
-    import dataclasses
-
     from .outputs.controllers.controller_motion import written_program_certificate
 
     if language == "ls":
         from .outputs.controllers.fanuc_ls import cnt_zones as zones_of
     else:
         from .outputs.controllers.yaskawa_jbi import pl_zones as zones_of
-    moves = [dataclasses.replace(w, zone_m=z) for w, z in zip(written.moves, zones_of(program, written))]
+    moves = [replace(w, zone_m=z) for w, z in zip(written.moves, zones_of(program, written))]
     try:
         certificate = written_program_certificate(program, moves, profile, scene)[2]
     except PipelineError as exc:        # e.g. the timing of the path with these zones found no profile
@@ -357,7 +363,9 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
         rule = f": {NAME_RULES[language]}" if name == program_name(language, program.name) else ""
         program = replace(program, name=f"{program.name} (written as {name}{rule})")
     try:
-        written = written_motion(job, language, program, profile) if written is None else written
+        if written is None:
+            written = language_written(job, language, program, profile,
+                                       written_motion(job, language, program, profile))[0]
         return _program_texts(language, program, profile, name, servo_period, krl_generation, written)
     except PipelineError as exc:
         move = getattr(exc, "move", None)

@@ -32,8 +32,7 @@ from ..outputs.controllers.read_program import read_program_text
 from ..outputs.versions import version_table
 from ..program.job import load_job, parse_job
 from ..progress import Progress
-from ..runner import (PROGRAM_FILES, language_zones_certificate, program_texts, timed_program,
-                      written_motion)
+from ..runner import PROGRAM_FILES, language_written, program_texts, timed_program, written_motion
 from .cycle import CELLS, DEMO_JOB_DIR, drawn_programs
 from .goals import Goal, GoalReport, fmt, goal_lines
 
@@ -111,8 +110,7 @@ def measure(job, language: str, program, profile, written) -> WrittenRecord:
     certificate = written.certificate
     record = dataclasses.replace(record, written_s=certificate.duration_s, written_passed=certificate.passed,
                                  deviation_rad=certificate.max_deviation_rad, written_stops=written.exact_stops)
-    own = language_zones_certificate(language, program, profile, written, None if job.cell is None else
-                                     _scene(job))
+    written, own = language_written(job, language, program, profile, written)
     if own is not None:
         record = dataclasses.replace(record, own_zones_s=own["duration_s"], own_zones_passed=own["passed"])
     try:
@@ -126,12 +124,6 @@ def measure(job, language: str, program, profile, written) -> WrittenRecord:
     passed = read_profile.certificate.passed
     return dataclasses.replace(record, read_back_s=read_profile.duration, read_back_passed=passed,
                                read_back_stops=len(read_program.stops), same_stops=same)
-
-
-def _scene(job):
-    from ..runner import collision_model
-
-    return collision_model(job)
 
 
 def measure_job(job, languages=LANGUAGES) -> list[WrittenRecord]:

@@ -154,3 +154,16 @@ def test_joint_speed_is_a_percentage_with_two_decimals(programs):
 def test_a_name_the_controller_refuses_is_an_error(programs, name):
     with pytest.raises(ConfigurationError, match="1 to 8 characters"):
         write_jbi(programs["gp7_pick_place"], name, WHEN)
+
+
+def test_an_axis_at_180_deg_is_refused_naming_the_rconf_bit(tmp_path):
+    """The IRB 1600's axis 4 at -180 deg (a pick of bench cycle's IRB 1600 wall cell): RCONF's R >= 180 bit is the same
+    for -180 and +180 deg, and the rounded pose selects +180: refused, saying why (not "near-singular")."""
+    from pipeline.program.job import parse_job
+
+    job = parse_job({"robot": "irb1600", "angle_unit": "deg",
+                     "waypoints": [[16.9988, 1.4212, 47.612, -180.0, -40.9668, 8.7988], [30, 10, 20, 170, -40, 10]]},
+                    source="axis4.yaml", name="axis4")
+    with pytest.raises(ConfigurationError, match=r"C00000: .*axis 4 is at \+-180 deg, where RCONF's >= 180 bit is "
+                                                 r"the same for -180 and \+180 deg"):
+        write_jbi(compile_job(job), "AXIS4")

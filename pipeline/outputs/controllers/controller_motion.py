@@ -91,13 +91,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...program.model import CIRCULAR, JOINT, LINEAR, Program
-from ...program.timing import _after_stop, join_profiles
+from ...program.timing import join_profiles, stopped_schedules
 from ...program.tool_moves import joint_path_along
 from ...program.tool_path import ToolMove, ToolPath
 from ...timing import time_path
 from ...timing.joint_path import JointPath, path_through_samples
 from ...timing.profile import LimitReport, Profile, TimingDetails, certify
-from ...timing.schedule import LimitSchedule, joined_schedules
+from ...timing.schedule import LimitSchedule
 from ...timing.tcp import TcpMotion
 
 #: Samples of a joint-space path at most this far apart [rad or m] (and at least MIN_PIECE_SAMPLES a piece).
@@ -561,12 +561,9 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
         offset += profile.duration
     details = WrittenDetails(tuple(stretches), tuple(passages))
     joined = join_profiles(profiles, details)
-    if all(p.schedule is not None for p in profiles):
-        offsets = np.cumsum([0.0] + [p.duration for p in profiles[:-1]])
-        schedules = [profiles[0].schedule] + [_after_stop(p.schedule, before.schedule)
-                                              for before, p in itertools.pairwise(profiles)]
-        joined = dataclasses.replace(joined, schedule=joined_schedules([s.shifted(o) for s, o in
-                                                                        zip(schedules, offsets)]))
+    schedule = stopped_schedules(profiles)
+    if schedule is not None:
+        joined = dataclasses.replace(joined, schedule=schedule)
     passages = np.array(passages)
     return WrittenTiming(joined, joined.duration, passages, np.diff(np.concatenate([[0.0], passages])))
 
@@ -672,7 +669,8 @@ class WrittenProgram:
     """What a writer writes for a Program with its certified profile (``certified_moves``): ``moves`` (the written
     moves, a planned move as joint targets sampled from the certified path, then its end), the modelled ``path``,
     ``timing`` and ``certificate`` of those moves, ``changes`` (per written move a zone changed or dropped, with its
-    reason), ``deviation_bound_rad`` the bound its planned moves were sampled for."""
+    reason), ``deviation_bound_rad`` the bound its planned moves were sampled for, ``notes``: further header lines
+    of one language (``runner.language_written``: the certificate with the zones FANUC or Yaskawa write)."""
 
     moves: tuple[WrittenMove, ...]
     path: ControllerPath
@@ -681,6 +679,7 @@ class WrittenProgram:
     changes: tuple[str, ...]
     deviation_bound_rad: float
     bounded: tuple[int, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def bounded_deviation_rad(self) -> float | None:
@@ -713,7 +712,7 @@ class WrittenProgram:
                   f"{c.duration_s:.3f} s{certified}; {self.exact_stops} exact stops.")]
         if self.changes:
             lines.append("Changed from the certified motion: " + "; ".join(self.changes))
-        return lines
+        return lines + list(self.notes)
 
 
 def _tcp(robot, q: np.ndarray) -> np.ndarray:

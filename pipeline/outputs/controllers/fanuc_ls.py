@@ -76,7 +76,7 @@ import numpy as np
 from ...errors import ConfigurationError, ConfigurationNotFoundError, OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_position_to_pose
-from ...model.vendors.axes import FANUC, axis_angles
+from ...model.vendors.axes import FANUC, YASKAWA, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
@@ -229,9 +229,20 @@ def written_point_configuration(robot, vendor: str, label: str, q, xyz_mm, angle
         landed, why = None, str(error)
     if landed is None or np.any(np.abs(landed - q) > bound):
         raise ConfigurationError(f"{label}: joint values {np.round(np.degrees(q), 4).tolist()} deg: the pose as "
-                                 f"written does not bring them back within the file's rounding ({why}); a "
-                                 "near-singular waypoint? move it off the singularity")
+                                 f"written does not bring them back within the file's rounding ({why}); "
+                                 f"{_hint(robot, vendor, q)}")
     return config
+
+
+def _hint(robot, vendor: str, q) -> str:
+    """What to do about a point the written pose does not bring back: Yaskawa's R, T, S >= 180 bits cannot tell an
+    axis at -180 deg from one at +180 deg (a whole turn apart); otherwise the point is near a singular set."""
+    angles = axis_angles(robot, q, vendor)
+    near = [axis + 1 for axis in (3, 5, 0) if abs(abs(angles[axis]) - 180.0) < 0.01]
+    if vendor == YASKAWA and near:
+        return (f"axis {near[0]} is at +-180 deg, where RCONF's >= 180 bit is the same for -180 and +180 deg (a whole "
+                "turn apart): turn the tool about its axis a little at this waypoint, or write another language")
+    return "a near-singular waypoint? move it off the singularity"
 
 
 def rounded(values, decimals: int) -> np.ndarray:

@@ -55,6 +55,7 @@ from ...files.poses import pose_to_quaternion_position, quaternion_position_to_p
 from ...model.ik.branches import configuration_labels
 from ...model.robot import Robot, load_robot, robot_with_tool
 from ...model.vendors.axes import ABB, joint_values
+from ...model.vendors.configuration import format_configuration
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from .read_ls import parse_subset
@@ -219,7 +220,7 @@ class _Reader:
             waypoint = {"joints": [round(float(v), 10) for v in np.degrees(q)]}
         else:
             X, q = self.robtarget(targets[-1], call)
-            waypoint = self.pose_waypoint(X, q)
+            waypoint = self.pose_waypoint(X, q, self.data.get(targets[-1], "robtarget", call.name)[2])
             waypoint["move"] = {"movej": "joint", "movel": "linear", "movec": "circular"}[kind]
             if kind == "movec":
                 X_via = self.pose(self.data.get(targets[0], "robtarget", call.name), call)
@@ -272,12 +273,15 @@ class _Reader:
         except ConfigurationNotFoundError as exc:
             raise RapidReadError(SOURCE, str(value), str(exc), line=call.line) from None
 
-    def pose_waypoint(self, X: np.ndarray, q: np.ndarray) -> dict:
+    def pose_waypoint(self, X: np.ndarray, q: np.ndarray, confdata) -> dict:
+        """The pose waypoint of X (4, 4) [m]: its branch (of q (6,) [rad]) and ``controller_config`` the
+        robtarget's confdata (the job solves it as the controller does, the quadrants of axes 4 and 6 too)."""
         quaternion, position = pose_to_quaternion_position(X)
         label = configuration_labels(self.robot_tool, q[None])[0]
         waypoint = {"xyz": position.tolist(), "quaternion": quaternion.tolist()}
         if label:
             waypoint["config"] = label_parts(label)
+        waypoint["controller_config"] = {ABB: format_configuration(ABB, tuple(int(c) for c in confdata))}
         return waypoint
 
     def add_speed(self, waypoint: dict, kind: str, speed, call: _Call, q: np.ndarray) -> None:
