@@ -15,17 +15,20 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
   (% of the joints' maximum speed, 0.01 to 100.00: the move's fraction of the speed limits x the job's
   ``speed_scale``; a planned move's planner vertices each get a MOVJ without PL, an exact stop, as do both
   ends of a planned move), ``MOVL C.. V=`` (TCP speed in mm/s, to 0.1 mm/s), ``MOVC`` x 3 for a circular move: INFORM
-  defines an arc by three MOVC points, so the arc's start (where the previous move ends) is written again as
-  the first MOVC point, then the via and the end point; an arc ending where the next arc starts gets ``FPT``.
+  defines an arc by three MOVC points, and the controller reaches the first on a straight line from the point before
+  (Yaskawa's operator's manuals, "circular interpolation": P0 -> P1 linear, P1 -> P2 -> P3 the arc): a linear move
+  into an arc is written as the arc's first MOVC point, with its speed and PL; after a joint move or another arc,
+  the arc's start (where the previous move ends) is written again as the first MOVC point, then the via and the end
+  point; an arc ending where the next arc starts gets ``FPT``.
 * Zones: ``PL=n`` (positioning level, 0 to 8). A level is a distance the controller's parameters
   S1CxG033..S1CxG040 set for PL1..PL8, not a fixed size; ``PL_MM`` is our assumption for them (12.5 mm,
   doubling per level), to be set on the controller or replaced by the controller's values through
   ``pl_mm``. A zone z > 0 gets the largest level whose distance is <= z (so the controller never rounds more
   than the certified zone), PL=0 when z is below PL1's distance; a move without a zone gets no PL (the
-  controller stops at its point, as PL=0). A move followed by an arc gets no PL (``written_zone``): the arc's
-  first MOVC repeats that point, a zero-length segment, into which the controller cannot round.
+  controller stops at its point, as PL=0). A joint move or an arc followed by an arc gets no PL (``written_zone``): the
+  arc's first MOVC repeats that point, a zero-length segment, into which the controller cannot round.
   With the certified motion (``written``: ``controller_motion.certified_moves``): a planned move's targets are the
-  certified path's joint targets, no PL only where the certified motion stops (or into an arc, as above), and a
+  certified path's joint targets, no PL only where the certified motion stops (or into an arc after a joint move or an arc, as above), and a
   zone gets the level closest to it, PL1 at least (``closest_pl_level``: PL=0 would position on the point where the
   certified motion flows); the distances are ``PL_MM`` (an assumption, stated in the header), ``pl_differences``
   lists the difference per move (header, and what ``program`` prints), ``pl_zones`` the levels' distances, with
@@ -60,7 +63,7 @@ from ...errors import ConfigurationError
 from ...files.atomic import job_mark
 from ...model.vendors.axes import YASKAWA
 from ...model.vendors.configuration import configurations
-from ...program.model import CIRCULAR, JOINT, Move, Program
+from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
                        payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
@@ -98,7 +101,8 @@ def pl_zones(program: Program, written, pl_mm=PL_MM) -> list[float]:
 
 def pl_differences(program: Program, written, pl_mm=PL_MM) -> list[str]:
     """Per written move, the PL written for its zone and the difference of that level's assumed distance to the
-    certified zone (a zone dropped into an arc: an exact stop, the arc's first MOVC repeats the point)."""
+    certified zone (a zone dropped into an arc after a joint move: an exact stop, the arc's first MOVC repeats the
+    point)."""
     lines, zones = [], [w.zone_m for w in written.moves]
     for k, motion in enumerate(job_points(program, written)[1:]):
         certified = zones[k]
@@ -106,7 +110,7 @@ def pl_differences(program: Program, written, pl_mm=PL_MM) -> list[str]:
             continue
         if motion.zone <= 0.0:
             lines.append(f"written move {k + 1} (to waypoint {motion.move.end}): zone {certified * MM:.1f} mm -> no PL "
-                         f"(an exact stop: the next arc's first MOVC repeats this point)")
+                         f"(an exact stop: the next arc's first MOVC repeats this point after a joint move)")
             continue
         n = closest_pl_level(motion.zone, pl_mm)
         lines.append(f"written move {k + 1} (to waypoint {motion.move.end}): zone {certified * MM:.1f} mm -> PL={n} "
@@ -155,26 +159,40 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
 
 
 def written_zone(program: Program, move: Move) -> float:
-    """The zone [m] written at the end of ``move`` (module docstring): 0 before an arc (whose first MOVC repeats
-    this point) and where the program stops, else the move's zone."""
+    """The zone [m] written at the end of ``move`` (module docstring): 0 where the program stops and before an arc
+    after a joint move or an arc (whose first MOVC repeats this point), else the move's zone."""
     following = program.moves[move.end] if move.end < len(program.moves) else None
-    stop = program.exact_stop_at(move) or (following is not None and following.kind == CIRCULAR)
+    stop = program.exact_stop_at(move) or (following is not None and following.kind == CIRCULAR
+                                           and move.kind != LINEAR)
     return 0.0 if stop else move.zone
 
 
+def _into_arc(motions: list[Motion], k: int) -> bool:
+    """Whether motion k + 1 begins a circular move (another move than motion k's)."""
+    following = motions[k + 1].move if k + 1 < len(motions) else None
+    return following is not None and following.kind == CIRCULAR and following is not motions[k].move
+
+
+def _line_into_arc(motions: list[Motion], k: int) -> bool:
+    """Whether motion k is a linear move into an arc: written as the arc's first MOVC point, which the controller
+    reaches on a straight line (module docstring)."""
+    return _into_arc(motions, k) and motions[k].move is not None and motions[k].move.kind == LINEAR
+
+
 def job_points(program: Program, written=None) -> list[Motion]:
-    """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous motion's end) as the
-    first of its three MOVC points and no zone into an arc (``written_zone``): the points in the order C00000,
-    C00001, ... are written. ``written``: the certified motion's targets and zones (``program_points``)."""
+    """``fanuc_ls.program_points`` for Yaskawa: a linear move into an arc is the arc's first MOVC point (with its
+    zone); an arc after a joint move or an arc repeats its start (the previous motion's end) as its first MOVC
+    point, and no zone leads into it (``written_zone``): the points in the order C00000, C00001, ... are written.
+    ``written``: the certified motion's targets and zones (``program_points``)."""
     motions = program_points(program, YASKAWA, written)
     if written is None:
         motions = [replace(m, zone=written_zone(program, m.move)) if m.zone > 0.0 else m for m in motions]
     else:
-        motions = [replace(m, zone=0.0) if k + 1 < len(motions) and motions[k + 1].move is not None
-                   and motions[k + 1].move.kind == CIRCULAR and motions[k + 1].move is not m.move else m
+        motions = [replace(m, zone=0.0) if _into_arc(motions, k) and not _line_into_arc(motions, k) else m
                    for k, m in enumerate(motions)]
-    return [replace(m, points=[motions[k - 1].points[-1], *m.points]) if m.move is not None and m.move.kind == CIRCULAR
-            else m for k, m in enumerate(motions)]
+    return [replace(m, points=[motions[k - 1].points[-1], *m.points])
+            if m.move is not None and m.move.kind == CIRCULAR and not _line_into_arc(motions, k - 1) else m
+            for k, m in enumerate(motions)]
 
 
 def _header_text(program: Program, frame: str) -> str:
@@ -219,9 +237,10 @@ def _instructions(program: Program, motion: Motion, labels: list[str], following
         lines = [f"MOVJ {labels[0]} {speed}{tail}"]
     elif move.kind == CIRCULAR:
         fpt = " FPT" if following is not None and following.kind == CIRCULAR else ""
-        lines = [f"MOVC {labels[0]} {speed}", f"MOVC {labels[1]} {speed}", f"MOVC {labels[2]} {speed}{tail}{fpt}"]
+        lines = [f"MOVC {label} {speed}" for label in labels[:-1]] + [f"MOVC {labels[-1]} {speed}{tail}{fpt}"]
     else:
-        lines = [f"MOVL {labels[0]} {speed}{tail}"]
+        into_arc = following is not None and following.kind == CIRCULAR and following is not move
+        lines = [f"{'MOVC' if into_arc else 'MOVL'} {labels[0]} {speed}{tail}"]
     if tail:
         lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{level(motion.zone, pl_mm)}")
     return lines
