@@ -188,7 +188,8 @@ def draw_document(cell: str, rng: np.random.Generator) -> dict:
     return {
         "description": f"bench cycle: a pick and place in {cell}",
         "cell": cell, "length_unit": "mm", "angle_unit": "deg", "tool": TOOL,
-        "tcp_speed_max": speed, "tcp_accel_max": TCP_ACCEL_MM_S2, "start": STARTS.get(cell, START_DEG), "plan": "collision_free",
+        "tcp_speed_max": speed, "tcp_accel_max": TCP_ACCEL_MM_S2, "start": STARTS.get(cell, START_DEG),
+        "plan": "collision_free",
         "allow_branch_change": True,                    # a joint move may change the wrist (the two cubbies)
         "waypoints": [
             {"xyz": above_pick, "rpy": rpy_pick},

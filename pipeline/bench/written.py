@@ -47,8 +47,8 @@ STOP_RAD = 1e-3
 
 @dataclass(frozen=True)
 class WrittenRecord:
-    """One program in one language: the certified duration [s] and exact stops; as written: cycle time [s],
-    certificate verdict, largest deviation [rad], exact stops, and with the language's own zones (LS, JBI) the cycle
+    """One program in one language: the certified duration [s] and exact stops (the start counted, everywhere);
+    as written: cycle time [s], certificate verdict, largest deviation [rad], exact stops, and with the language's own zones (LS, JBI) the cycle
     time [s] and verdict; the round trip's duration [s], verdict, exact stops and whether they are the original's;
     ``error``: what failed (empty when nothing did)."""
 
@@ -109,7 +109,7 @@ def measure(job, language: str, program, profile, written) -> WrittenRecord:
         return dataclasses.replace(record, error="not written as the certified motion")
     certificate = written.certificate
     record = dataclasses.replace(record, written_s=certificate.duration_s, written_passed=certificate.passed,
-                                 deviation_rad=certificate.max_deviation_rad, written_stops=written.exact_stops)
+                                 deviation_rad=certificate.max_deviation_rad, written_stops=1 + written.exact_stops)
     written, own = language_written(job, language, program, profile, written)
     if own is not None:
         record = dataclasses.replace(record, own_zones_s=own["duration_s"], own_zones_passed=own["passed"])

@@ -56,3 +56,16 @@ def test_a_jerk_limited_scaled_job_comes_back_as_written(name):
     for record in measure_job(load_job(DEMO / f"{name}.yaml")):
         assert record.error == "" and record.read_back_passed and record.same_stops, record
         assert record.ratio == pytest.approx(1.0, abs=1e-3), record
+
+
+def test_a_ur5_job_comes_back_from_urscript_as_written(tmp_path):
+    """URScript too (its blend radii, the mark in a # comment): a UR5 job at speed scale 0.5 timed by topp3."""
+    import yaml
+
+    from .test_urscript import UR5_JOB
+
+    path = tmp_path / "ur5_scaled.yaml"
+    path.write_text(yaml.safe_dump({**UR5_JOB, "speed_scale": 0.5, "timing": "topp3"}))
+    record, = measure_job(load_job(path), ("urscript",))
+    assert record.error == "" and record.read_back_passed and record.same_stops, record
+    assert record.ratio == pytest.approx(1.0, abs=1e-3), record

@@ -32,7 +32,8 @@ path departs from the straight joint segment by more than WRITTEN_DEVIATION_RAD 
 large as the controller makes them; written straight, and reported, for jerk-limited timing, where the modelled
 corners cost more than the departure), its target an exact stop where the certified motion rests there, else a
 zone (the certified blend's TCP reach where the path misses the target, a corner where it passes it); then the
-written moves' certificate, the zones at fault halved (or dropped) until it passes and the inner targets' deviation is within WRITTEN_DEVIATION_RAD, each change
+written moves' certificate, the zones at fault halved (or dropped) until it passes and the inner targets' deviation
+is within WRITTEN_DEVIATION_RAD, each change
 recorded with its reason (``WrittenProgram.changes``, in the file's header and printed by ``program``).
 
 The model (what is published, and what is assumed):
@@ -759,11 +760,6 @@ def _planned_targets(program: Program, certified: Profile, move, zone_before: fl
     return [samples[i] for i in kept if 0 <= i < len(samples)]
 
 
-def _window(certified: Profile, t0: float, t1: float) -> np.ndarray:
-    """The certified profile's samples with t0 < t <= t1."""
-    return certified.q[(certified.t > t0) & (certified.t <= t1)]
-
-
 def _flow_zone(program: Program, certified: Profile, move, tolerance: float) -> tuple[float, bool]:
     """The zone [m] to write at the end of joint ``move`` where the certified motion flows through its target
     without a zone of the program's own, and whether it is the certified corner's own (the certified path misses
@@ -887,7 +883,8 @@ def certified_moves(program: Program, certified: Profile, scene=None,
             if targets and jerk_limited:
                 straight.append(f"move to waypoint {move.end}: written as one joint move; the certified path departs "
                                 f"from it by up to {_departure(program, certified, move):.3f} rad (joint targets along "
-                                f"it, with corners as modelled, cost more than the departure under jerk-limited timing)")
+                                "it, with corners as modelled, cost more than the departure under jerk-limited "
+                                "timing)")
                 targets = []
             for q in targets:
                 inner.add(len(moves))

@@ -317,7 +317,8 @@ class _Module:
         accel = path_acceleration(program)
         if accel is not None:
             # after the approach: PathAccLim acts on the TCP of the moves that follow
-            self.instructions.append(f"PathAccLim TRUE\\AccMax:={number(accel, 3)}, TRUE\\DecelMax:={number(accel, 3)};")
+            limit = number(accel, 3)
+            self.instructions.append(f"PathAccLim TRUE\\AccMax:={limit}, TRUE\\DecelMax:={limit};")
         for move in program.moves:
             self.add_move(move)
 

@@ -63,8 +63,8 @@ def marked_settings(text: str) -> dict:
 def with_written_settings(document: dict, text: str) -> dict:
     """``document`` (a reader's job document: SI lengths, joint speeds in %) with the settings ``text`` marks:
     ``timing``, ``path``, ``speed_scale`` (the waypoints' speeds divided by it, a joint move's at most 100 % and none
-    for ruckig, the TCP acceleration read from the program by its square), ``tcp_accel_max`` and ``tcp_speed_limit`` where the
-    program gave none. A new dict; ``document`` as it is when the text has no mark."""
+    for ruckig, the TCP acceleration read from the program by its square), ``tcp_accel_max`` and ``tcp_speed_limit``
+    where the program gave none. A new dict; ``document`` as it is when the text has no mark."""
     settings = marked_settings(text)
     if not settings:
         return document

@@ -28,7 +28,8 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
   controller stops at its point, as PL=0). A joint move or an arc followed by an arc gets no PL (``written_zone``): the
   arc's first MOVC repeats that point, a zero-length segment, into which the controller cannot round.
   With the certified motion (``written``: ``controller_motion.certified_moves``): a planned move's targets are the
-  certified path's joint targets, no PL only where the certified motion stops (or into an arc after a joint move or an arc, as above), and a
+  certified path's joint targets, no PL only where the certified motion stops (or into an arc after a joint move or
+  an arc, as above), and a
   zone gets the level closest to it, PL1 at least (``closest_pl_level``: PL=0 would position on the point where the
   certified motion flows); the distances are ``PL_MM`` (an assumption, stated in the header), ``pl_differences``
   lists the difference per move (header, and what ``program`` prints), ``pl_zones`` the levels' distances, with
