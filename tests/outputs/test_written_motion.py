@@ -140,7 +140,7 @@ def test_program_prints_both_cycle_times(language, tmp_path, capsys):
     assert "certificate PASSED" in text and f"cycle time as written {written.timing.duration_s:.3f} s" in text
 
 
-@pytest.mark.parametrize("language", LANGUAGES)
+@pytest.mark.parametrize("language", ["rapid", pytest.param("krl", marks=pytest.mark.slow)])
 def test_program_read_program_run_in_the_cell_without_planning(language, tmp_path, capsys):
     """The issue's round trip: ``program`` -> ``read-program`` (the planned moves come back as the joint targets they
     were written as, with their zones, in the job's length unit) -> ``run`` in the same cell without planning: certified
