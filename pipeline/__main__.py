@@ -246,8 +246,8 @@ def cmd_program(args) -> int:
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
     from .program.job import load_job
-    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, program_name, program_texts,
-                         timed_program)
+    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, language_written, language_zones_line,
+                         program_name, program_texts, timed_program, written_motion, written_report)
 
     from .outputs.controllers.krl import KRC2
     from .outputs.controllers.urscript import check_servo_period
@@ -263,9 +263,23 @@ def cmd_program(args) -> int:
     for path in targets.values():
         prepare_file_target(path, args.force, job.name, _keep_both(args.lang, name, path))
     program, _, profile = timed_program(job, args.max_samples, args.max_duration)
-    texts = program_texts(job, args.lang, program, profile, name, period, args.krl_generation or KRC2)
+    written, own = language_written(job, args.lang, program, profile, written_motion(job, args.lang, program, profile))
+    texts = program_texts(job, args.lang, program, profile, name, period, args.krl_generation or KRC2, written)
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
+    if written is not None:
+        certificate = written.certificate
+        print(f"as written: {written.timing.duration_s:.4f} s (certified {profile.duration:.4f} s), written-program "
+              f"certificate {'passed' if certificate.passed else 'FAILED'}, {written.exact_stops} exact stops"
+              + ("" if certificate.max_deviation_rad is None else
+                 f", largest deviation from the certified path {certificate.max_deviation_rad:.4f} rad"))
+        report = written_report(written, args.lang, program, profile, own)
+        for change in report["zone_changes"]:
+            print(f"zone changed: {change['change']} (cost {change['cost_s']:+.4f} s)")
+        for difference in report["zone_differences"]:
+            print(f"zone as written: {difference}")
+        if report["language_zones"] is not None:
+            print(f"{LANGUAGE_TITLES[args.lang]} {language_zones_line(args.lang, report['language_zones'])}")
     for suffix, text in texts.items():
         print(f"wrote {write_text_atomic(targets[suffix], text, args.force)}")
     return 0
@@ -305,15 +319,12 @@ def _program_targets(language: str, name: str, out: Path) -> tuple[str, dict[str
     return name, {suffix: out.with_suffix(suffix) for suffix in suffixes}
 
 
-#: Program file suffix -> the language read (KRL: a .src with its .dat beside it).
-READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".script": "urscript"}
-
-
 def cmd_read_program(args) -> int:
     """Read a controller program back into a job document (``pipeline.outputs.controllers.read_*``), in the
     program's own units, check it as a job, and write it as YAML to --out (atomically) or print it."""
     import yaml
 
+    from .outputs.controllers.read_program import READ_SUFFIXES
     from .program.job import parse_job
     from .runner import LANGUAGE_TITLES
 
@@ -372,21 +383,14 @@ def _read_text(path: Path) -> str:
 
 
 def _read_program(language: str, path: Path, robot: str) -> dict:
-    """The job document of the program at ``path`` in ``language``; every reader error names ``path``."""
-    from .outputs.controllers.read_jbi import read_jbi
-    from .outputs.controllers.read_krl import read_krl
-    from .outputs.controllers.read_ls import read_ls
-    from .outputs.controllers.read_rapid import read_rapid
-    from .outputs.controllers.read_urscript import read_urscript
+    """The job document of the program at ``path`` in ``language``, with the timing settings its header marks
+    (``settings_mark.with_written_settings``); every reader error names ``path``."""
+    from .outputs.controllers.read_program import read_program_text
 
     text = _read_text(path)
     dat = _dat_file(path) if language == "krl" else None
-    readers = {"rapid": lambda: read_rapid(text, robot), "ls": lambda: read_ls(text, robot, source=str(path)),
-               "jbi": lambda: read_jbi(text, robot, source=str(path)),
-               "krl": lambda: read_krl(text, _read_text(dat), robot, str(path), str(dat)),
-               "urscript": lambda: read_urscript(text, robot)}
     try:
-        return readers[language]()
+        return read_program_text(language, text, robot, str(path), dat and _read_text(dat), str(dat))
     except FileFormatError as exc:
         if exc.source in (str(path), str(dat)):
             raise
@@ -496,7 +500,12 @@ def cmd_bench(args) -> int:
     elif args.suite == "cycle":
         from .bench.cycle import CELLS, run_cycle_benchmark
 
-        report = run_cycle_benchmark(_names(args.cells, CELLS), programs=args.programs, seed=args.seed)
+        report = run_cycle_benchmark(_names(args.cells, CELLS), programs=args.programs or 20, seed=args.seed)
+    elif args.suite == "written":
+        from .bench.cycle import CELLS
+        from .bench.written import run_written_benchmark
+
+        report = run_written_benchmark(_names(args.cells, CELLS), programs=args.programs or 5, seed=args.seed)
     elif args.suite == "scale":
         from .bench.scale import run_scale_benchmark
 
@@ -790,8 +799,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "Time one part of the pipeline beside the libraries it is compared with, in the same run (the\n"
                   "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
                   ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
-    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "scale", "job",
-                                         "ui"])
+    bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "written", "scale",
+                                         "job", "ui"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -808,9 +817,10 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                        "(default: all; cubbies, gp7_box, ...: pipeline.bench.plan_sets.SET_NAMES)")
     bench.add_argument("--count", type=POSITIVE, default=100, metavar="N",
                        help="plan only: queries per problem set (default 100; cubbies has its 30 always)")
-    bench.add_argument("--programs", type=POSITIVE, default=20, metavar="N",
-                       help="cycle only: seeded random pick-and-place programs per cell (default 20)")
-    bench.add_argument("--cells", help="cycle only: comma-separated demo cells (default gp7_wall_cell,gp7_shelf_cell)")
+    bench.add_argument("--programs", type=POSITIVE, default=None, metavar="N",
+                       help="cycle, written: seeded random pick-and-place programs per cell (default 20; written: 5)")
+    bench.add_argument("--cells", help="cycle, written: comma-separated demo cells (default gp7_wall_cell,"
+                       "gp7_shelf_cell,irb1600_wall_cell)")
     bench.add_argument("--jobs", help="job only: comma-separated job files (default: the demo jobs with a cell)")
     bench.add_argument("--repeats", type=POSITIVE, default=5, metavar="N",
                        help="job only: fresh processes per job and measurement (default 5)")

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -101,6 +102,17 @@ class JobOutcome:
                   for s in self.report["timing_details"].get("stretches", [])
                   if (s["timing"] or {}).get("time_stretch", 1.0) > STRETCH_NOTICE]
         lines += cycle_lines(self.report["cycle"])
+        for language, w in self.report.get("written_programs", {}).items():
+            lines.append(f"{LANGUAGE_TITLES[language]} as written: {w['duration_s']:.4f} s (certified "
+                         f"{self.profile.duration:.4f} s), written-program certificate "
+                         f"{'passed' if w['passed'] else 'FAILED'}, {w['exact_stops']} exact stops"
+                         + ("" if w["max_deviation_rad"] is None else
+                            f", largest deviation from the certified path {w['max_deviation_rad']:.4f} rad"))
+            lines += [f"  zone changed: {c['change']} (cost {c['cost_s']:+.4f} s)" for c in w["zone_changes"]]
+            lines += [f"  zone as written: {d}" for d in w["zone_differences"]]
+            own = w.get("language_zones")
+            if own is not None:
+                lines.append(f"  {LANGUAGE_TITLES[language]} {language_zones_line(language, own)}")
         lines += [f"wrote {path}" for path in self.files]
         return "\n".join(lines)
 
@@ -158,7 +170,15 @@ def run_job(job: Job, out_dir: str | Path, max_samples: int = DEFAULT_MAX_SAMPLE
     timing (``check_duration``)."""
     with staged_output(out_dir) as staging:
         program, profile, report = reported_program(job, max_samples, max_duration_s)
-        writers = _writers(job, profile, report, program)
+        written, motion = {}, None
+        for language in (k for k in job.outputs if k in PROGRAM_FILES):
+            # the certified motion as written is the same for every language: computed once
+            motion = motion or written_motion(job, language, program, profile)
+            written[language], own = language_written(job, language, program, profile, motion)
+            if written[language] is not None:
+                report.setdefault("written_programs", {})[language] = written_report(
+                    written[language], language, program, profile, own)
+        writers = _writers(job, profile, report, program, written)
         for kind in job.outputs:
             writers[kind](staging / output_names(kind)[0])
     files = tuple(Path(out_dir) / name for kind in job.outputs for name in output_names(kind))
@@ -209,15 +229,133 @@ def check_language_arm(robot, language: str) -> None:
 SERVO_PERIOD_S = 0.002
 
 
+#: Languages written as the certified motion (``controller_motion.certified_moves``, issue 36): all five.
+CERTIFIED_MOTION_LANGUAGES = ("rapid", "krl", "ls", "jbi", "urscript")
+
+
+def written_motion(job: Job, language: str, program: Program, profile: Profile):
+    """The certified motion as ``language`` writes it (``controller_motion.certified_moves``: a planned move as
+    joint targets on the certified path, zones wherever it does not stop, its certificate in the job's cell and
+    its cycle time as written), or None for a language not yet written so (CERTIFIED_MOTION_LANGUAGES), a
+    profile without its waypoints' passages, or a written motion the timing cannot time (e.g. topp3 out of its
+    budget on a long path: logged as a warning; the writer then writes the planner's vertices with exact stops)."""
+    if language not in CERTIFIED_MOTION_LANGUAGES or getattr(profile.details, "passages_s", None) is None:
+        return None
+    from .outputs.controllers.controller_motion import certified_moves
+
+    try:
+        return certified_moves(program, profile, collision_model(job))
+    except PipelineError as exc:
+        log.warning("job %s: the certified motion as written could not be timed, written without it: %s",
+                    job.name, exc)
+        return None
+
+
+def language_written(job: Job, language: str, program: Program, profile: Profile, written):
+    """(``written`` with, for FANUC and Yaskawa, the certificate of the zones the language writes instead in its
+    header ``notes``, that certificate as ``language_zones_certificate`` gives it, or None); (None, None) for None."""
+    own = language_zones_certificate(language, program, profile, written, collision_model(job))
+    if own is None:
+        return written, None
+    return replace(written, notes=(f"{LANGUAGE_TITLES[language]} {language_zones_line(language, own)}",)), own
+
+
+def zone_differences(language: str, program: Program, written) -> list[str]:
+    """Per written move, where ``language`` cannot write the certified zone exactly, what it writes instead and the
+    difference (FANUC CNT: ``fanuc_ls.cnt_differences``; Yaskawa PL: ``yaskawa_jbi.pl_differences``); RAPID,
+    KRL and URScript write the zone in mm or m (none listed)."""
+    if written is None:
+        return []
+    if language == "ls":
+        from .outputs.controllers.fanuc_ls import cnt_differences
+
+        return cnt_differences(program, written)
+    if language == "jbi":
+        from .outputs.controllers.yaskawa_jbi import pl_differences
+
+        return pl_differences(program, written)
+    return []
+
+
+def language_zones_certificate(language: str, program: Program, profile: Profile, written, scene=None):
+    """The written program's certificate (``controller_motion.WrittenCertificate.to_dict``) with the zones
+    ``language`` writes instead of the certified ones where it cannot write them exactly (FANUC: CNT's n % of its
+    reach; Yaskawa: the assumed PL distances), in ``scene``: not passed, with the ``error``, when the motion with
+    those zones cannot be timed; None for a language that writes the zones exactly."""
+    if written is None or language not in ("ls", "jbi"):
+        return None
+    from .outputs.controllers.controller_motion import written_program_certificate
+
+    if language == "ls":
+        from .outputs.controllers.fanuc_ls import cnt_zones as zones_of
+    else:
+        from .outputs.controllers.yaskawa_jbi import pl_zones as zones_of
+    moves = [replace(w, zone_m=z) for w, z in zip(written.moves, zones_of(program, written))]
+    try:
+        certificate = written_program_certificate(program, moves, profile, scene)[2]
+    except PipelineError as exc:        # e.g. the timing of the path with these zones found no profile
+        return {"passed": False, "error": str(exc), "duration_s": None, "min_clearance_m": None}
+    return {**certificate.to_dict(), "max_deviation_rad": certificate.max_deviation_rad}
+
+
+def language_zones_line(language: str, certificate: dict) -> str:
+    """One line: the cycle time and certificate (``WrittenCertificate.to_dict``) of the program with the
+    language's own zones."""
+    clearance = "" if certificate["min_clearance_m"] is None else \
+        f", smallest clearance {certificate['min_clearance_m'] * 1e3:.1f} mm"
+    what = {"ls": "CNT's modelled zones", "jbi": "the assumed PL distances"}[language]
+    if certificate.get("error"):
+        return f"with {what}: not certified ({certificate['error']})"
+    return (f"with {what}: {certificate['duration_s']:.4f} s, certificate "
+            f"{'passed' if certificate['passed'] else 'FAILED'}{clearance}")
+
+
+def written_report(written, language: str, program: Program, profile: Profile, own=None) -> dict:
+    """The written program's certificate for report.json: verdict, smallest clearance, largest deviation, cycle
+    time as written beside the certified one, exact stops, per move the zones changed (with their reasons and
+    their cost: the written move to that waypoint's duration minus the certified one's [s]) and what the language
+    writes instead of a zone it cannot express."""
+    certificate = written.certificate
+    costs = waypoint_costs(written, profile)
+    changes = []
+    for change in written.changes:
+        found = re.search(r"waypoint (\d+)", change)
+        j = int(found.group(1)) if found else None
+        changes.append({"change": change, "waypoint": j, "cost_s": costs.get(j, 0.0)})
+    return {"language": language, **certificate.to_dict(), "max_deviation_rad": certificate.max_deviation_rad,
+            "exact_stops": written.exact_stops, "job_exact_stops": len(program.stops),
+            "written_moves": len(written.moves), "zone_changes": changes,
+            "zone_differences": zone_differences(language, program, written),
+            "language_zones": own}
+
+
+def waypoint_costs(written, profile: Profile) -> dict[int, float]:
+    """Per program waypoint j >= 1, how much longer [s] the written program takes from waypoint j - 1 to j than
+    the certified profile (``WrittenTiming.passages_s`` at the last written move of each waypoint against the
+    certified ``passages_s``)."""
+    passages = getattr(profile.details, "passages_s", None)
+    if passages is None:
+        return {}
+    ends = {}
+    for w, t in zip(written.moves, written.timing.passages_s):
+        ends[w.source] = float(t)
+    costs, before = {}, 0.0
+    for j in sorted(k for k in ends if k is not None):
+        costs[j] = (ends[j] - before) - (passages[j] - passages[j - 1])
+        before = ends[j]
+    return costs
+
+
 def program_texts(job: Job, language: str, program: Program, profile: Profile,
                   name: str | None = None, servo_period: float = SERVO_PERIOD_S,
-                  krl_generation: str = "krc2") -> dict[str, str]:
+                  krl_generation: str = "krc2", written=None) -> dict[str, str]:
     """The job's ``program`` in a controller's ``language`` (rapid, ls, jbi, krl, urscript) as program
     ``name`` (None: ``program_name`` of the job's name): file suffix -> text (KRL: .src and .dat). When
     the name differs from the job's, the writer's header says so (the program's name it states becomes
     "job name (written as NAME: the language's rule)", the rule when the name was made from the job's).
     URScript gets the certified ``profile``'s servoj replay every ``servo_period`` [s], KRL is written for the
-    controller generation ``krl_generation`` (``krl.GENERATIONS``).
+    controller generation ``krl_generation`` (``krl.GENERATIONS``). Every language writes ``written`` (None: computed
+    here, ``written_motion``), the certified motion with its certificate in the header.
     OutputError names the job file (and the waypoint whose move breaks a rule of the language) and what
     the writer refused."""
     name = program_name(language, job.name) if name is None else name
@@ -225,7 +363,10 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
         rule = f": {NAME_RULES[language]}" if name == program_name(language, program.name) else ""
         program = replace(program, name=f"{program.name} (written as {name}{rule})")
     try:
-        return _program_texts(language, program, profile, name, servo_period, krl_generation)
+        if written is None:
+            written = language_written(job, language, program, profile,
+                                       written_motion(job, language, program, profile))[0]
+        return _program_texts(language, program, profile, name, servo_period, krl_generation, written)
     except PipelineError as exc:
         move = getattr(exc, "move", None)
         where = job.source if move is None else job.location(("waypoints", move))
@@ -233,7 +374,7 @@ def program_texts(job: Job, language: str, program: Program, profile: Profile,
 
 
 def _program_texts(language: str, program: Program, profile: Profile, name: str,
-                   servo_period: float, krl_generation: str) -> dict[str, str]:
+                   servo_period: float, krl_generation: str, written=None) -> dict[str, str]:
     from .outputs.controllers.fanuc_ls import write_ls
     from .outputs.controllers.krl import write_krl
     from .outputs.controllers.rapid import write_rapid
@@ -241,16 +382,18 @@ def _program_texts(language: str, program: Program, profile: Profile, name: str,
     from .outputs.controllers.yaskawa_jbi import write_jbi
 
     if language == "krl":
-        return dict(zip((".src", ".dat"), write_krl(program, name, krl_generation)))
-    writers = {"rapid": lambda: {".mod": write_rapid(program, name)}, "ls": lambda: {".ls": write_ls(program, name)},
-               "jbi": lambda: {".jbi": write_jbi(program, name)},
-               "urscript": lambda: {".script": write_urscript(program, name, profile, servo_period)}}
+        return dict(zip((".src", ".dat"), write_krl(program, name, krl_generation, written)))
+    writers = {"rapid": lambda: {".mod": write_rapid(program, name, written)},
+               "ls": lambda: {".ls": write_ls(program, name, written=written)},
+               "jbi": lambda: {".jbi": write_jbi(program, name, written=written)},
+               "urscript": lambda: {".script": write_urscript(program, name, profile, servo_period, written=written)}}
     return writers[language]()
 
 
-def _write_program(job: Job, language: str, program: Program, profile: Profile, path: Path) -> None:
-    """The program's files at ``path`` (its first file; KRL's .dat beside its .src)."""
-    for suffix, text in program_texts(job, language, program, profile).items():
+def _write_program(job: Job, language: str, program: Program, profile: Profile, path: Path, written=None) -> None:
+    """The program's files at ``path`` (its first file; KRL's .dat beside its .src); ``written``: the certified
+    motion as written (None: computed, ``written_motion``)."""
+    for suffix, text in program_texts(job, language, program, profile, written=written).items():
         path.with_suffix(suffix).write_text(text, encoding="utf-8")
 
 
@@ -303,7 +446,7 @@ def move_at(profile: Profile, first: int, last: int | None, t: float | None) -> 
     return after[0] if after else len(passages) - 1
 
 
-def _writers(job: Job, profile: Profile, report: dict, program: Program) -> dict:
+def _writers(job: Job, profile: Profile, report: dict, program: Program, written: dict | None = None) -> dict:
     """Output kind -> function writing that output at the path it is given."""
     revolute = [j.is_revolute for j in job.robot.spec.joints]
     return {
@@ -316,7 +459,8 @@ def _writers(job: Job, profile: Profile, report: dict, program: Program) -> dict
         "tcp_png": lambda path: _plot_tcp(path, job, profile),
         "ros2_yaml": lambda path: write_ros2_yaml(path, profile),
         "json_trajectory": lambda path: write_json_trajectory(path, profile),
-        **{language: functools.partial(_write_program, job, language, program, profile) for language in PROGRAM_FILES},
+        **{language: functools.partial(_write_program, job, language, program, profile,
+                                       written=(written or {}).get(language)) for language in PROGRAM_FILES},
     }
 
 

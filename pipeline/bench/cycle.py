@@ -57,6 +57,7 @@ certified; our median cycle below the peer's on every cell; ``time_stretch`` <= 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 import time
@@ -86,7 +87,7 @@ from .plan import peer_setup
 log = logging.getLogger(__name__)
 
 #: The demo cells, and the demo cell jobs (in the checkout's trajectories/jobs/) with their cells.
-CELLS = ("gp7_wall_cell", "gp7_shelf_cell")
+CELLS = ("gp7_wall_cell", "gp7_shelf_cell", "irb1600_wall_cell")
 DEMO_JOBS = {"gp7_cell_pick_place": "gp7_wall_cell"}
 DEMO_JOB_DIR = Path(__file__).resolve().parents[2] / "trajectories" / "jobs"
 #: The goals (issue 23): median and max cycle / bound, the largest time_stretch [1].
@@ -146,11 +147,11 @@ def _station(rng: np.random.Generator, box, direction: np.ndarray, rpy: list[flo
     return target, above, rpy, line
 
 
-def _wall_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
+def _wall_stations(rng: np.random.Generator, spin_offset_deg: float = 0.0) -> tuple[tuple, tuple]:
     """(pick, place) stations of one program in the wall cell (see ``_station``), the tool pointing down
-    turned by a spin drawn in SPIN_DEG."""
+    turned by ``spin_offset_deg`` and a spin drawn in SPIN_DEG."""
     down = np.array([0.0, 0.0, -1.0])
-    return tuple(_station(rng, WALL_SIDES[side], down, [180.0, 0.0, _uniform(rng, SPIN_DEG)])
+    return tuple(_station(rng, WALL_SIDES[side], down, [180.0, 0.0, spin_offset_deg + _uniform(rng, SPIN_DEG)])
                  for side in ("pick", "place"))
 
 
@@ -165,7 +166,13 @@ def _shelf_stations(rng: np.random.Generator) -> tuple[tuple, tuple]:
 
 
 #: How each demo cell draws its stations.
-STATIONS = {"gp7_wall_cell": _wall_stations, "gp7_shelf_cell": _shelf_stations}
+#: The IRB 1600's tool points down at axis 5 = +90 deg with its x axis along the base's -x: its stations are turned
+#: by 180 deg (as an ABB programmer teaches them), else axis 4 or 6 sits at +-180 deg, which Yaskawa's RCONF cannot
+#: tell from -180 deg.
+STATIONS = {"gp7_wall_cell": _wall_stations, "gp7_shelf_cell": _shelf_stations,
+            "irb1600_wall_cell": functools.partial(_wall_stations, spin_offset_deg=180.0)}
+#: The IK seed of the first pose [deg] per cell (else START_DEG): the IRB 1600's wrist points down at +90 deg.
+STARTS = {"irb1600_wall_cell": [0, 0, 0, 0, 90, 0]}
 
 
 def _zone(rng: np.random.Generator, line_mm: float) -> float:
@@ -181,7 +188,8 @@ def draw_document(cell: str, rng: np.random.Generator) -> dict:
     return {
         "description": f"bench cycle: a pick and place in {cell}",
         "cell": cell, "length_unit": "mm", "angle_unit": "deg", "tool": TOOL,
-        "tcp_speed_max": speed, "tcp_accel_max": TCP_ACCEL_MM_S2, "start": START_DEG, "plan": "collision_free",
+        "tcp_speed_max": speed, "tcp_accel_max": TCP_ACCEL_MM_S2, "start": STARTS.get(cell, START_DEG),
+        "plan": "collision_free",
         "allow_branch_change": True,                    # a joint move may change the wrist (the two cubbies)
         "waypoints": [
             {"xyz": above_pick, "rpy": rpy_pick},

@@ -177,8 +177,8 @@ def controller_solution(job: Job, k: int, previous_branch: str, scene=None) -> W
     method). A JobFileError names the waypoint's controller_config (its line and value) when no solution
     or several have it, listing the configurations the pose's solutions have; names its config when our
     configuration asked for beside it is not that solution's branch; and names the waypoint when the
-    solution collides (with ``scene``) or changes branch from the previous pose waypoint's and the job
-    does not allow branch changes."""
+    solution collides (with ``scene``) or changes branch from the previous pose waypoint's, the job
+    does not allow branch changes and its config does not name the change."""
     robot, waypoint = job.robot, job.waypoints[k]
     vendor, fields = waypoint.controller_config
     field, text = ("waypoints", k, "controller_config", vendor), format_configuration(vendor, fields)
@@ -193,11 +193,11 @@ def controller_solution(job: Job, k: int, previous_branch: str, scene=None) -> W
                         f"{text} is on the branch '{choice.branch}'", waypoint.config)
     if scene is not None and not scene.is_free(q):
         raise job.error(field, f"names a solution that is not collision-free: {scene.why_not_free(q)}", text)
-    if choice.changed and not job.allow_branch_change:
+    if choice.changed and not job.allow_branch_change and not _names_change(waypoint.config, choice):
         raise job.error(("waypoints", k), f"the IK branch changes from '{choice.previous}' to '{choice.branch}', "
                         f"the branch of {vendor} configuration {text}: name a configuration on '{choice.previous}', "
                         "add waypoints, or allow the change (allow_branch_change: true)")
-    if choice.changed:
+    if choice.changed and not _names_change(waypoint.config, choice):
         log.warning("%s: branch changes from %s to %s (allowed)", job.location(("waypoints", k)), choice.previous,
                     choice.branch)
     position_error, rotation_error = pose_errors(robot.fk(q), make_target(waypoint.X_BE))

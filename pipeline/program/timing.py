@@ -115,11 +115,19 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
                           "timing": profile.details.to_dict() if profile.details else None,
                           "blends_narrowed": 0 if path is None else sum(b.narrowed for b in path.blends)})
     joined = join_profiles(profiles, ProgramDetails(tuple(stretches), (0.0, *passages)))
+    schedule = stopped_schedules(profiles)
+    return joined if schedule is None else dataclasses.replace(joined, schedule=schedule)
+
+
+def stopped_schedules(profiles: list[Profile]) -> LimitSchedule | None:
+    """The schedules of profiles joined one after the other at rest, each after the first beginning with the stop
+    under the limits the one before ends with (``_after_stop``); None when one has no schedule."""
     if any(p.schedule is None for p in profiles):
-        return joined
+        return None
+    offsets = np.cumsum([0.0] + [p.duration for p in profiles[:-1]])
     schedules = [profiles[0].schedule] + [_after_stop(p.schedule, before.schedule)
                                           for before, p in zip(profiles[:-1], profiles[1:])]
-    return dataclasses.replace(joined, schedule=joined_schedules([s.shifted(o) for s, o in zip(schedules, offsets)]))
+    return joined_schedules([s.shifted(o) for s, o in zip(schedules, offsets)])
 
 
 def _after_stop(schedule: LimitSchedule, before: LimitSchedule) -> LimitSchedule:

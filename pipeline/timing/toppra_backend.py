@@ -320,7 +320,7 @@ def solve_grid_timing(path: ScaledPath, limits: Limits, grid, torques=None, extr
     end1 += 2.0 * np.diff(s)[:, None] * end2
     alpha, beta = [np.hstack([d1[:-1], -d1[:-1], end1, -end1])], [np.hstack([d2[:-1], -d2[:-1], end2, -end2])]
     gamma = [np.tile(limits.qdd_max, (len(end1), 4))]
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):       # an axis still (or nearly) there bounds nothing: inf
         x_hi = np.min((limits.qd_max / np.abs(d1)) ** 2, axis=1)
     x_lo = np.zeros_like(x_hi)
     constraints = [(constraint, path) for constraint in extra]

@@ -81,10 +81,10 @@ def test_pl_levels_follow_the_table(programs):
     program = programs["gp7_pick_place"]
     text = write_jbi(program, "DEMO", WHEN)
     zones = [w.get("zone") for w in read_jbi(text, "gp7")["waypoints"]]
-    assert zones == [None, None, None, None, 0.05, None, 0.05, None]      # 60 mm -> PL3 (50 mm); none into the arc
+    assert zones == [None, None, None, 0.05, 0.05, None, 0.05, None]      # 60 mm -> PL3 (50 mm), into the arc too
     controller = (10, 20, 40, 80, 160, 320, 640, 1280)
     zones = [w.get("zone") for w in read_jbi(text, "gp7", pl_mm=controller)["waypoints"]]
-    assert zones == [None, None, None, None, 0.04, None, 0.04, None]
+    assert zones == [None, None, None, 0.04, 0.04, None, 0.04, None]
     assert "zone" not in read_jbi(text.replace("PL=3", "PL=0"), "gp7")["waypoints"][4]
 
 
@@ -110,8 +110,8 @@ def test_rconf_in_force_selects_the_branch(programs):
 
 @pytest.mark.parametrize("edit, match", [
     (("MOVL C00002", "MOVL C00099"), "C00099"),
-    (("MOVC C00004", "MOVC C00002"), "previous move ends"),
-    (("MOVC C00005 V=500.0\n", ""), "three MOVC"),
+    (("MOVC C00004", "MOVC C00099"), "C00099 not in //POS"),
+    (("MOVC C00004 V=500.0\n", ""), "three MOVC"),
     (("VJ=100.00", "VJ=100.00 XX"), "line"),
 ])
 def test_errors_name_what_is_wrong(programs, edit, match):

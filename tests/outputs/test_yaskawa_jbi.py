@@ -114,15 +114,32 @@ def test_moves_speeds_and_position_levels_of_the_gp7_job(programs):
     lines = [line for line in instructions(write_jbi(programs["gp7_pick_place"], "GP7", WHEN))
              if not line.startswith("'")]
     assert lines == ["MOVJ C00000 VJ=100.00", "MOVJ C00001 VJ=100.00", "MOVL C00002 V=500.0",
-                     "MOVL C00003 V=500.0",           # no PL into the arc, whose first MOVC repeats C00003
-                     "MOVC C00004 V=500.0", "MOVC C00005 V=500.0", "MOVC C00006 V=500.0 PL=3",
-                     "MOVL C00007 V=500.0", "MOVL C00008 V=500.0 PL=3", "MOVL C00009 V=500.0"]
+                     "MOVC C00003 V=500.0 PL=3",      # the retreat: the arc's first point, reached on a line, its zone
+                     "MOVC C00004 V=500.0", "MOVC C00005 V=500.0 PL=3",
+                     "MOVL C00006 V=500.0", "MOVL C00007 V=500.0 PL=3", "MOVL C00008 V=500.0"]
 
 
-def test_the_arc_starts_with_the_point_the_previous_move_ends_on(programs, jbi_parser):
+def test_a_line_into_an_arc_is_the_arcs_first_point(programs, jbi_parser):
     points = written_points(jbi_parser, write_jbi(programs["gp7_pick_place"], "GP7", WHEN))
-    np.testing.assert_array_equal(points[4]["xyz"], points[3]["xyz"])
-    assert points[5]["xyz"] == pytest.approx([700.0, 0.0, 50.0])                  # the via point
+    assert len(points) == 9
+    assert points[3]["xyz"] == pytest.approx([500.0, 350.0, 0.0])                 # the retreat's end (z 330 - 330)
+    assert points[4]["xyz"] == pytest.approx([700.0, 0.0, 50.0])                  # the via point
+
+
+def test_an_arc_after_a_joint_move_repeats_its_start_and_stops_there():
+    """INFORM reaches an arc's first MOVC point on a line: after a joint move the arc's start is written again (a
+    zero-length first segment), and the joint move's zone is dropped (reported per move)."""
+    from pipeline.program.job import parse_job
+
+    job = parse_job({"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "tool": {"xyz": [0, 0, 120]},
+                     "tcp_speed_max": 500, "start": [0, 0, 0, 0, -90, 0],
+                     "waypoints": [{"xyz": [560, 0, 480], "rpy": [180, 0, 0]},
+                                   {"xyz": [500, 350, 330], "rpy": [180, 0, 35], "move": "joint", "zone": 40},
+                                   {"xyz": [500, -350, 330], "rpy": [180, 0, -35], "move": "circular",
+                                    "via": {"xyz": [700, 0, 380]}}]}, source="arc.yaml", name="arc")
+    lines = [line for line in instructions(write_jbi(compile_job(job), "ARC", WHEN)) if not line.startswith("'")]
+    assert lines == ["MOVJ C00000 VJ=100.00", "MOVJ C00001 VJ=100.00", "MOVC C00002 V=500.0", "MOVC C00003 V=500.0",
+                     "MOVC C00004 V=500.0"]
 
 
 @pytest.mark.parametrize("zone_mm, level", [(0.0, 0), (5.0, 0), (12.5, 1), (24.9, 1), (60.0, 3), (1600.0, 8),
@@ -134,7 +151,7 @@ def test_pl_is_the_largest_level_within_the_zone(zone_mm, level):
 
 def test_the_controllers_own_pl_distances_can_be_given(programs):
     lines = instructions(write_jbi(programs["gp7_pick_place"], "GP7", WHEN, pl_mm=(5, 10, 20, 40, 60, 80, 100, 120)))
-    assert "MOVC C00006 V=500.0 PL=5" in lines
+    assert "MOVC C00005 V=500.0 PL=5" in lines
     with pytest.raises(ConfigurationError, match="8 increasing distances"):
         write_jbi(programs["gp7_pick_place"], "GP7", WHEN, pl_mm=(1, 2, 3))
 
@@ -154,3 +171,16 @@ def test_joint_speed_is_a_percentage_with_two_decimals(programs):
 def test_a_name_the_controller_refuses_is_an_error(programs, name):
     with pytest.raises(ConfigurationError, match="1 to 8 characters"):
         write_jbi(programs["gp7_pick_place"], name, WHEN)
+
+
+def test_an_axis_at_180_deg_is_refused_naming_the_rconf_bit(tmp_path):
+    """The IRB 1600's axis 4 at -180 deg (a pick of bench cycle's IRB 1600 wall cell): RCONF's R >= 180 bit is the same
+    for -180 and +180 deg, and the rounded pose selects +180: refused, saying why (not "near-singular")."""
+    from pipeline.program.job import parse_job
+
+    job = parse_job({"robot": "irb1600", "angle_unit": "deg",
+                     "waypoints": [[16.9988, 1.4212, 47.612, -180.0, -40.9668, 8.7988], [30, 10, 20, 170, -40, 10]]},
+                    source="axis4.yaml", name="axis4")
+    with pytest.raises(ConfigurationError, match=r"C00000: .*axis 4 is at \+-180 deg, where RCONF's >= 180 bit is "
+                                                 r"the same for -180 and \+180 deg"):
+        write_jbi(compile_job(job), "AXIS4")

@@ -26,6 +26,14 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   Why CNT and not a distance: the corner-region option of the R-30iB writes ``CNT100 CR50`` (CR in mm), but it is
   an option that not every controller generation or configuration has, and a program using it does not load
   where it is missing; CNT loads on every controller, so it is written with the reason in the header.
+* With the certified motion (``written``: ``controller_motion.certified_moves``, what ``program`` and ``run``
+  write): a planned move's targets are the certified path's joint targets, ``FINE`` stands only where the certified
+  motion stops and every other motion gets ``CNTn`` for its written zone, n = ceil(100 zone / reach) with reach
+  half the shorter TCP chord of the written segments beside the target (a tool move under a TCP acceleration limit:
+  its deceleration distance, as above): the closest CNT at or above the zone, never equal to it (CNT100 stands for
+  the whole reach, so a zone larger than the reach gets less); ``cnt_differences`` lists per move the zone, the CNT
+  and the difference (header, and what ``program`` prints), ``cnt_zones`` the zones CNT stands for, with which
+  ``runner.language_zones_certificate`` certifies the program as FANUC writes it.
 * Frames: ``/MN`` starts with ``UFRAME_NUM=0 ;`` and ``UTOOL_NUM=1 ;``, the frames every point names (``UF : 0,
   UT : 1``): a point whose UF/UT differs from the active frame numbers stops the program with an INTP-250-class
   alarm (user frame number mismatch; a third-party knowledge-base page, unverified for the tool frame).
@@ -68,12 +76,13 @@ import numpy as np
 from ...errors import ConfigurationError, ConfigurationNotFoundError, OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import rotation_to_rpy, rpy_position_to_pose
-from ...model.vendors.axes import FANUC, axis_angles
+from ...model.vendors.axes import FANUC, YASKAWA, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
+from .settings_mark import settings_mark
 
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
@@ -112,23 +121,50 @@ class Motion:
     move: Move | None
     points: list[Point]
     zone: float
+    #: With the certified motion (``written``): half the shorter TCP chord of the written segments beside this
+    #: motion's end [m] (the reach CNT is made over at a joint target); None: ``zone_reach``.
+    reach: float | None = None
+    reach_how: str = "half chord"
 
 
-def program_points(program: Program, vendor: str) -> list[Motion]:
+def program_points(program: Program, vendor: str, written=None) -> list[Motion]:
     """The motions in the order they are written: the joint move to the first waypoint, then per move its
     planner vertices (a planned joint move: joint points, exact stops, the straight joint segments the
     planner checked) and its end, a circular move's via point before its end. A via point takes its
     orientation from the move's nearest IK sample and its joint values from ``select_solution`` with that
-    sample's ``vendor`` configuration."""
+    sample's ``vendor`` configuration. With ``written`` (``controller_motion.certified_moves``), a planned
+    move's targets are the certified path's joint targets with their zones, and every zone is the written one
+    (exact stops only where the certified motion stops)."""
     robot, start = program.robot, program.waypoints[0]
     motions = [Motion(None, [Point(start.q, robot.fk(start.q), start.method is None)], 0.0)]
+    reaches = None if written is None else _written_reaches(program, written)
+    index = 0
     for move in program.moves:
-        vertices = [] if move.planned is None else move.planned.waypoints[1:-1]
-        motions += [Motion(move, [Point(q, robot.fk(q), True)], 0.0) for q in vertices]
+        if written is None:
+            vertices = [(q, 0.0, None) for q in ([] if move.planned is None else move.planned.waypoints[1:-1])]
+            end_zone, end_reach, end_how = (0.0 if program.exact_stop_at(move) else move.zone), None, ""
+        else:
+            ws = written.of(move.end)
+            vertices = [(w.target, w.zone_m, reaches[index + i]) for i, w in enumerate(ws[:-1])]
+            index += len(ws)
+            end_zone = ws[-1].zone_m
+            end_reach, end_how = reaches[index - 1], "half chord"
+            if move.kind != JOINT and program.tcp_accel_max:
+                end_reach, end_how = zone_reach(program, move.end - 1)
+        motions += [Motion(move, [Point(q, robot.fk(q), True)], zone, reach) for q, zone, reach in vertices]
         end = Point(move.target, move.X_BT, program.waypoints[move.end].method is None)
         points = [via_point(program, move, vendor), end] if move.kind == CIRCULAR else [end]
-        motions.append(Motion(move, points, 0.0 if program.exact_stop_at(move) else move.zone))
+        motions.append(Motion(move, points, end_zone, end_reach, end_how or "half chord"))
     return motions
+
+
+def _written_reaches(program: Program, written) -> list[float]:
+    """Per written move, half the shorter TCP chord of the written segments before and after its target [m]."""
+    q = np.array([program.targets[0], *(w.target for w in written.moves)])
+    tcp = program.robot.fk_batch(q)[:, :3, 3]
+    chords = np.linalg.norm(np.diff(tcp, axis=0), axis=1)
+    after = np.append(chords[1:], np.inf)
+    return [float(min(a, b)) / 2.0 for a, b in zip(chords, after)]
 
 
 def via_point(program: Program, move: Move, vendor: str) -> Point:
@@ -193,9 +229,20 @@ def written_point_configuration(robot, vendor: str, label: str, q, xyz_mm, angle
         landed, why = None, str(error)
     if landed is None or np.any(np.abs(landed - q) > bound):
         raise ConfigurationError(f"{label}: joint values {np.round(np.degrees(q), 4).tolist()} deg: the pose as "
-                                 f"written does not bring them back within the file's rounding ({why}); a "
-                                 "near-singular waypoint? move it off the singularity")
+                                 f"written does not bring them back within the file's rounding ({why}); "
+                                 f"{_hint(robot, vendor, q)}")
     return config
+
+
+def _hint(robot, vendor: str, q) -> str:
+    """What to do about a point the written pose does not bring back: Yaskawa's R, T, S >= 180 bits cannot tell an
+    axis at -180 deg from one at +180 deg (a whole turn apart); otherwise the point is near a singular set."""
+    angles = axis_angles(robot, q, vendor)
+    near = [axis + 1 for axis in (3, 5, 0) if abs(abs(angles[axis]) - 180.0) < 0.01]
+    if vendor == YASKAWA and near:
+        return (f"axis {near[0]} is at +-180 deg, where RCONF's >= 180 bit is the same for -180 and +180 deg (a whole "
+                "turn apart): turn the tool about its axis a little at this waypoint, or write another language")
+    return "a near-singular waypoint? move it off the singularity"
 
 
 def rounded(values, decimals: int) -> np.ndarray:
@@ -244,17 +291,22 @@ def cnt_value(zone: float, reach: float) -> int:
     return int(min(100, max(1, math.ceil(100.0 * zone / reach - 1e-9))))
 
 
-def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -> str:
+def write_ls(program: Program, name: str, created: _dt.datetime | None = None, written=None) -> str:
     """The program as a FANUC ``.ls`` file (module docstring); ``name`` its /PROG name, ``created`` the
     header's date (None: now, UTC). ConfigurationError for a bad name, a non-6R robot or a speed the
     controller cannot take; ``lint`` runs first on the name, the comment lines and the CONFIG of every Cartesian
-    waypoint (ControllerLintError)."""
+    waypoint (ControllerLintError). ``written`` (``controller_motion.certified_moves``): the certified motion, its
+    targets and zones (CNT the closest to each zone, ``cnt_differences``), its certificate in the header."""
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
     X_B_base, frame = controller_frame(program.robot, FANUC)
-    comments = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+    comments = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
+                *comment_lines(_header_text(program, frame)),
                 *comment_lines(payload_text(program, "PAYLOAD schedule (UT 1)"))]
-    motions = program_points(program, FANUC)
+    if written is not None:
+        comments += [line for text in [WRITTEN_CNT_RULE, *written.header_lines(), *cnt_differences(program, written)]
+                     for line in comment_lines(text)]
+    motions = program_points(program, FANUC, written)
     zones = [line for motion in motions if motion.zone > 0.0 for line in comment_lines(_zone_comment(program, motion))]
     configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
     lint(program, FANUC_LS, name, comments + zones, configs)
@@ -272,6 +324,14 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None) -
     return "\n".join([f"/PROG  {name}", *_attributes(program, len(lines), created), "/MN",
                       *(f"{n:4d}:  {line} ;" for n, line in enumerate(lines, start=1)), "/POS", *positions, "/END",
                       ""])
+
+
+#: The header's statement of how a written zone becomes CNT (with the certified motion).
+WRITTEN_CNT_RULE = ("Certified motion: planned moves as joint targets on the certified path; FINE only where it "
+                    "stops. CNTn = ceil(100 zone / reach), reach half the shorter TCP chord beside the target (a "
+                    "tool move under a TCP acceleration limit: its deceleration distance): the closest CNT at or "
+                    "above the zone, not equal to it (CNT is a speed-dependent percentage); ~mm is n% of the "
+                    "reach, the difference to the certified zone per move below.")
 
 
 def header_intro(program: Program, rounded_at: str) -> str:
@@ -299,15 +359,49 @@ def payload_text(program: Program, where: str) -> str:
     return f"payload {payload.mass:g} kg, com {com} mm (flange): set it in {where}"
 
 
+def _reach(program: Program, motion: Motion) -> tuple[float, str]:
+    if motion.reach is not None:
+        return motion.reach, motion.reach_how
+    return zone_reach(program, motion.move.end - 1)
+
+
 def _zone_comment(program: Program, motion: Motion) -> str:
-    reach, how = zone_reach(program, motion.move.end - 1)
-    return f"zone {motion.zone * MM:.1f}mm CNT{cnt_value(motion.zone, reach)} {how} {reach * MM:.1f}mm"
+    reach, how = _reach(program, motion)
+    n = cnt_value(motion.zone, reach)
+    text = f"zone {motion.zone * MM:.1f}mm CNT{n} {how} {reach * MM:.1f}mm"
+    if motion.reach is None:
+        return text
+    return f"{text} ~{n * reach * MM / 100.0:.1f}mm ({(n * reach / 100.0 - motion.zone) * MM:+.1f})"
 
 
 def _termination(program: Program, motion: Motion) -> str:
     if motion.zone <= 0.0:
         return "FINE"
-    return f"CNT{cnt_value(motion.zone, zone_reach(program, motion.move.end - 1)[0])}"
+    return f"CNT{cnt_value(motion.zone, _reach(program, motion)[0])}"
+
+
+def cnt_zones(program: Program, written) -> list[float]:
+    """Per written move, the zone [m] its CNT stands for in the model (n % of its reach; 0 at FINE): the zones the
+    written program is certified with as FANUC writes it (``runner.language_zones_certificate``)."""
+    zones = []
+    for motion in program_points(program, FANUC, written)[1:]:
+        reach = _reach(program, motion)[0] if motion.zone > 0.0 else 0.0
+        zones.append(cnt_value(motion.zone, reach) * reach / 100.0 if motion.zone > 0.0 else 0.0)
+    return zones
+
+
+def cnt_differences(program: Program, written) -> list[str]:
+    """Per written move with a zone, the CNT written for it and how far the zone CNT stands for (n % of the reach,
+    ``cnt_value``: the closest integer percentage at or above the zone, not equal) is from the certified zone."""
+    lines = []
+    for k, motion in enumerate(m for m in program_points(program, FANUC, written)[1:]):
+        if motion.zone > 0.0:
+            reach, _ = _reach(program, motion)
+            n = cnt_value(motion.zone, reach)
+            lines.append(f"written move {k + 1} (to waypoint {motion.move.end}): zone {motion.zone * MM:.1f} mm -> "
+                         f"CNT{n} ~ {n * reach * MM / 100.0:.1f} mm ({(n * reach / 100.0 - motion.zone) * MM:+.1f} "
+                         f"mm; reach {reach * MM:.1f} mm)")
+    return lines
 
 
 def _speed(program: Program, move: Move | None) -> str:

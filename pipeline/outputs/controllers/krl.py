@@ -35,7 +35,11 @@ Programming Instructions for System Integrators; the chapter and section named a
   (KSS caps approximation at half a move); ``kss8`` (KR C4, KSS 8.x inline forms, robot-forum thread 14422)
   writes ``PTP XPk C_DIS``. A zone of 0 is an exact stop (no approximation parameter), as are both ends of a
   planned joint move and its planner vertices (``PTP XPk_i`` to E6AXIS targets: PTP is straight in joint
-  space, the segments the planner checked).
+  space, the segments the planner checked). With the certified motion (``written``: ``controller_motion.
+  certified_moves``, what ``program`` writes) the XPk_i are joint targets sampled from the certified path, each
+  approximated (C_PTP with $APO.CDIS and $APO.CPTP as above; C_DIS under kss8), the move's ends keep the job's
+  zones, exact stops stand only where the certified motion stops, and the header carries the written program's
+  certificate and cycle time as written.
 * Load: ``$LOAD.M`` [kg] and ``$LOAD.CM`` {X, Y, Z [mm], A, B, C 0} (centre of mass in the flange frame) from the
   job's ``payload`` ("$LOAD"; inertia not written: the machine data's); without a payload a PLACEHOLDER comment
   says that the controller keeps its own $LOAD and to set it.
@@ -65,7 +69,9 @@ from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
+from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
+from .settings_mark import settings_mark
 
 #: Controller generations (module docstring): the approximation keyword of a PTP with a zone.
 KRC2, KSS8 = "krc2", "kss8"
@@ -156,6 +162,7 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         f"{name}: {len(program.moves)} moves of job {program.name} on {program.robot.name}, written by "
         f"{WRITTEN_BY} (pipeline.outputs.controllers.krl)",
         f"{job_mark(program.job_name or program.name)} generation={generation}",
+        settings_mark(program),
         ptp,
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "
@@ -256,7 +263,8 @@ def _as_axes(program, k: int, X: np.ndarray, status_turn) -> bool:
     return ptp and not names_its_joints(program.robot, X, status_turn, program.targets[k])
 
 
-def _declarations(program, status_turn: np.ndarray, angles: np.ndarray) -> list[str]:
+def _declarations(program, status_turn: np.ndarray, angles: np.ndarray,
+                  written: WrittenProgram | None = None) -> list[str]:
     """The .dat declarations: waypoint k as XPk (E6AXIS or E6POS: ``_as_axes``), the via point of a
     circular move to waypoint k as XAk and vertex i of a planned move to waypoint k as XPk_i (E6AXIS)."""
     poses = [program.robot.fk(program.waypoints[0].q)] + [m.X_BT for m in program.moves]
@@ -272,39 +280,68 @@ def _declarations(program, status_turn: np.ndarray, angles: np.ndarray) -> list[
             X = move.X_BT.copy()
             X[:3, 3] = move.via
             lines.append(frame(f"XA{move.end}", X_base_B @ X))
-        lines += [e6axis(name, axis_angles(program.robot, q, KUKA)) for name, q in _vertices(move)]
+        lines += [e6axis(name, axis_angles(program.robot, q, KUKA)) for name, q, _ in _vertices(move, written)]
     return lines
 
 
-def _vertices(move) -> list[tuple[str, np.ndarray]]:
-    """(name, joint values (6,) [rad]) of each planner vertex of a planned move between its ends."""
+def _vertices(move, written: WrittenProgram | None = None) -> list[tuple[str, np.ndarray, float]]:
+    """(name, joint values (6,) [rad], zone [m]) of each joint target of a joint move between its ends: the
+    written certified motion's targets on the certified path (``written``: a planned move's, or a curved joint
+    move's), else a planned move's vertices, exact stops."""
+    if written is not None:
+        return [(f"XP{move.end}_{i}", w.target, w.zone_m) for i, w in enumerate(written.of(move.end)[:-1], start=1)]
     if move.planned is None:
         return []
-    return [(f"XP{move.end}_{i}", q) for i, q in enumerate(move.planned.waypoints[1:-1], start=1)]
+    return [(f"XP{move.end}_{i}", q, 0.0) for i, q in enumerate(move.planned.waypoints[1:-1], start=1)]
 
 
-def write_krl(program, name: str, generation: str = KRC2) -> tuple[str, str]:
+def _ptp_lines(program, point: str, q_from: np.ndarray, q_to: np.ndarray, q_next: np.ndarray, zone_m: float,
+               generation: str) -> list[str]:
+    """A PTP to a planned move's inner joint target ``point`` (joint values ``q_to``, between ``q_from`` and
+    ``q_next``) with a zone of ``zone_m`` [m]: $APO.CDIS and C_PTP ($APO.CPTP the zone's share of half the shorter
+    TCP chord beside it, as ``cptp_percent``) under ``KRC2``, C_DIS under ``KSS8``; no zone: an exact stop."""
+    if zone_m <= 0.0:
+        return [f"PTP {point}"]
+    if generation != KRC2:
+        return [f"$APO.CDIS = {zone_m * 1000.0:.3f}", f"PTP {point} C_DIS"]
+    tcp = program.robot.fk_batch(np.array([q_from, q_to, q_next]))[:, :3, 3]
+    reach = 0.5 * float(np.linalg.norm(np.diff(tcp, axis=0), axis=1).min())
+    percent = 100 if reach <= 0.0 else int(min(100, max(1, math.ceil(100.0 * zone_m / reach - 1e-9))))
+    return [f"$APO.CDIS = {zone_m * 1000.0:.3f}", f"$APO.CPTP = {percent}", f"PTP {point} C_PTP"]
+
+
+def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgram | None = None) -> tuple[str, str]:
     """The program's .src and .dat texts (module docstring) as program ``name`` for the controller
     ``generation`` (``GENERATIONS``). ``lint`` runs first: a ControllerLintError names what KRL cannot hold (a
     name over 24 characters or reserved, a zone over half a move, a speed out of range, a configuration that
     does not match its joint values). A planned joint move (a cell's collision-free detour) is a PTP to each
     planner vertex (E6AXIS), exact stops at the vertices and at both ends of the move: PTP is straight in joint
-    space, the segments the planner checked."""
+    space, the segments the planner checked. ``written`` (``controller_motion.certified_moves``): the certified
+    motion instead, a planned move as PTPs to joint targets on the certified path, zones wherever it does not stop,
+    its certificate in the header."""
     if generation not in GENERATIONS:
         raise OutputError(f"KRL controller generation {generation!r}: one of {', '.join(GENERATIONS)}")
     status_turn = written_status_turn(program)
-    comments = header(program, name, generation)
+    comments = header(program, name, generation) + ([] if written is None else written.header_lines())
     lint(program, KRL, name, comments, status_turn)
     angles = axis_angles(program.robot, program.targets, KUKA)
     body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
     for move in program.moves:
         body += _speed_lines(program, move, speeds)
-        body += [f"PTP {name}" for name, _ in _vertices(move)]
-        zone = 0.0 if program.exact_stop_at(move) else move.zone
+        vertices = _vertices(move, written)
+        q_from = program.targets[move.end - 1]
+        for i, (point, q, zone) in enumerate(vertices):
+            q_next = vertices[i + 1][1] if i + 1 < len(vertices) else move.target
+            body += _ptp_lines(program, point, q_from, q, q_next, zone, generation)
+            q_from = q
+        if written is not None:
+            zone = written.of(move.end)[-1].zone_m
+        else:
+            zone = 0.0 if program.exact_stop_at(move) else move.zone
         body += _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone,
                         generation)
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
     dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}, "
            f"{job_mark(program.job_name or program.name)}",
-           *_declarations(program, status_turn, angles), "ENDDAT"]
+           *_declarations(program, status_turn, angles, written), "ENDDAT"]
     return "\n".join(src) + "\n", "\n".join(dat) + "\n"

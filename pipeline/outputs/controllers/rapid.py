@@ -32,14 +32,21 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   CirPoint (its orientation and confdata where the program's track passes it; RAPID uses the CirPoint's
   orientation only to choose the way of reorientation). A planned joint move passes its planner vertices
   by ``MoveAbsJ ... fine`` each: axis interpolation is straight in joint space, the segments the planner
-  checked.
+  checked. With the certified motion (``written``: ``controller_motion.certified_moves``, what ``program``
+  writes) a planned move is ``MoveAbsJ`` to joint targets sampled from the certified path instead, each with a
+  zone, and ``fine`` stands only where the certified motion stops; the header carries the written program's
+  certificate, smallest clearance, largest deviation and cycle time as written.
 * ``speeddata`` [v_tcp, v_ori, v_leax, v_reax]: a tool move's TCP speed (x the job's speed scale, capped by
   its safety TCP limit) [mm/s] as v_tcp, the rest (500 deg/s, 5000 mm/s, 1000 deg/s) as in every predefined
   speeddata v5..v7000. A joint move runs at a fraction s of the joint speed limits; RAPID has no such
   speed, so it is written as ``vmax \\T:=T`` (\\T: the total time of the move, which replaces the
-  speeddata): T = max_i |dq_i| / (s x speed scale x qd_max_i) [s], rounded up to 1 ms, the time the leading
+  speeddata): T = max_i |dq_i| / (s x speed scale x qd_max_i) [s], rounded up to 0.1 ms, the time the leading
   axis needs at that speed without accelerating. The controller adds its own acceleration and keeps its
   own axis limits, so the move takes at least that long.
+* ``PathAccLim TRUE\\AccMax:=A, TRUE\\DecelMax:=A`` [m/s^2] after the approach, for a program with tool moves and
+  a TCP acceleration limit: A = the job's ``tcp_accel_max`` x the speed scale squared (``path_acceleration``; the
+  certified timing's; ``read_rapid`` reads it back as ``tcp_accel_max``: without it a read-back job's tool moves
+  accelerated freely and its cycle time came out below the certified one).
 * ``zonedata`` [finep, pzone_tcp, pzone_ori, pzone_eax, zone_ori, zone_leax, zone_reax]: ``fine`` at the
   program's stops and at both ends of a planned joint move (``Program.exact_stop_at``); a zone of R mm as pzone_tcp = R with the other fields in the ratios of the predefined
   z10..z200 (1.5 R mm for pzone_ori, pzone_eax, zone_leax; 0.15 R deg for zone_ori, zone_reax); ``z0`` (the
@@ -63,11 +70,13 @@ from ...files.atomic import WRITTEN_BY, job_mark
 from ...files.poses import pose_to_quaternion_position, quaternion_position_to_pose
 from ...model.vendors import selection
 from ...model.vendors.axes import ABB, axis_angles
-from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.configuration import format_configuration
+from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from .controller_motion import PASS_THROUGH_ZONE_M, WrittenProgram
 from .lint import RAPID, lint
 from .names import RESERVED_WORDS
+from .settings_mark import settings_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
 #: v_ori [deg/s], v_leax [mm/s], v_reax [deg/s] of every predefined speeddata v5..v7000.
@@ -79,7 +88,8 @@ TOOL, WOBJ = "tool_job", "wobj_base"
 APPROACH_SPEED = "v100"
 #: Decimals written: positions [mm], quaternions, joint angles [deg], speeds [mm/s], times [s].
 MM, QUATERNION, DEG, SPEED = 3, 6, 4, 3
-TIME_STEP_S = 1e-3
+#: \\T is rounded up to 0.1 ms (1 ms took up to 7 % off the 14 ms joint moves between a planned move's targets).
+TIME_STEP_S = 1e-4
 #: The written pose's joint values must lie this close to the program's [rad] (``written_configuration``).
 WRITTEN_JOINTS_RAD = 1e-3
 #: Header comment lines are wrapped to this many characters; the declarations are written in this order.
@@ -94,14 +104,17 @@ STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "speeddata": "LOC
 ENTRY_PREFIX = "main_"
 
 
-def write_rapid(program: Program, module_name: str) -> str:
+def write_rapid(program: Program, module_name: str, written: WrittenProgram | None = None) -> str:
     """The RAPID module text of ``program`` (see the module docstring), named ``module_name`` (a RAPID
     identifier). OutputError names what cannot be written (a bad name, a robot without 6 joints); ``lint``
-    runs first on the name, the header comments and the confdata of the robtargets (ControllerLintError)."""
+    runs first on the name, the header comments and the confdata of the robtargets (ControllerLintError).
+    ``written`` (``controller_motion.certified_moves``): the certified motion, its targets and zones (a planned
+    move as MoveAbsJ to joint targets on the certified path, zones wherever it does not stop) and its certificate
+    in the header; None: the planner's vertices with exact stops (``Program.exact_stop_at``)."""
     check_identifier(module_name, "module name")
     if program.robot.dof != 6:
         raise OutputError(f"{program.robot.name}: a RAPID robtarget needs a 6-joint arm, it has {program.robot.dof}")
-    module = _Module(program)
+    module = _Module(program, written)
     lint(program, RAPID, module_name, module.header(module_name), written_configurations(program))
     module.add_moves()
     return module.text(module_name)
@@ -166,13 +179,30 @@ def zone_name(program: Program, move: Move) -> tuple[str, str | None]:
     """(the zonedata name, its value or None for a predefined one) at the end of ``move``."""
     if program.exact_stop_at(move):
         return "fine", None
-    if move.zone <= 0.0:
+    return zone_data(move.zone)
+
+
+def zone_data(zone_m: float, stop: bool = False) -> tuple[str, str | None]:
+    """(the zonedata name, its value or None for a predefined one) of a zone of ``zone_m`` [m]: ``fine`` at a
+    ``stop``, ``z0`` for no zone (or RAPID's z0 itself, PASS_THROUGH_ZONE_M) where the motion passes through."""
+    if stop:
+        return "fine", None
+    if zone_m <= PASS_THROUGH_ZONE_M + 1e-12:
         return "z0", None
-    mm = move.zone * 1e3
+    mm = zone_m * 1e3
     name = "zone_" + number(mm, MM).replace(".", "_")
     fields = [number(mm, MM), *[number(mm * ZONE_MM_RATIO, MM)] * 2, number(mm * ZONE_DEG_PER_MM, MM),
               number(mm * ZONE_MM_RATIO, MM), number(mm * ZONE_DEG_PER_MM, MM)]
     return name, f"[FALSE,{','.join(fields)}]"
+
+
+def path_acceleration(program: Program) -> float | None:
+    """The TCP acceleration and deceleration limit [m/s^2] written as ``PathAccLim`` (RAPID Instructions manual,
+    PathAccLim: \\AccMax, \\DecelMax in m/s^2, at least 0.1): the job's ``tcp_accel_max`` x the speed scale squared
+    (the certified timing's), None without one or without a tool move (RAPID's limit acts on the TCP only)."""
+    if program.tcp_accel_max is None or not any(m.is_tool_move for m in program.moves):
+        return None
+    return max(float(program.tcp_accel_max) * program.speed_scale**2, 0.1)
 
 
 def joint_move_time(program: Program, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> float:
@@ -216,8 +246,9 @@ def entry_routine(module_name: str) -> str:
 class _Module:
     """The declarations and instructions of one module, gathered move by move."""
 
-    def __init__(self, program: Program):
+    def __init__(self, program: Program, written: WrittenProgram | None = None):
         self.program = program
+        self.written = written
         self.declarations: dict[str, tuple[str, str]] = {}          # name -> (data type, value)
         self.instructions: list[str] = []
         X_WB = None if program.cell is None else program.cell.X_WB
@@ -254,17 +285,40 @@ class _Module:
 
     def timed(self, q_from: np.ndarray, q_to: np.ndarray, fraction: float) -> str:
         seconds = joint_move_time(self.program, q_from, q_to, fraction)
-        return f"vmax\\T:={number(seconds, 3)}" if seconds > 0.0 else "vmax"
+        return f"vmax\\T:={number(seconds, 4)}" if seconds > 0.0 else "vmax"
 
     def zone(self, move: Move) -> str:
+        if self.written is not None:
+            return self.zone_of(self.written.of(move.end)[-1].zone_m)
         name, value = zone_name(self.program, move)
         self.declare(name, "zonedata", value)
         return name
+
+    def zone_of(self, zone_m: float) -> str:
+        """The zonedata of a written move's zone [m] (0: ``fine``, the certified motion stops there)."""
+        name, value = zone_data(zone_m, stop=zone_m <= 0.0)
+        self.declare(name, "zonedata", value)
+        return name
+
+    def inner_targets(self, move: Move) -> list[tuple[np.ndarray, str]]:
+        """(joint values, zonedata) of the joint targets a joint move passes before its end: with the certified motion
+        (``written``) the ones written for it (a planned move's, or a curved joint move's, on the certified path),
+        else a planned move's vertices."""
+        if self.written is not None:
+            return [(w.target, self.zone_of(w.zone_m)) for w in self.written.of(move.end)[:-1]]
+        if move.planned is None:
+            return []
+        return [(vertex, "fine") for vertex in move.planned.waypoints[1:-1]]
 
     def add_moves(self) -> None:
         program = self.program
         start = self.jointtarget("j0", program.targets[0])
         self.instructions += ["ConfJ\\On;", "ConfL\\On;", f"MoveAbsJ {start}, {APPROACH_SPEED}, fine, {TOOL};"]
+        accel = path_acceleration(program)
+        if accel is not None:
+            # after the approach: PathAccLim acts on the TCP of the moves that follow
+            limit = number(accel, 3)
+            self.instructions.append(f"PathAccLim TRUE\\AccMax:={limit}, TRUE\\DecelMax:={limit};")
         for move in program.moves:
             self.add_move(move)
 
@@ -273,12 +327,11 @@ class _Module:
         q_from = program.targets[k - 1]
         tail = f"{self.zone(move)}, {TOOL}{self.wobj};"
         if move.kind == JOINT:
-            if move.planned is not None:
-                for i, vertex in enumerate(move.planned.waypoints[1:-1], start=1):
-                    name = self.jointtarget(f"j{k}_{i}", vertex)
-                    self.instructions.append(f"MoveAbsJ {name}, {self.timed(q_from, vertex, move.speed)}, fine, "
-                                             f"{TOOL};")
-                    q_from = vertex
+            for i, (vertex, zone) in enumerate(self.inner_targets(move), start=1):
+                name = self.jointtarget(f"j{k}_{i}", vertex)
+                self.instructions.append(f"MoveAbsJ {name}, {self.timed(q_from, vertex, move.speed)}, {zone}, "
+                                         f"{TOOL};")
+                q_from = vertex
             speed = self.timed(q_from, move.target, move.speed)
             if program.waypoints[k].method is None:
                 self.instructions.append(f"MoveAbsJ {self.jointtarget(f'j{k}', move.target)}, {speed}, {tail}")
@@ -305,14 +358,19 @@ class _Module:
             "- tool moves run at their TCP speed (speeddata v_tcp); joint moves take \\T, the time the",
             "  leading axis needs at the move's fraction of its speed limit without accelerating,",
             "  and the controller adds its own acceleration",
-            f"- no acceleration limit is written (the job's TCP limit: {accel}); RAPID sets",
-            "  acceleration only as a percentage of the controller's own (AccSet)",
+            *([f"- no acceleration limit is written (the job's TCP limit: {accel}); RAPID sets",
+               "  acceleration only as a percentage of the controller's own (AccSet)"]
+              if path_acceleration(program) is None else
+              [f"- the job's TCP acceleration limit ({accel} x the speed scale squared) as PathAccLim [m/s^2]"]),
             "- zones are the controller's corner paths, not the program's blends; fine stops exactly;",
-            "  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move",
+            ("  z0 where the program passes through a waypoint without a zone; fine at both ends of a planned move"
+             if self.written is None else "  z0 where the program passes through a waypoint without a zone; "
+             "fine only where the certified motion stops; a planned move's joint targets lie on the certified path"),
             f"- joint moves are axis-interpolated, not the job's path shape ({program.path or 'default'})",
             "confdata [cf1,cf4,cf6,cfx] from each target's joint values; ConfJ/ConfL \\On keep them.",
             frames_words(program.robot, ABB, "the base frame", "tool0", "confdata and jointtargets") + ".",
             job_mark(program.job_name or program.name),
+            settings_mark(program),
             (f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one."
              if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (no inertia)."),
             (f"Data are LOCAL to this module; run {entry_routine(module_name)} (PP to Routine, or call it from the "
@@ -320,6 +378,7 @@ class _Module:
             (f"{WOBJ}: the robot's base in the cell; the controller's base frame must be set the same."
              if self.wobj else "Targets in the robot's base frame (wobj0)."),
             f"MoveAbsJ j0 at {APPROACH_SPEED} is an approach to the start, not part of the program.",
+            *([] if self.written is None else self.written.header_lines()),
         ]
 
     def text(self, module_name: str) -> str:

@@ -13,9 +13,10 @@ upper case as the manuals give them, any spacing, CR LF line ends, ``'`` comment
   is the waypoint's ``config``; the first point's joint values are the job's ``start``.
 * Moves: the first motion instruction is the job's first waypoint (its speed is not a job quantity);
   ``MOVJ`` is a joint move with ``speed`` its ``VJ=`` [%], ``MOVL`` a linear move with ``V=`` [mm/s, as m/s],
-  and three ``MOVC`` a circular move: INFORM defines an arc by three points, the first where the previous
-  move ends (it must be that point, within the file's 0.001 mm), the second the via point, the third the end
-  (``FPT`` on it: the next MOVC starts a new arc). Speed and PL of an arc are its third point's.
+  and three ``MOVC`` a circular move: INFORM defines an arc by three points, the second the via point, the third
+  the end (``FPT`` on it: the next MOVC starts a new arc); the controller reaches the first on a straight line, so
+  a first point away from where the previous move ends (beyond the file's 0.001 mm) is a linear move to it (with
+  its speed and PL) before the arc. Speed and PL of an arc are its third point's.
 * Zones: no ``PL`` or ``PL=0`` is zone 0 (the controller positions on the point); ``PL=n`` is the distance
   of level n in ``pl_mm`` (the writer's table ``yaskawa_jbi.PL_MM`` unless the caller gives the
   controller's S1CxG033..S1CxG040 values): the controller rounds by the level's distance, not by the zone
@@ -38,8 +39,9 @@ from .fanuc_ls import MM, controller_frame, controller_pose
 from .read_ls import ControllerProgramError, as_robot, job_document, parse_text, pose_waypoint, tool_frame
 from .yaskawa_jbi import PL_MM
 
-#: An arc's first MOVC point and the previous move's end agree within this [mm] (the file's rounding).
+#: An arc's first MOVC point is the previous move's end when they agree within these [mm, deg] (the file's rounding).
 SAME_POINT_MM = 0.001 + 1e-9
+SAME_ANGLE_DEG = 0.01 + 1e-9
 
 
 def read_jbi(text: str, robot, tool: np.ndarray | None = None, pl_mm=PL_MM, source: str = "<jbi>") -> dict:
@@ -112,13 +114,21 @@ def _moves(instructions: list[dict], points: dict, source: str) -> list[dict]:
             moves.append({**first, "kind": kind, "points": [first["point"]]})
             k += 1
             continue
-        moves.append(_arc(instructions[k:k + 3], moves, points, source))
+        if moves and not _same_point(points[first["point"]], points[moves[-1]["points"][-1]]):
+            moves.append({**first, "kind": "linear", "points": [first["point"]]})    # P0 -> P1 on a line
+        moves.append(_arc(instructions[k:k + 3], points, source))
         k += 3
     return moves
 
 
-def _arc(three: list[dict], moves: list[dict], points: dict, source: str) -> dict:
-    """A circular move from three MOVC instructions; the first must be where the previous move ends."""
+def _same_point(a: dict, b: dict) -> bool:
+    """Whether two points are one within the file's 0.001 mm and 0.01 deg."""
+    return (float(np.abs(np.subtract(a["xyz"], b["xyz"])).max()) <= SAME_POINT_MM
+            and float(np.abs(np.subtract(a["angles"], b["angles"])).max()) <= SAME_ANGLE_DEG)
+
+
+def _arc(three: list[dict], points: dict, source: str) -> dict:
+    """A circular move from three MOVC instructions (the first where the previous move ends)."""
     line = f"line {three[0]['line']}"
     if len(three) < 3 or any(i["kind"] != "movc" for i in three):
         raise ControllerProgramError(source, line, "an arc is three MOVC points (start, via, end) in a row",
@@ -126,10 +136,6 @@ def _arc(three: list[dict], moves: list[dict], points: dict, source: str) -> dic
     missing = [i["point"] for i in three if i["point"] not in points]
     if missing:
         raise ControllerProgramError(source, line, f"{', '.join(missing)} not in //POS", line=three[0]["line"])
-    start, previous = points[three[0]["point"]], points[moves[-1]["points"][-1]] if moves else None
-    if previous is not None and np.abs(np.subtract(start["xyz"], previous["xyz"])).max() > SAME_POINT_MM:
-        raise ControllerProgramError(source, line, f"the arc's first MOVC point {three[0]['point']} is not where "
-                                     f"the previous move ends ({moves[-1]['points'][-1]})", line=three[0]["line"])
     return {**three[2], "kind": "circular", "points": [three[1]["point"], three[2]["point"]]}
 
 

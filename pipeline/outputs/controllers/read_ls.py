@@ -48,6 +48,7 @@ from ...files.poses import pose_to_quaternion_position, rotation_to_rpy, rpy_pos
 from ...model.ik.branches import configuration_labels
 from ...model.robot import Robot, load_robot, robot_with_tool
 from ...model.vendors.axes import FANUC, joint_values
+from ...model.vendors.configuration import format_configuration, parse_configuration
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from .fanuc_ls import MM, controller_frame, controller_pose
@@ -137,15 +138,21 @@ def pose_waypoint(tool_robot, X_BT: np.ndarray, config, vendor: str, where: str,
         q = select_solution(tool_robot, X_BT, config, vendor)
     except ConfigurationNotFoundError as error:
         raise ControllerProgramError(source, where, str(error)) from None
-    return pose_fields(tool_robot, X_BT, q), q
+    return pose_fields(tool_robot, X_BT, q, (vendor, config)), q
 
 
-def pose_fields(tool_robot, X_BT: np.ndarray, q) -> dict:
+def pose_fields(tool_robot, X_BT: np.ndarray, q, controller: tuple | None = None) -> dict:
     """A pose waypoint's fields: xyz [m] and quaternion [w, x, y, z] of X_BT (4, 4), config: the branch of
-    q (6,) [rad] as a mapping (``configuration_labels``' "shoulder front, elbow up, wrist noflip")."""
+    q (6,) [rad] as a mapping (``configuration_labels``' "shoulder front, elbow up, wrist noflip"), and with
+    ``controller`` (vendor, its configuration fields) the ``controller_config`` the program wrote: the job then
+    solves the pose as the controller does (the turns of axes 4 and 6 too, which the branch does not name)."""
     quaternion, p = pose_to_quaternion_position(X_BT)
     branch = dict(part.split(" ") for part in configuration_labels(tool_robot, q)[0].split(", "))
-    return {"xyz": [float(v) for v in p], "quaternion": [float(v) for v in quaternion], "config": branch}
+    fields = {"xyz": [float(v) for v in p], "quaternion": [float(v) for v in quaternion], "config": branch}
+    if controller is not None:
+        vendor, config = controller
+        fields["controller_config"] = {vendor: format_configuration(vendor, parse_configuration(vendor, config))}
+    return fields
 
 
 def job_document(reference: str, X_FT: np.ndarray | None, waypoints: list[dict], start,

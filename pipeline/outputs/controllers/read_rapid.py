@@ -21,13 +21,15 @@ program a pendant or RobotStudio wrote in that subset reads the same. What is re
   ``via`` (its orientation and confdata are not the job's: RAPID uses them only for the way of reorientation).
 * Speeds: a tool move's ``speeddata`` v_tcp [mm/s] (a declared one, or the predefined vN = N mm/s) -> ``speed``
   [m/s]; \\V:= overrides v_tcp. A joint move timed by \\T:=T [s] (``write_rapid``'s ``vmax \\T``) -> ``speed`` =
-  100 x max_i |dq_i| / (qd_max_i T) % of the joint speed limits, at most 100 (T was rounded up to 1 ms, so this
-  is at most 1 ms / T below the written fraction); a joint move without \\T gets no speed (the job's default,
+  100 x max_i |dq_i| / (qd_max_i T) % of the joint speed limits, at most 100 (T was rounded up to 0.1 ms, so
+  this is at most 0.1 ms / T below the written fraction); a joint move without \\T gets no speed (the job's default,
   its full joint speed): a speeddata bounds a joint move's TCP speed, which a job's joint move does not take.
 * Zones: ``fine`` (and any zonedata with finep TRUE) -> 0; ``z0`` -> 0 (``write_rapid`` writes it where the program
   passes a waypoint without a zone; its 0.3 mm corner is the controller's); predefined zN -> N mm; a declared
   zonedata -> its pzone_tcp [mm]; \\Z:= overrides pzone_tcp; all -> ``zone`` [m]. The last waypoint's zone is 0
   (the program ends at rest there).
+* ``PathAccLim TRUE\\AccMax:=A, TRUE\\DecelMax:=D`` [m/s^2] (``write_rapid`` writes the job's TCP acceleration
+  limit so) -> ``tcp_accel_max`` (the smaller); without it the job has none.
 * ``tooldata`` [robhold, tframe, tload]: every move must use one tool; tframe [mm, quaternion] -> the job's ``tool``
   (none for ``tool0`` or an identity tframe), tframe being on the controller's tool0 (the robot file's abb
   controller section's flange, ``controller.controller_frames``); robhold FALSE (a stationary tool) is refused.
@@ -53,12 +55,13 @@ from ...files.poses import pose_to_quaternion_position, quaternion_position_to_p
 from ...model.ik.branches import configuration_labels
 from ...model.robot import Robot, load_robot, robot_with_tool
 from ...model.vendors.axes import ABB, joint_values
+from ...model.vendors.configuration import format_configuration
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from .read_ls import parse_subset
 
 MOVES = ("moveabsj", "movej", "movel", "movec")
-CONFIG_INSTRUCTIONS = ("confj", "confl")
+CONFIG_INSTRUCTIONS = ("confj", "confl", "pathacclim")
 #: Predefined data (RAPID Instructions manual, "speeddata", "zonedata"): vN is N mm/s, zN is N mm, z0 and fine 0.
 PREDEFINED_SPEEDS = frozenset((5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000, 1500,
                                2000, 2500, 3000, 4000, 5000, 6000, 7000))
@@ -129,7 +132,24 @@ def read_rapid(text: str, robot: str, base_in_world: np.ndarray | None = None) -
     waypoints = [reader.waypoint(call) for call in calls if call.name.lower() in MOVES]
     if not waypoints:
         raise RapidReadError(SOURCE, "main", "the procedure has no move instruction")
-    return reader.document(robot, waypoints)
+    document = reader.document(robot, waypoints)
+    accel = _path_acceleration(calls)
+    if accel is not None:
+        document["tcp_accel_max"] = accel
+    return document
+
+
+def _path_acceleration(calls: list) -> float | None:
+    """The TCP acceleration limit [m/s^2] of ``PathAccLim TRUE\\AccMax:=A, TRUE\\DecelMax:=D`` (the smaller of A and D
+    that are set; of several PathAccLim the last counts: the subset has one limit per job), None without one."""
+    accel = None
+    for call in calls:
+        if call.name.lower() != "pathacclim":
+            continue
+        limits = [float(call.optional[key]) for flag, key in zip(call.required, ("accmax", "decelmax"))
+                  if flag is True and isinstance(call.optional.get(key), float) and call.optional[key] > 0.0]
+        accel = min(limits) if limits else None
+    return accel
 
 
 @dataclass(frozen=True)
@@ -162,7 +182,7 @@ def _main_calls(module: lark.Tree) -> list[_Call]:
     for call in calls:
         if call.name.lower() not in MOVES + CONFIG_INSTRUCTIONS:
             raise RapidReadError(SOURCE, call.name, "is not an instruction of the subset read here (MoveAbsJ, "
-                                 "MoveJ, MoveL, MoveC, ConfJ, ConfL)", line=call.line)
+                                 "MoveJ, MoveL, MoveC, ConfJ, ConfL, PathAccLim)", line=call.line)
     return calls
 
 
@@ -200,7 +220,7 @@ class _Reader:
             waypoint = {"joints": [round(float(v), 10) for v in np.degrees(q)]}
         else:
             X, q = self.robtarget(targets[-1], call)
-            waypoint = self.pose_waypoint(X, q)
+            waypoint = self.pose_waypoint(X, q, self.data.get(targets[-1], "robtarget", call.name)[2])
             waypoint["move"] = {"movej": "joint", "movel": "linear", "movec": "circular"}[kind]
             if kind == "movec":
                 X_via = self.pose(self.data.get(targets[0], "robtarget", call.name), call)
@@ -253,12 +273,15 @@ class _Reader:
         except ConfigurationNotFoundError as exc:
             raise RapidReadError(SOURCE, str(value), str(exc), line=call.line) from None
 
-    def pose_waypoint(self, X: np.ndarray, q: np.ndarray) -> dict:
+    def pose_waypoint(self, X: np.ndarray, q: np.ndarray, confdata) -> dict:
+        """The pose waypoint of X (4, 4) [m]: its branch (of q (6,) [rad]) and ``controller_config`` the
+        robtarget's confdata (the job solves it as the controller does, the quadrants of axes 4 and 6 too)."""
         quaternion, position = pose_to_quaternion_position(X)
         label = configuration_labels(self.robot_tool, q[None])[0]
         waypoint = {"xyz": position.tolist(), "quaternion": quaternion.tolist()}
         if label:
             waypoint["config"] = label_parts(label)
+        waypoint["controller_config"] = {ABB: format_configuration(ABB, tuple(int(c) for c in confdata))}
         return waypoint
 
     def add_speed(self, waypoint: dict, kind: str, speed, call: _Call, q: np.ndarray) -> None:

@@ -20,7 +20,10 @@ lists and poses; "Module motion" for the functions):
   interpolates the orientation from the start to the target pose, as the program's slerp does; the via
   pose's rotation is not used by movec (the manual) and is written as the target's.
 * ``r``: the move's zone [m]; 0 at the program's stops, at both ends of a planned joint move, and where the
-  program passes through a waypoint without a zone (the controller stops there).
+  program passes through a waypoint without a zone (the controller stops there). With the certified motion
+  (``written``: ``controller_motion.certified_moves``): a planned move's targets are the certified path's joint
+  targets and r is each written zone exactly [m] (a blend radius is a distance: nothing to approximate); r = 0
+  only where the certified motion stops.
 * With a certified profile: ``certified_replay()`` moves to the profile's first sample with ``movej`` (the
   manual's default a, v: an approach), then calls ``servoj(q, t=period, lookahead_time, gain)`` once per
   controller period with the profile resampled at k x period (cubic Hermite on the profile's q and qd
@@ -60,6 +63,7 @@ from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...timing.profile import Profile
 from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
+from .settings_mark import settings_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 #: The Script Manual's defaults: movej a [rad/s^2], v [rad/s]; movel a [m/s^2].
@@ -80,17 +84,23 @@ COMMENT_WIDTH = 96
 
 
 def write_urscript(program: Program, name: str, profile: Profile | None = None, period: float = 0.002,
-                   lookahead_time: float = LOOKAHEAD_S, gain: float = GAIN) -> str:
+                   lookahead_time: float = LOOKAHEAD_S, gain: float = GAIN, written=None) -> str:
     """The URScript program text of ``program`` (module docstring), its ``def`` named ``name``; with
     ``profile`` (the program's certified Profile) also its servoj replay every ``period`` [s] with
     ``lookahead_time`` [s] and ``gain``. OutputError names what cannot be written; ``lint`` runs first on
-    the name and the header comments (ControllerLintError; URScript writes no configuration data)."""
+    the name and the header comments (ControllerLintError; URScript writes no configuration data). ``written``
+    (``controller_motion.certified_moves``): the native moves are the certified motion (a planned move as joint
+    targets on the certified path, blend radii r = the written zones exactly, r = 0 only where it stops) and the
+    header carries its certificate."""
     check_name(name)
     _check_replay_options(period, lookahead_time, gain)
     check_arm(program.robot)
     header = _header(program, name, profile, period, lookahead_time, gain)
+    if written is not None:
+        header += [part for line in [WRITTEN_BLEND_RULE, *written.header_lines()]
+                   for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ", break_on_hyphens=False)]
     lint(program, URSCRIPT, name, header)
-    moves = _native_moves(program)
+    moves = _native_moves(program, written)
     lines = [f"def {name}():"]
     lines += [f"  # {line}" for line in header]
     lines.append(f"  set_tcp({pose(program.tool.X_FT)})")
@@ -192,16 +202,27 @@ def blend(program: Program, move: Move) -> float:
     return 0.0 if program.exact_stop_at(move) else move.zone
 
 
-def _native_moves(program: Program) -> list[str]:
+#: The header's statement of the blend radii with the certified motion.
+WRITTEN_BLEND_RULE = ("Certified motion (native_moves): planned moves as joint targets on the certified path; blend "
+                      "radii r are the written zones exactly [m] (no closest value needed); r = 0 only where the "
+                      "certified motion stops.")
+
+
+def _native_moves(program: Program, written=None) -> list[str]:
     a, v = MOVEJ_DEFAULT_A, MOVEJ_DEFAULT_V
     lines = [f"movej({joints(program.targets[0])}, a={number(a)}, v={number(v)}, r=0.0)"]
     for move in program.moves:
-        r = number(blend(program, move))
+        if written is None:
+            r = number(blend(program, move))
+            vertices = [(q, 0.0) for q in ([] if move.planned is None else move.planned.waypoints[1:-1])]
+        else:
+            ws = written.of(move.end)
+            r = number(ws[-1].zone_m)
+            vertices = [(w.target, w.zone_m) for w in ws[:-1]]
         if move.kind == JOINT:
             a, v = joint_speed(program, move.speed)
             speeds = f"a={number(a)}, v={number(v)}"
-            vertices = [] if move.planned is None else move.planned.waypoints[1:-1]
-            lines += [f"movej({joints(q)}, {speeds}, r=0.0)" for q in vertices]
+            lines += [f"movej({joints(q)}, {speeds}, r={number(zone)})" for q, zone in vertices]
             lines.append(f"movej({joints(move.target)}, {speeds}, r={r})")
         elif move.kind == LINEAR:
             a, v = tool_speed(program, move)
@@ -250,6 +271,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
         (f"{name}: the compiled program {program.name!r} (robot {program.robot.name}, {len(program.moves)} moves), "
          f"written by {WRITTEN_BY} (pipeline.outputs.controllers.urscript)."),
         job_mark(program.job_name or program.name),
+        settings_mark(program),
         "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
         ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
          "not the certified profile:"),

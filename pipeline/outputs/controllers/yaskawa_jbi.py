@@ -15,15 +15,25 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
   (% of the joints' maximum speed, 0.01 to 100.00: the move's fraction of the speed limits x the job's
   ``speed_scale``; a planned move's planner vertices each get a MOVJ without PL, an exact stop, as do both
   ends of a planned move), ``MOVL C.. V=`` (TCP speed in mm/s, to 0.1 mm/s), ``MOVC`` x 3 for a circular move: INFORM
-  defines an arc by three MOVC points, so the arc's start (where the previous move ends) is written again as
-  the first MOVC point, then the via and the end point; an arc ending where the next arc starts gets ``FPT``.
+  defines an arc by three MOVC points, and the controller reaches the first on a straight line from the point before
+  (Yaskawa's operator's manuals, "circular interpolation": P0 -> P1 linear, P1 -> P2 -> P3 the arc): a linear move
+  into an arc is written as the arc's first MOVC point, with its speed and PL; after a joint move or another arc,
+  the arc's start (where the previous move ends) is written again as the first MOVC point, then the via and the end
+  point; an arc ending where the next arc starts gets ``FPT``.
 * Zones: ``PL=n`` (positioning level, 0 to 8). A level is a distance the controller's parameters
   S1CxG033..S1CxG040 set for PL1..PL8, not a fixed size; ``PL_MM`` is our assumption for them (12.5 mm,
   doubling per level), to be set on the controller or replaced by the controller's values through
   ``pl_mm``. A zone z > 0 gets the largest level whose distance is <= z (so the controller never rounds more
   than the certified zone), PL=0 when z is below PL1's distance; a move without a zone gets no PL (the
-  controller stops at its point, as PL=0). A move followed by an arc gets no PL (``written_zone``): the arc's
-  first MOVC repeats that point, a zero-length segment, into which the controller cannot round.
+  controller stops at its point, as PL=0). A joint move or an arc followed by an arc gets no PL (``written_zone``): the
+  arc's first MOVC repeats that point, a zero-length segment, into which the controller cannot round.
+  With the certified motion (``written``: ``controller_motion.certified_moves``): a planned move's targets are the
+  certified path's joint targets, no PL only where the certified motion stops (or into an arc after a joint move or
+  an arc, as above), and a
+  zone gets the level closest to it, PL1 at least (``closest_pl_level``: PL=0 would position on the point where the
+  certified motion flows); the distances are ``PL_MM`` (an assumption, stated in the header), ``pl_differences``
+  lists the difference per move (header, and what ``program`` prints), ``pl_zones`` the levels' distances, with
+  which ``runner.language_zones_certificate`` certifies the program as Yaskawa writes it.
 * Job: ``NOP`` first and ``END`` last (a job without them is refused on loading: "ERROR 3200: NOP or END
   instruction not found", ros-industrial/motoman issue 142); a comment line records the job (``job=NAME``,
   ``pipeline.files.atomic.job_mark``) and the name is never an INFORM word (``names``).
@@ -54,10 +64,11 @@ from ...errors import ConfigurationError
 from ...files.atomic import job_mark
 from ...model.vendors.axes import YASKAWA
 from ...model.vendors.configuration import configurations
-from ...program.model import CIRCULAR, JOINT, Move, Program
+from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
                        payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
+from .settings_mark import settings_mark
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
@@ -71,21 +82,65 @@ def pl_level(zone: float, pl_mm=PL_MM) -> int:
     return int(np.searchsorted(np.asarray(pl_mm, dtype=float), zone * MM + 1e-9, side="right"))
 
 
-def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, pl_mm=PL_MM) -> str:
+def closest_pl_level(zone: float, pl_mm=PL_MM) -> int:
+    """PL level 1..8 of a zone [m] > 0 of the certified motion: the level whose distance [mm] is closest to the
+    zone (PL=0 would stop the robot where the certified motion flows; ties go to the smaller level)."""
+    return 1 + int(np.argmin(np.abs(np.asarray(pl_mm, dtype=float) - zone * MM)))
+
+
+#: The header's statement of how a written zone becomes PL (with the certified motion).
+WRITTEN_PL_RULE = ("Certified motion: planned moves as joint targets on the certified path; no PL only where it "
+                   "stops. PL=n is the level closest to the zone, not equal to it: PL1..PL8 = {levels} mm is an "
+                   "ASSUMPTION (the controller parameters S1CxG033-040 decide); the difference per move below.")
+
+
+def pl_zones(program: Program, written, pl_mm=PL_MM) -> list[float]:
+    """Per written move, the zone [m] of the PL level written for it (the assumed ``pl_mm``; 0 without PL)."""
+    return [pl_mm[closest_pl_level(m.zone, pl_mm) - 1] / MM if m.zone > 0.0 else 0.0
+            for m in job_points(program, written)[1:]]
+
+
+def pl_differences(program: Program, written, pl_mm=PL_MM) -> list[str]:
+    """Per written move, the PL written for its zone and the difference of that level's assumed distance to the
+    certified zone (a zone dropped into an arc after a joint move: an exact stop, the arc's first MOVC repeats the
+    point)."""
+    lines, zones = [], [w.zone_m for w in written.moves]
+    for k, motion in enumerate(job_points(program, written)[1:]):
+        certified = zones[k]
+        if certified <= 0.0:
+            continue
+        if motion.zone <= 0.0:
+            lines.append(f"written move {k + 1} (to waypoint {motion.move.end}): zone {certified * MM:.1f} mm -> no PL "
+                         f"(an exact stop: the next arc's first MOVC repeats this point after a joint move)")
+            continue
+        n = closest_pl_level(motion.zone, pl_mm)
+        lines.append(f"written move {k + 1} (to waypoint {motion.move.end}): zone {certified * MM:.1f} mm -> PL={n} "
+                     f"~ {pl_mm[n - 1]:g} mm ({pl_mm[n - 1] - certified * MM:+.1f} mm)")
+    return lines
+
+
+def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, pl_mm=PL_MM, written=None) -> str:
     """The program as a Yaskawa INFORM job (module docstring); ``name`` its //NAME, ``created`` its
     ///DATE (None: now, UTC), ``pl_mm`` the controller's PL1..PL8 distances [mm]. ConfigurationError for
     a bad name, a non-6R robot, a speed the controller cannot take or pl_mm not 8 increasing distances;
     ``lint`` runs first on the name, the comment lines and the RCONF of every waypoint (all are Cartesian:
-    ControllerLintError)."""
+    ControllerLintError). ``written`` (``controller_motion.certified_moves``): the certified motion, its targets and
+    zones (PL the closest level, ``pl_differences``), its certificate in the header."""
     check_name(name, NAME_PATTERN, "Yaskawa job")
     check_six_joints(program)
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     X_B_base, frame = controller_frame(program.robot, YASKAWA)
-    header = [job_mark(program.job_name or program.name), *comment_lines(_header_text(program, frame)),
+    header = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
+              *comment_lines(_header_text(program, frame)),
               *comment_lines(payload_text(program, "tool file 1 (W, Xg, Yg, Zg)"))]
-    motions = job_points(program)
-    zones = [f"zone {m.zone * MM:.1f}mm PL{pl_level(m.zone, pl_mm)}" for m in motions if m.zone > 0.0]
+    if written is not None:
+        levels = "/".join(f"{v:g}" for v in pl_mm)
+        header += [line for text in [WRITTEN_PL_RULE.format(levels=levels), *written.header_lines(),
+                                     *pl_differences(program, written, pl_mm)] for line in comment_lines(text)]
+    motions = job_points(program, written)
+    level = pl_level if written is None else closest_pl_level
+    zones = [f"zone {m.zone * MM:.1f}mm PL{level(m.zone, pl_mm)}" for m in motions if m.zone > 0.0]
     lint(program, JBI, name, header + zones, configurations(program.robot, program.targets, YASKAWA))
     positions, instructions, index = [], [], 0
     for k, motion in enumerate(motions):
@@ -95,7 +150,7 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
             positions.extend(_position(program, labels[-1], point.q, point.X_BT, X_B_base, positions))
             index += 1
         following = motions[k + 1].move if k + 1 < len(motions) else None
-        instructions.extend(_instructions(program, motion, labels, following, pl_mm))
+        instructions.extend(_instructions(program, motion, labels, following, pl_mm, level))
     comments = [f"'{line}" for line in header]
     when = created or _dt.datetime.now(_dt.timezone.utc)
     return "\n".join(["/JOB", f"//NAME {name}", "//POS", f"///NPOS {index},0,0,0,0,0", "///TOOL 1",
@@ -105,21 +160,40 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
 
 
 def written_zone(program: Program, move: Move) -> float:
-    """The zone [m] written at the end of ``move`` (module docstring): 0 before an arc (whose first MOVC repeats
-    this point) and where the program stops, else the move's zone."""
+    """The zone [m] written at the end of ``move`` (module docstring): 0 where the program stops and before an arc
+    after a joint move or an arc (whose first MOVC repeats this point), else the move's zone."""
     following = program.moves[move.end] if move.end < len(program.moves) else None
-    stop = program.exact_stop_at(move) or (following is not None and following.kind == CIRCULAR)
+    stop = program.exact_stop_at(move) or (following is not None and following.kind == CIRCULAR
+                                           and move.kind != LINEAR)
     return 0.0 if stop else move.zone
 
 
-def job_points(program: Program) -> list[Motion]:
-    """``fanuc_ls.program_points`` for Yaskawa, with each arc's start (the previous motion's end) as the
-    first of its three MOVC points and no zone into an arc (``written_zone``): the points in the order C00000,
-    C00001, ... are written."""
-    motions = program_points(program, YASKAWA)
-    motions = [replace(m, zone=written_zone(program, m.move)) if m.zone > 0.0 else m for m in motions]
-    return [replace(m, points=[motions[k - 1].points[-1], *m.points]) if m.move is not None and m.move.kind == CIRCULAR
-            else m for k, m in enumerate(motions)]
+def _into_arc(motions: list[Motion], k: int) -> bool:
+    """Whether motion k + 1 begins a circular move (another move than motion k's)."""
+    following = motions[k + 1].move if k + 1 < len(motions) else None
+    return following is not None and following.kind == CIRCULAR and following is not motions[k].move
+
+
+def _line_into_arc(motions: list[Motion], k: int) -> bool:
+    """Whether motion k is a linear move into an arc: written as the arc's first MOVC point, which the controller
+    reaches on a straight line (module docstring)."""
+    return _into_arc(motions, k) and motions[k].move is not None and motions[k].move.kind == LINEAR
+
+
+def job_points(program: Program, written=None) -> list[Motion]:
+    """``fanuc_ls.program_points`` for Yaskawa: a linear move into an arc is the arc's first MOVC point (with its
+    zone); an arc after a joint move or an arc repeats its start (the previous motion's end) as its first MOVC
+    point, and no zone leads into it (``written_zone``): the points in the order C00000, C00001, ... are written.
+    ``written``: the certified motion's targets and zones (``program_points``)."""
+    motions = program_points(program, YASKAWA, written)
+    if written is None:
+        motions = [replace(m, zone=written_zone(program, m.move)) if m.zone > 0.0 else m for m in motions]
+    else:
+        motions = [replace(m, zone=0.0) if _into_arc(motions, k) and not _line_into_arc(motions, k) else m
+                   for k, m in enumerate(motions)]
+    return [replace(m, points=[motions[k - 1].points[-1], *m.points])
+            if m.move is not None and m.move.kind == CIRCULAR and not _line_into_arc(motions, k - 1) else m
+            for k, m in enumerate(motions)]
 
 
 def _header_text(program: Program, frame: str) -> str:
@@ -153,20 +227,21 @@ def _speed(program: Program, move: Move | None) -> str:
 
 
 def _instructions(program: Program, motion: Motion, labels: list[str], following: Move | None,
-                  pl_mm) -> list[str]:
+                  pl_mm, level=pl_level) -> list[str]:
     """The INFORM lines of one motion: a zone comment and MOVJ / MOVL / MOVC x 3 with speed and PL."""
     move = motion.move
     speed = _speed(program, move)
     tail = ""
     if motion.zone > 0.0:
-        tail = f" PL={pl_level(motion.zone, pl_mm)}"
+        tail = f" PL={level(motion.zone, pl_mm)}"
     if move is None or move.kind == JOINT:
         lines = [f"MOVJ {labels[0]} {speed}{tail}"]
     elif move.kind == CIRCULAR:
         fpt = " FPT" if following is not None and following.kind == CIRCULAR else ""
-        lines = [f"MOVC {labels[0]} {speed}", f"MOVC {labels[1]} {speed}", f"MOVC {labels[2]} {speed}{tail}{fpt}"]
+        lines = [f"MOVC {label} {speed}" for label in labels[:-1]] + [f"MOVC {labels[-1]} {speed}{tail}{fpt}"]
     else:
-        lines = [f"MOVL {labels[0]} {speed}{tail}"]
+        into_arc = following is not None and following.kind == CIRCULAR and following is not move
+        lines = [f"{'MOVC' if into_arc else 'MOVL'} {labels[0]} {speed}{tail}"]
     if tail:
-        lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{pl_level(motion.zone, pl_mm)}")
+        lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{level(motion.zone, pl_mm)}")
     return lines
