@@ -272,6 +272,7 @@ def test_a_joint_waypoints_zone_is_written_back_in_the_programs_length_unit():
     assert in_program_units(document, "urscript") == document
 
 
+@pytest.mark.slow                                   # some 8 s; the settings-mark round trips cover arm6 in make test
 def test_a_jbi_round_trip_of_the_arm6_demo_runs(tmp_path, capsys):
     """program -> read-program -> run on the arm6 demo: every waypoint read back names its configuration, and
     a branch change the configurations name is no error (it was refused as an unnamed one)."""

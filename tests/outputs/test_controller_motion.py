@@ -34,7 +34,7 @@ from pipeline.outputs.controllers.controller_motion import (
 from pipeline.program.job import load_job
 from pipeline.runner import collision_model, timed_program
 
-DEMO_JOBS = Path(__file__).resolve().parents[2] / "pipeline" / "demo_jobs"
+DEMO_JOBS = Path(__file__).resolve().parents[2] / "trajectories" / "jobs"
 
 WALL_HUG = """\
 description: joint moves up beside the wall, across 20 mm above its top, and down; no zones

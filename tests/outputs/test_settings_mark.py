@@ -13,7 +13,7 @@ from pipeline.outputs.controllers.settings_mark import marked_settings, settings
 from pipeline.program.job import load_job
 from pipeline.runner import timed_program
 
-DEMO = Path(__file__).resolve().parents[2] / "pipeline" / "demo_jobs"
+DEMO = Path(__file__).resolve().parents[2] / "trajectories" / "jobs"
 
 
 def test_the_mark_names_the_settings_and_reads_back():

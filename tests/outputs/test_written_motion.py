@@ -35,8 +35,9 @@ from pipeline.outputs.controllers.read_rapid import read_rapid
 from pipeline.program.job import load_job
 from pipeline.runner import collision_model, program_texts, timed_program, zone_differences
 
-JOB = Path(__file__).resolve().parents[2] / "pipeline" / "demo_jobs" / "gp7_cell_pick_place.yaml"
-LANGUAGES = ("rapid", "krl")
+JOB = Path(__file__).resolve().parents[2] / "trajectories" / "jobs" / "gp7_cell_pick_place.yaml"
+#: RAPID in make test, KRL too in the slow run (the same motion, written twice).
+EACH = ("rapid", pytest.param("krl", marks=pytest.mark.slow))
 #: Written joint values are rounded to 0.0001 deg (8.7e-7 rad at most): on the certified path within 1e-6 rad.
 ON_PATH_RAD = 1e-6
 
@@ -66,7 +67,7 @@ def _stopped_at(profile, t: float) -> bool:
     return float(np.abs(profile.qd[i]).max()) <= 1e-6
 
 
-@pytest.mark.parametrize("language", LANGUAGES)
+@pytest.mark.parametrize("language", EACH)
 def test_exact_stops_only_where_the_certified_profile_stops(language):
     _, program, profile, _, written = cell()
     waypoints = read_back(language)
@@ -82,7 +83,7 @@ def test_exact_stops_only_where_the_certified_profile_stops(language):
     assert sum(not w.has_zone for w in written_moves(program)) == 8
 
 
-@pytest.mark.parametrize("language", LANGUAGES)
+@pytest.mark.parametrize("language", EACH)
 def test_planned_moves_joint_targets_lie_on_the_certified_path(language):
     _, program, profile, _, written = cell()
     waypoints = read_back(language)
@@ -127,7 +128,7 @@ def test_the_written_program_certificate_passes():
     assert written.changes == ()
 
 
-@pytest.mark.parametrize("language", LANGUAGES)
+@pytest.mark.parametrize("language", EACH)
 def test_program_prints_both_cycle_times(language, tmp_path, capsys):
     assert main(["program", str(JOB), "--lang", language, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
@@ -140,7 +141,7 @@ def test_program_prints_both_cycle_times(language, tmp_path, capsys):
     assert "certificate PASSED" in text and f"cycle time as written {written.timing.duration_s:.3f} s" in text
 
 
-@pytest.mark.parametrize("language", ["rapid", pytest.param("krl", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("language", EACH)
 def test_program_read_program_run_in_the_cell_without_planning(language, tmp_path, capsys):
     """The issue's round trip: ``program`` -> ``read-program`` (the planned moves come back as the joint targets they
     were written as, with their zones, in the job's length unit) -> ``run`` in the same cell without planning: certified
@@ -283,7 +284,8 @@ def demo(name: str):
     return program, profile, certified_moves(program, profile, collision_model(job))
 
 
-@pytest.mark.parametrize("name", ["irb1600_joint_moves", "arm5_joint_spline", "arm6_joint_rad"])
+@pytest.mark.parametrize("name", ["irb1600_joint_moves", "arm5_joint_spline",
+                                  pytest.param("arm6_joint_rad", marks=pytest.mark.slow)])
 def test_joint_moves_are_written_as_the_certified_motion(name):
     """Plain joint moves: within 1.15x of the certified duration as written (straight joint segments with z0 corners
     took 1.14x for the IRB 1600's blended path and 1.31x for arm6), certified, an exact stop only where the certified
@@ -322,7 +324,7 @@ def test_a_straight_enough_joint_move_keeps_one_target_and_takes_the_certified_c
     assert all(w.zone_m >= 0.05 for w in written.moves[:-1]) and not written.moves[-1].has_zone
 
 
-@pytest.mark.parametrize("language", LANGUAGES)
+@pytest.mark.parametrize("language", EACH)
 def test_curved_joint_moves_are_written_and_read_back_as_their_joint_targets(language, tmp_path):
     """The IRB 1600 joint job on its default (monotone spline) path: its joint moves depart from the straight segments,
     so each is written as joint targets on the certified path with zones (within 1.15x of the certified duration,
