@@ -34,3 +34,18 @@ def test_each_goal_can_fail(record):
     goals = written_goals([_record(1.0), record])
     assert not all(goal.passed for goal in goals) and not record.passed
     assert all(goal.passed for goal in written_goals([_record(1.0), _record(ROUND_TRIP_GOAL)]))
+
+
+@pytest.mark.slow                                  # every demo job and one drawn program in four languages: ~1 min
+def test_the_cli_runs_the_suite_and_writes_json(tmp_path, capsys):
+    import json
+
+    from pipeline.__main__ import main
+
+    out = tmp_path / "written.json"
+    assert main(["bench", "written", "--programs", "1", "--cells", "irb1600_wall_cell", "--out", str(out)]) in (0, 1)
+    data = json.loads(out.read_text())
+    names = {r["program"] for r in data["records"]}
+    assert "irb1600_wall_cell_00" in names and "gp7_cell_pick_place" in names and "arm5_joint_spline" not in names
+    assert len(data["records"]) == 4 * len(names) and [g["name"] for g in data["goals"]][0].startswith("written")
+    assert "round trip" in capsys.readouterr().out

@@ -115,7 +115,8 @@ def test_many_killed_runs_never_mix_outputs(tmp_path):
     kill_trials(tmp_path, trials=10, seed=2)
 
 
-@pytest.mark.parametrize("where", ["file", "under_a_file", "proc"])
+@pytest.mark.parametrize("where", ["file", pytest.param("under_a_file", marks=pytest.mark.slow),
+                                   pytest.param("proc", marks=pytest.mark.slow)])
 def test_bad_out_exits_2_at_once_with_one_line_and_creates_nothing(tmp_path, where):
     (tmp_path / "afile").write_text("mine")
     out = {"file": tmp_path / "afile", "under_a_file": tmp_path / "afile" / "out",

@@ -50,8 +50,7 @@ def test_a_program_without_the_mark_reads_as_before():
 
 
 @pytest.mark.parametrize("name, languages", [
-    ("arm6_joint_rad", ("ls",)),
-    pytest.param("arm6_joint_rad", ("rapid", "krl", "jbi"), marks=pytest.mark.slow),
+    pytest.param("arm6_joint_rad", ("rapid", "krl", "ls", "jbi"), marks=pytest.mark.slow),
     pytest.param("lrmate200id_quaternion_poses", ("rapid", "krl", "ls", "jbi"), marks=pytest.mark.slow),
 ])
 def test_a_jerk_limited_scaled_job_comes_back_as_written(name, languages):
@@ -60,6 +59,20 @@ def test_a_jerk_limited_scaled_job_comes_back_as_written(name, languages):
     for record in measure_job(load_job(DEMO / f"{name}.yaml"), languages):
         assert record.error == "" and record.read_back_passed and record.same_stops, record
         assert record.ratio == pytest.approx(1.0, abs=1e-3), record
+
+
+def test_a_short_topp3_job_at_half_speed_comes_back_from_ls_as_written(tmp_path):
+    """The same in make test, on a short job: three GP7 joint waypoints, topp3 at speed scale 0.5, FANUC LS (whose
+    comments wrap the mark over lines)."""
+    import yaml
+
+    path = tmp_path / "short.yaml"
+    path.write_text(yaml.safe_dump({"robot": "gp7", "angle_unit": "deg", "timing": "topp3", "speed_scale": 0.5,
+                                    "waypoints": [[0, 0, 0, 0, -90, 0], [30, 10, 10, 0, -80, 20],
+                                                  [60, 0, 20, 0, -70, 0]]}))
+    record, = measure_job(load_job(path), ("ls",))
+    assert record.error == "" and record.read_back_passed and record.same_stops, record
+    assert record.ratio == pytest.approx(1.0, abs=1e-3), record
 
 
 @pytest.mark.slow                                   # some 9 s

@@ -153,6 +153,7 @@ def test_the_summary_csv_is_the_same_byte_for_byte_in_this_process_and_on_worker
     assert not (tmp_path / "parallel" / "broken").exists()
 
 
+@pytest.mark.slow                      # some 12 s (a cluster); the demo jobs on two workers stay in make test
 def test_a_map_on_two_workers_equals_the_map_in_this_process(client, serial_map):
     parallel = reachability_map("irb1600", **MAP, client=client, chunk_poses=3000)
     assert parallel.workers == 2 and parallel.chunks > serial_map.chunks
