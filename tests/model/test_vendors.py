@@ -21,7 +21,7 @@ from pipeline.model.vendors import (
     select_solution,
     select_solutions,
 )
-from pipeline.model.vendors.configuration import fanuc_turns
+from pipeline.model.vendors.configuration import fanuc_turns, mismatched_field
 from pipeline.model.vendors.sides import arm_sides
 from pipeline.urdf import import_urdf
 
@@ -241,3 +241,17 @@ def test_an_arm_without_a_spherical_wrist_is_refused():
     ur5 = import_urdf(DATA_DIR / "urdf" / "ur5.urdf").robot
     with pytest.raises(VendorConfigurationError, match="spherical"):
         configurations(ur5, np.zeros(6), "kuka")
+
+
+def test_an_axis_on_a_boundary_by_round_off_takes_either_side():
+    """Axis 1 at 4e-9 rad (an IK answer for a target at y = 0, bench cycle's shelf): a RAPID writer may write cf1 = -1
+    (the side its rounded robtarget selects) and the lint takes it; 1e-4 rad is no longer on the boundary."""
+    robot = load_robot("gp7")
+    q = np.radians([0.0, 8.26, -62.58, 100.0, -56.84, -27.7])
+    q[0] = 4e-9
+    fields = configurations(robot, q, "abb")
+    other = fields.copy()
+    other[0] = -1
+    assert fields[0] == 0 and mismatched_field(robot, q, "abb", other) is None
+    q[0] = 1e-4
+    assert mismatched_field(robot, q, "abb", other) == 0

@@ -59,8 +59,10 @@ FIELDS = {
     YASKAWA: ("l", "m", "n", "o", "p", "q"),
     KUKA: ("S", "T"),
 }
-#: An axis this close to a configuration field's boundary [rad] is on it: either side describes it.
-BOUNDARY_RAD = 1e-9
+#: An axis this close to a configuration field's boundary [rad] is on it: either side describes it (an IK answer on a
+#: boundary carries round-off: axis 1 at 4e-9 rad for a target at y = 0 was refused at 1e-9; a file's rounding of
+#: joint values, 0.0001 deg, is 1.7e-6 rad).
+BOUNDARY_RAD = 1e-6
 #: FANUC's letters for fields flip, up, front: (value 1, value 0).
 FANUC_LETTERS = (("F", "N"), ("U", "D"), ("T", "B"))
 
