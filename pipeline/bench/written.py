@@ -91,7 +91,8 @@ def _robot_reference(robot) -> str:
 
 
 def read_back(job, language: str, texts: dict[str, str]):
-    """The job ``texts`` (a writer's, suffix -> text) read back as, in ``job``'s cell, without planning."""
+    """The job ``texts`` (a writer's, suffix -> text) read back as by ``read-program``, in ``job``'s cell, without
+    planning."""
     main = PROGRAM_FILES[language][0]
     suffix = Path(main).suffix
     robot = _robot_reference(job.robot)
@@ -126,8 +127,18 @@ def measure(job, language: str, program, profile, written) -> WrittenRecord:
                                read_back_stops=len(read_program.stops), same_stops=same)
 
 
-def measure_job(job, languages=LANGUAGES) -> list[WrittenRecord]:
-    """Every language on one job: its certified profile once, then as written and round trip per language."""
+def languages_for(robot) -> tuple[str, ...]:
+    """The languages that fit ``robot``: URScript for a Universal Robots arm (a robot file with controller maker
+    ur), else LANGUAGES."""
+    from ..model.vendors.controller import controller_of
+
+    return ("urscript",) if getattr(controller_of(robot), "maker", None) == "ur" else LANGUAGES
+
+
+def measure_job(job, languages: tuple[str, ...] | None = None) -> list[WrittenRecord]:
+    """Every language on one job (None: ``languages_for`` its robot): its certified profile once, then as written
+    and round trip per language."""
+    languages = languages_for(job.robot) if languages is None else languages
     try:
         program, _, profile = timed_program(job)
     except PipelineError as exc:
@@ -204,8 +215,9 @@ def written_goals(records: list[WrittenRecord]) -> list[Goal]:
 
 
 def run_written_benchmark(cells=CELLS, programs: int = 5, seed: int = 0,
-                          languages=LANGUAGES) -> WrittenBenchReport:
-    """The benchmark (module docstring): the demo jobs, then ``programs`` drawn programs per cell."""
+                          languages: tuple[str, ...] | None = None) -> WrittenBenchReport:
+    """The benchmark (module docstring): the demo jobs, then ``programs`` drawn programs per cell, in ``languages``
+    (None: those that fit each robot)."""
     began = time.perf_counter()
     jobs = demo_jobs()
     for cell in cells:

@@ -152,6 +152,7 @@ def written(tmp_path: Path, job: str, *extra: str) -> int:
     return main(["program", str(tmp_path / f"{job}.yaml"), "--lang", "jbi", "--out", str(tmp_path / "out"), *extra])
 
 
+@pytest.mark.slow                                   # some 5 s: two jobs compiled, timed and written
 def test_another_jobs_program_is_never_overwritten(tmp_path, capsys):
     """gp7_pick_place and gp7_pick_place2 both make GP7_PICK.jbi: the second is refused (exit 2) naming both
     jobs, the first file is untouched; --force replaces it."""

@@ -84,6 +84,6 @@ def test_a_ur5_job_comes_back_from_urscript_as_written(tmp_path):
 
     path = tmp_path / "ur5_scaled.yaml"
     path.write_text(yaml.safe_dump({**UR5_JOB, "speed_scale": 0.5, "timing": "topp3"}))
-    record, = measure_job(load_job(path), ("urscript",))
+    record, = measure_job(load_job(path))                        # the language that fits a UR arm: URScript
     assert record.error == "" and record.read_back_passed and record.same_stops, record
     assert record.ratio == pytest.approx(1.0, abs=1e-3), record
