@@ -328,7 +328,7 @@ def run_cli(*args, cwd):
     return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True, cwd=cwd)
 
 
-@pytest.mark.slow                                   # some 4 s (two CLI runs); the API round trips stay in make test
+@pytest.mark.slow                                   # some 4 s (two CLI runs); export and import by the API stay in make test
 def test_cli_export_then_import_round_trip(tmp_path):
     exported = run_cli("export", "irb1600", "--urdf", str(tmp_path / "irb1600.urdf"), cwd=tmp_path)
     assert exported.returncode == 0, exported.stderr
