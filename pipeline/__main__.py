@@ -246,8 +246,8 @@ def cmd_program(args) -> int:
     into a file named by --out, or as NAME.<suffix> in the folder --out (default: here). Every target is
     checked before any work; each file is written atomically."""
     from .program.job import load_job
-    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, language_written, language_zones_line,
-                         program_name, program_texts, timed_program, written_motion, written_report)
+    from .runner import (LANGUAGE_TITLES, SERVO_PERIOD_S, check_language_arm, language_written, program_name,
+                         program_texts, timed_program, written_lines, written_motion, written_report)
 
     from .outputs.controllers.krl import KRC2
     from .outputs.controllers.urscript import check_servo_period
@@ -268,18 +268,7 @@ def cmd_program(args) -> int:
     print(f"job {job.name}: {LANGUAGE_TITLES[args.lang]} program {name}, {len(program.moves)} moves; the certified "
           f"profile takes {profile.duration:.4f} s (the controller plans its own for native moves)")
     if written is not None:
-        certificate = written.certificate
-        print(f"as written: {written.timing.duration_s:.4f} s (certified {profile.duration:.4f} s), written-program "
-              f"certificate {'passed' if certificate.passed else 'FAILED'}, {written.exact_stops} exact stops"
-              + ("" if certificate.max_deviation_rad is None else
-                 f", largest deviation from the certified path {certificate.max_deviation_rad:.4f} rad"))
-        report = written_report(written, args.lang, program, profile, own)
-        for change in report["zone_changes"]:
-            print(f"zone changed: {change['change']} (cost {change['cost_s']:+.4f} s)")
-        for difference in report["zone_differences"]:
-            print(f"zone as written: {difference}")
-        if report["language_zones"] is not None:
-            print(f"{LANGUAGE_TITLES[args.lang]} {language_zones_line(args.lang, report['language_zones'])}")
+        print("\n".join(written_lines(written_report(written, args.lang, program, profile, own), profile.duration)))
     for suffix, text in texts.items():
         print(f"wrote {write_text_atomic(targets[suffix], text, args.force)}")
     return 0

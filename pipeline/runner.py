@@ -102,17 +102,8 @@ class JobOutcome:
                   for s in self.report["timing_details"].get("stretches", [])
                   if (s["timing"] or {}).get("time_stretch", 1.0) > STRETCH_NOTICE]
         lines += cycle_lines(self.report["cycle"])
-        for language, w in self.report.get("written_programs", {}).items():
-            lines.append(f"{LANGUAGE_TITLES[language]} as written: {w['duration_s']:.4f} s (certified "
-                         f"{self.profile.duration:.4f} s), written-program certificate "
-                         f"{'passed' if w['passed'] else 'FAILED'}, {w['exact_stops']} exact stops"
-                         + ("" if w["max_deviation_rad"] is None else
-                            f", largest deviation from the certified path {w['max_deviation_rad']:.4f} rad"))
-            lines += [f"  zone changed: {c['change']} (cost {c['cost_s']:+.4f} s)" for c in w["zone_changes"]]
-            lines += [f"  zone as written: {d}" for d in w["zone_differences"]]
-            own = w.get("language_zones")
-            if own is not None:
-                lines.append(f"  {LANGUAGE_TITLES[language]} {language_zones_line(language, own)}")
+        for w in self.report.get("written_programs", {}).values():
+            lines += written_lines(w, self.profile.duration)
         lines += [f"wrote {path}" for path in self.files]
         return "\n".join(lines)
 
@@ -308,6 +299,22 @@ def language_zones_line(language: str, certificate: dict) -> str:
         return f"with {what}: not certified ({certificate['error']})"
     return (f"with {what}: {certificate['duration_s']:.4f} s, certificate "
             f"{'passed' if certificate['passed'] else 'FAILED'}{clearance}")
+
+
+def written_lines(report: dict, certified_s: float) -> list[str]:
+    """What ``program`` and ``run`` print of a written program (``written_report``): its cycle time as written
+    beside the certified one [s], its certificate, then per move the zones changed and the zones the language
+    writes instead, and the certificate with those."""
+    language = report["language"]
+    deviation = report["max_deviation_rad"]
+    lines = [f"{LANGUAGE_TITLES[language]} as written: {report['duration_s']:.4f} s (certified {certified_s:.4f} s), "
+             f"written-program certificate {'passed' if report['passed'] else 'FAILED'}, {report['exact_stops']} exact "
+             "stops" + ("" if deviation is None else f", largest deviation from the certified path {deviation:.4f} rad")]
+    lines += [f"  zone changed: {c['change']} (cost {c['cost_s']:+.4f} s)" for c in report["zone_changes"]]
+    lines += [f"  zone as written: {d}" for d in report["zone_differences"]]
+    if report["language_zones"] is not None:
+        lines.append(f"  {LANGUAGE_TITLES[language]} {language_zones_line(language, report['language_zones'])}")
+    return lines
 
 
 def written_report(written, language: str, program: Program, profile: Profile, own=None) -> dict:
