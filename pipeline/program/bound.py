@@ -49,13 +49,15 @@ class StretchBound:
 
 @dataclass(frozen=True)
 class LowerBound:
-    """The program's lower bound: per stretch, and ``total_s`` [s]."""
+    """The program's lower bound: per stretch, the waits of its actions ``rests_s`` [s] (no motion is shorter), and
+    ``total_s`` [s]."""
 
     stretches: tuple[StretchBound, ...]
+    rests_s: float = 0.0
 
     @property
     def total_s(self) -> float:
-        return float(sum(s.bound_s for s in self.stretches))
+        return float(sum(s.bound_s for s in self.stretches)) + self.rests_s
 
     @property
     def tcp_s(self) -> float:
@@ -66,7 +68,7 @@ class LowerBound:
         return float(sum(s.joints_s for s in self.stretches))
 
     def to_dict(self) -> dict:
-        return {"total_s": self.total_s, "stretches": [s.to_dict() for s in self.stretches]}
+        return {"total_s": self.total_s, "rests_s": self.rests_s, "stretches": [s.to_dict() for s in self.stretches]}
 
 
 def rest_to_rest_time(distance: np.ndarray, v_max: np.ndarray, a_max: np.ndarray | None) -> np.ndarray:
@@ -104,7 +106,7 @@ def lower_bound(program: Program) -> LowerBound:
         times = _joint_times(targets[_passed_exactly(program, first, last)], qd_max * fastest, qdd_max)
         tcp = sum(_tool_part_time(program, k, first, last, accel, scale) for k in range(first, last))
         stretches.append(StretchBound(first, last, float(times.max()), float(tcp), int(np.argmax(times))))
-    return LowerBound(tuple(stretches))
+    return LowerBound(tuple(stretches), float(sum(program.rest_at(k) for k in range(len(targets)))))
 
 
 def _passed_exactly(program: Program, first: int, last: int) -> list[int]:

@@ -30,6 +30,7 @@ from ..model.ik.branches import BranchChoice, branch_change_reason, choose_solut
 from ..model.ik.result import MATCHED_COMPONENTS, make_target, pose_errors
 from ..model.vendors.configuration import format_configuration
 from ..model.vendors.selection import select_solution
+from .actions import waits
 from .job import Job, JointWaypoint
 from .model import JOINT, Move, Program, ToolTrack, WaypointSolution
 from .tool_moves import ToolMoveError, joint_path_along
@@ -66,7 +67,8 @@ def compile_job(job: Job, scene=None) -> Program:
     limits = dataclasses.replace(job.robot.limits, tcp_speed_max=job.tcp_speed_limit, tcp_accel_max=None)
     return Program(job.name, job.robot, Tool.of_job(job), job.cell, limits, job.tcp_accel_max, job.speed_scale, job.timing,
                    job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan, tilt,
-                   payload=job.payload, job_name=job.name)
+                   payload=job.payload, job_name=job.name, actions=tuple(w.actions for w in job.waypoints),
+                   signals=dict(job.signals))
 
 
 def with_capped_zones(job: Job, targets: list[np.ndarray]) -> Job:
@@ -96,13 +98,13 @@ def move_speed(job: Job, waypoint) -> float:
 
 
 def _stops(job: Job, moves: list[Move]) -> tuple[int, ...]:
-    """The waypoints where the motion rests: the first, the last, and every one without a zone except
-    between two joint moves that are not planned (a joint path passes through those)."""
+    """The waypoints where the motion rests: the first, the last, every one whose actions wait, and every one
+    without a zone except between two joint moves that are not planned (a joint path passes through those)."""
     stops = [0]
     for k in range(1, len(moves)):
         before, after = moves[k - 1], moves[k]
         passed = before.kind == JOINT and after.kind == JOINT and job.plan != "collision_free"
-        if before.zone <= 0.0 and not passed:
+        if (before.zone <= 0.0 and not passed) or waits(job.waypoints[k].actions):
             stops.append(k)
     return (*stops, len(moves))
 

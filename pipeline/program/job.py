@@ -20,7 +20,7 @@ import json
 import logging
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -37,6 +37,8 @@ from ..files.robot_spec import missing_limit_error, preset_names, resolve_robot_
 from ..files.schema import Document, Reader, document_from_data, field_name, load_document
 from ..files.units import ANGLE_UNITS, LENGTH_UNITS
 from ..model.robot import Robot, load_robot, robot_with_tool
+from .actions import (ACTION_KINDS, COMMENT, INPUT, MAX_ACTION_TIME_S, MAX_COMMENT_CHARS, MAX_SIGNAL_NUMBER, OUTPUT,
+                      PULSE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, waits)
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png", "rapid", "ls",
            "jbi", "krl", "urscript")
@@ -56,17 +58,17 @@ REACH_SAMPLES = 4096
 _REQUIRED = ("waypoints",)
 _OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
              "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
-             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit", "payload")
+             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit", "payload", "signals")
 #: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have (ours,
 #: a controller's, or both), and how the TCP gets there (move, via point, zone, speed).
-_POSE_EXTRA = ("target", "config", "controller_config", "move", "via", "zone", "speed")
+_POSE_EXTRA = ("target", "config", "controller_config", "move", "via", "zone", "speed", "do")
 #: How each vendor's configuration is written under a pose waypoint's ``controller_config`` (the syntax
 #: of ``pipeline.model.vendors.configuration.parse_configuration``), for messages.
 CONTROLLER_CONFIG_EXAMPLES = {"abb": "{abb: [0, -1, 1, 2]}", "fanuc": "{fanuc: 'N U T, 0, 0, 0'}",
                               "yaskawa": "{yaskawa: [1, 0, 0, 0, 0, 0]}", "kuka": "{kuka: \"S 'B010', T 'B100011'\"}"}
 #: The keys of a joint waypoint written as a mapping (a plain list is its joint values alone).
 _JOINT_REQUIRED = ("joints",)
-_JOINT_OPTIONAL = ("speed", "zone")
+_JOINT_OPTIONAL = ("speed", "zone", "do")
 #: Largest TCP speed [m/s] and acceleration [m/s^2] a job may ask for: beyond any arm (unit mistakes).
 MAX_TCP_SPEED = 20.0
 MAX_TCP_ACCEL = 1000.0
@@ -102,6 +104,7 @@ class JointWaypoint:
     zone: float = 0.0
     speed: float | None = None
     move: str = "joint"
+    actions: tuple[Action, ...] = ()
     is_tool_move = False
 
 
@@ -116,7 +119,8 @@ class PoseWaypoint:
     without stopping, the TCP leaving the programmed path at most this far before it and rejoining it at
     most this far after (0: an exact stop, except between two joint moves, which a joint path passes
     through); ``speed``: the move's own speed, a TCP speed [m/s] for a tool move, a fraction in (0, 1]
-    of the joint speed limits for a joint move (None: the job's ``tcp_speed_max``, or 1)."""
+    of the joint speed limits for a joint move (None: the job's ``tcp_speed_max``, or 1); ``actions``: what the
+    controller does once there (``pipeline.program.actions``; a JointWaypoint's too)."""
 
     X_BE: np.ndarray
     target: str = FULL_POSE
@@ -126,6 +130,7 @@ class PoseWaypoint:
     zone: float = 0.0
     speed: float | None = None
     controller_config: tuple[str, tuple[int, ...]] | None = None
+    actions: tuple[Action, ...] = ()
 
     @property
     def is_tool_move(self) -> bool:
@@ -163,7 +168,8 @@ class Job:
     pose is a TCP pose); ``tcp_speed_max`` [m/s]: the default speed of tool moves, ``tcp_accel_max``
     [m/s^2]: the TCP's acceleration limit on tool moves, or None (neither limits joint moves);
     ``payload``: the Payload (mass, centre of mass in the flange frame) or None: not given (controller programs
-    then carry a marked placeholder);
+    then carry a marked placeholder); ``signals``: the named digital signals the waypoints' actions use (name ->
+    ``pipeline.program.actions.Signal``);
     ``tcp_speed_limit`` [m/s] or None: a TCP speed limit that holds everywhere (a safety-rated reduced
     speed), certified on the whole profile; ``singularity``:
     what a tool move does near a singularity (stop, slow_down). ``cell``: the Cell the job runs in (None:
@@ -205,6 +211,7 @@ class Job:
     document: Document | None = None
     tcp_speed_limit: float | None = None
     payload: Payload | None = None
+    signals: dict = field(default_factory=dict)
 
     def location(self, path: tuple) -> str:
         """``file:line: field`` of the field at ``path`` (``file: field`` where the line is unknown)."""
@@ -444,6 +451,9 @@ class _JobReader(Reader):
             self.pose_waypoint(("waypoints", k), robot, length_scale, angle_scale, reach)
             if _is_pose(w) else self.joint_waypoint(("waypoints", k), robot, scales, length_scale)
             for k, w in enumerate(raw))
+        signals = self.signals()
+        waypoints = tuple(replace(w, actions=self.actions(("waypoints", k), signals)) if isinstance(raw[k], dict) else w
+                          for k, w in enumerate(waypoints))
         self.check_moves(waypoints)
         start = self.joint_values(("start",), robot, scales) if self.has(("start",)) else None
         return waypoints, start
@@ -464,6 +474,93 @@ class _JobReader(Reader):
         for k, reason in ends.items():
             if waypoints[k].zone > 0.0:
                 self.fail(("waypoints", k, "zone"), reason, self.get(("waypoints", k, "zone")))
+        for k, waypoint in enumerate(waypoints):
+            if waypoint.zone > 0.0 and waits(waypoint.actions):
+                self.fail(("waypoints", k, "zone"), "the waypoint's actions wait there, so the motion stops: remove the "
+                          "zone (or move the wait to a waypoint without one)", self.get(("waypoints", k, "zone")))
+
+    def signals(self) -> dict[str, Signal]:
+        """``signals: {name: {output: N} or {input: N}}`` (N the controller's number, or null where not known)."""
+        if not self.has(("signals",)):
+            return {}
+        table = self.get(("signals",))
+        if not isinstance(table, dict):
+            self.fail(("signals",), "must map signal names to {output: N} or {input: N}", table)
+        out = {}
+        for name in table:
+            path = ("signals", name)
+            if not SIGNAL_NAME.match(name):
+                self.fail(path, "a signal's name is a letter, then letters, digits or underscores (at most 32)", name)
+            entry = self.get(path, {})
+            if not isinstance(entry, dict) or len(entry) != 1 or next(iter(entry)) not in (OUTPUT, INPUT):
+                self.fail(path, "must be {output: N} or {input: N} (N the controller's signal number, or null)", entry)
+            direction, number = next(iter(entry.items()))
+            if number is not None:
+                if isinstance(number, bool) or not isinstance(number, int) or not 0 <= number <= MAX_SIGNAL_NUMBER:
+                    self.fail((*path, direction), f"must be a whole number in [0, {MAX_SIGNAL_NUMBER}] or null", number)
+            out[name] = Signal(name, direction, number)
+        return out
+
+    def actions(self, path, signals: dict[str, Signal]) -> tuple[Action, ...]:
+        """A waypoint's ``do:`` list (``pipeline.program.actions``) -> its Actions."""
+        path = (*path, "do")
+        if not self.has(path):
+            return ()
+        return tuple(self.action((*path, i), signals) for i in range(len(self.sequence(path, 1, "actions"))))
+
+    def action(self, path, signals: dict[str, Signal]) -> Action:
+        entry = self.get(path)
+        kinds = [key for key in (entry if isinstance(entry, dict) else ()) if key in ACTION_KINDS]
+        if len(kinds) != 1:
+            self.fail(path, "must be one action: {set: NAME, value: on}, {pulse: NAME, time: s}, {wait: s}, "
+                      "{wait_input: NAME, value: on, timeout: s} or {comment: TEXT}", entry)
+        kind = kinds[0]
+        extra = {SET: ((SET, "value"), ()), PULSE: ((PULSE, "time"), ()), WAIT: ((WAIT,), ()),
+                 WAIT_INPUT: ((WAIT_INPUT, "value"), ("timeout",)), COMMENT: ((COMMENT,), ())}[kind]
+        self.mapping(path, *extra)
+        if kind == COMMENT:
+            text = self.text((*path, COMMENT), max_chars=MAX_COMMENT_CHARS)
+            if any(c in text for c in "\r\n\"'") or not text.isprintable():
+                self.fail((*path, COMMENT), "a comment is one line of printable text without quotes", text)
+            return Action(COMMENT, text=text)
+        if kind == WAIT:
+            return Action(WAIT, time_s=self.seconds((*path, WAIT)))
+        signal = self.signal((*path, kind), signals, INPUT if kind == WAIT_INPUT else OUTPUT)
+        if kind == PULSE:
+            return Action(PULSE, signal, True, time_s=self.seconds((*path, "time")))
+        timeout = self.seconds((*path, "timeout")) if self.has((*path, "timeout")) else None
+        return Action(kind, signal, self.on_off((*path, "value")), timeout_s=timeout)
+
+    def seconds(self, path) -> float:
+        """A time in (0, MAX_ACTION_TIME_S] [s], with a hint when it reads as milliseconds."""
+        value = self.get(path)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and value > MAX_ACTION_TIME_S:
+            self.fail(path, f"is in seconds, at most {MAX_ACTION_TIME_S:g}: are these milliseconds?", value)
+        return self.number(path, low=0.0, high=MAX_ACTION_TIME_S, low_open=True, unit="s")
+
+    def signal(self, path, signals: dict[str, Signal], direction: str) -> str:
+        """The name at ``path``, a signal of the job's table with ``direction``."""
+        name = self.get(path)
+        known = signals.get(name) if isinstance(name, str) else None
+        if known is None:
+            listed = ", ".join(signals) or "none"
+            self.fail(path, f"names no signal of the job's signals: table ({listed}); add it, e.g. signals: "
+                      f"{{{name}: {{{direction}: 1}}}}", name)
+        if known.direction != direction:
+            self.fail(path, f"is a digital {known.direction}; this action needs a digital {direction}", name)
+        return name
+
+    def on_off(self, path) -> bool:
+        """on/off (or true/false, 1/0) -> a bool."""
+        value = self.get(path)
+        words = {"on": True, "off": False, "true": True, "false": False, "high": True, "low": False}
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, int) and value in (0, 1):
+            return bool(value)
+        if isinstance(value, str) and value.lower() in words:
+            return words[value.lower()]
+        self.fail(path, "must be on or off", value)
 
     def tool(self, robot: Robot, length_scale: float | None, angle_scale: float | None) -> np.ndarray | None:
         """The job's ``tool`` -> X_ET (4, 4) [m] (None when absent)."""
@@ -629,6 +726,7 @@ class _JobReader(Reader):
             cell=self.cell,
             document=self.document,
             payload=self.payload(length_scale),
+            signals=self.signals(),
             **self.planning(angle_scale),
         )
 

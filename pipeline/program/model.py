@@ -24,6 +24,7 @@ from ..cell.tilt import TiltLimit
 from ..cell.tool import Tool
 from ..files.robot_spec import Limits
 from ..model.robot import Robot
+from .actions import Action, Signal, actions_document, rest_s, signals_document
 from .job import Payload
 from .tool_moves import ToolJointPath
 
@@ -126,7 +127,9 @@ class Program:
     ``stops`` (waypoint indices where the motion rests, first and last included), ``plan`` (the job's),
     ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none), ``payload`` the job's
     Payload (None: not given), ``job_name`` the job it was compiled from (``name`` may be renamed for a controller;
-    every controller program records the job: ``pipeline.files.atomic.job_mark``)."""
+    every controller program records the job: ``pipeline.files.atomic.job_mark``); ``actions``: per waypoint what
+    the controller does once there (``pipeline.program.actions``; () or empty tuples: nothing) and ``signals`` the
+    named signals they use."""
 
     name: str
     robot: Robot
@@ -146,6 +149,16 @@ class Program:
     details: dict = field(default_factory=dict)
     payload: Payload | None = None
     job_name: str = ""
+    actions: tuple[tuple[Action, ...], ...] = ()
+    signals: dict[str, Signal] = field(default_factory=dict)
+
+    def actions_at(self, k: int) -> tuple[Action, ...]:
+        """The actions at waypoint ``k`` (once the robot is there; waypoint 0's before the first move)."""
+        return self.actions[k] if k < len(self.actions) else ()
+
+    def rest_at(self, k: int) -> float:
+        """How long the motion stands still at waypoint ``k`` for its actions, as timed [s]."""
+        return rest_s(self.actions_at(k))
 
     @property
     def has_tcp_limits(self) -> bool:
@@ -182,7 +195,9 @@ class Program:
                 "tcp_speed_limit_m_s": self.limits.tcp_speed_max, "tcp_accel_max_m_s2": self.tcp_accel_max,
                 "timing": self.timing, "path": self.path, "plan": self.plan, "stops": list(self.stops),
                 "plan_tilt_max_deg": None if self.tilt is None else float(np.degrees(self.tilt.max_rad)),
-                "waypoints": [w.to_dict() for w in self.waypoints], "moves": [m.to_dict() for m in self.moves]}
+                "waypoints": [w.to_dict() for w in self.waypoints], "moves": [m.to_dict() for m in self.moves],
+                "actions": {str(k): actions_document(a) for k, a in enumerate(self.actions) if a},
+                "signals": signals_document(self.signals)}
 
 
 def program_arrays(program: Program) -> dict[str, np.ndarray]:

@@ -37,20 +37,23 @@ def binding_labels(profile: Profile) -> list[str]:
 
 
 def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = None) -> dict:
-    """The report (JSON-ready): ``cycle_s``, ``lower_bound_s``, their ratio, the stretches' bounds, and
-    per move its waypoints, kind, duration [s] and binding limit."""
+    """The report (JSON-ready): ``cycle_s``, ``lower_bound_s``, their ratio, the stretches' bounds, per move its
+    waypoints, kind, duration [s] (from leaving its start waypoint to passing its end) and binding limit, and per
+    waypoint with actions what they do, when the robot gets there and how long it rests for them (``rests_s`` the
+    total) [s]."""
     bound = lower_bound(program) if bound is None else bound
     passages = list(profile.details.passages_s)
+    rests = list(profile.details.rests_s) or [0.0] * len(passages)
     labels = binding_labels(profile)
     narrowed = {s["last"]: s["blends_narrowed"] for s in profile.details.stretches}
     # Each move's samples (t0 <= t <= t1) and the last waypoint of its stretch, found by bisection.
-    starts = np.searchsorted(profile.t, passages[:-1], side="left")
+    starts = np.searchsorted(profile.t, np.add(passages[:-1], rests[:-1]), side="left")
     ends = np.searchsorted(profile.t, passages[1:], side="right")
     stops = np.asarray(program.stops)
     stretch_ends = stops[np.searchsorted(stops, np.arange(len(program.moves)), side="right")]
     moves = []
     for k, move in enumerate(program.moves):
-        t0, t1 = passages[k], passages[k + 1]
+        t0, t1 = passages[k] + rests[k], passages[k + 1]
         inside = labels[starts[k]: ends[k]]
         binding = Counter(inside).most_common(1)[0][0] if inside else "none"
         if narrowed.get(int(stretch_ends[k])):
@@ -58,15 +61,31 @@ def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = 
         if move.track is not None and move.track.along.slowest_tcp_speed < move.speed * program.speed_scale:
             binding += " (singularity slow-down)"
         moves.append({"from": k, "to": k + 1, "kind": move.kind, "duration_s": t1 - t0, "binding": binding})
+    actions = [{"at": k, "actions": [str(a) for a in done], "rest_s": rests[k], "at_s": passages[k]}
+               for k, done in enumerate(program.actions) if done]
     return {"cycle_s": profile.duration, "lower_bound_s": bound.total_s,
             "ratio": profile.duration / bound.total_s if bound.total_s > 0.0 else None,
-            "stretches": [s.to_dict() for s in bound.stretches], "moves": moves}
+            "stretches": [s.to_dict() for s in bound.stretches], "moves": moves, "actions": actions,
+            "rests_s": float(sum(rests))}
 
 
 def cycle_lines(report: dict) -> list[str]:
     """The report as the lines ``run`` prints."""
     ratio = "" if report["ratio"] is None else f" ({report['ratio']:.2f}x)"
     lines = [f"cycle {report['cycle_s']:.3f} s, lower bound {report['lower_bound_s']:.3f} s{ratio}"]
-    lines += [f"  move {m['from']}->{m['to']} {m['kind']:<8} {m['duration_s']:.3f} s  {m['binding']}"
-              for m in report["moves"]]
+    actions = {a["at"]: a for a in report.get("actions", ())}
+    for m in report["moves"]:
+        if m["from"] in actions:
+            lines.append(_action_line(actions[m["from"]]))
+        lines.append(f"  move {m['from']}->{m['to']} {m['kind']:<8} {m['duration_s']:.3f} s  {m['binding']}")
+    last = len(report["moves"])
+    if last in actions:
+        lines.append(_action_line(actions[last]))
     return lines
+
+
+def _action_line(entry: dict) -> str:
+    """What the program does at a waypoint, and how long it stands still for it."""
+    rest = f"{entry['rest_s']:.3f} s" if entry["rest_s"] > 0.0 else "no stop" if not any(
+        a.startswith("wait") for a in entry["actions"]) else "0.000 s (an input's wait is not timed)"
+    return f"  at {entry['at']:<6} {'; '.join(entry['actions'])}  [{rest}]"

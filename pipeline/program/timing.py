@@ -39,11 +39,13 @@ MAX_REFINEMENTS = 8
 class ProgramDetails(TimingDetails):
     """What timing a program did: per stretch its waypoints ``first``..``last``, ``duration_s``, its
     back end's ``timing`` details and the blends narrowed for the limits or the clearance; ``passages_s``:
-    the time [s] at which the motion passes (or stops at) each waypoint; ``tilt``: the tilt certificate of
-    the planned moves (``pipeline.cell.tilt.TiltReport.to_dict``; None without a tilt limit)."""
+    the time [s] at which the motion passes (or comes to rest at) each waypoint; ``rests_s``: per waypoint how long
+    the motion rests there for its actions' waits [s] (it leaves at passage + rest); ``tilt``: the tilt certificate
+    of the planned moves (``pipeline.cell.tilt.TiltReport.to_dict``; None without a tilt limit)."""
 
     stretches: tuple[dict, ...]
     passages_s: tuple[float, ...]
+    rests_s: tuple[float, ...] = ()
     tilt: dict | None = None
 
 
@@ -59,7 +61,7 @@ def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SA
         clearance = certificate.clearance
         if clearance is None or clearance.passed:
             break
-        k, blend = _blend_at(paths, profiles, clearance.failed_at_s)
+        k, blend = _blend_at(paths, profiles, _stretch_starts(program, profiles), clearance.failed_at_s)
         if blend is None:
             hint = "" if program.plan == "collision_free" else " (plan: collision_free plans joint moves around obstacles)"
             first, last = program.stretches()[k]
@@ -102,10 +104,13 @@ def _time_stretch(program: Program, path: StretchPath | None, k: int, max_sample
 
 
 def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
-    """The stretches' profiles one after the other, with their schedules and the passage times."""
-    offsets = np.cumsum([0.0] + [p.duration for p in profiles[:-1]])
-    passages, stretches = [], []
-    for path, profile, offset, (first, last) in zip(paths, profiles, offsets, program.stretches()):
+    """The stretches' profiles one after the other, each stop held for its actions' waits (``rest_profile``), with
+    their schedules, the passage times and the rests."""
+    starts = _stretch_starts(program, profiles)
+    passages, stretches, pieces = [], [], []
+    if program.rest_at(0) > 0.0:
+        pieces.append(rest_profile(profiles[0], 0, program.rest_at(0), program.dt))
+    for path, profile, offset, (first, last) in zip(paths, profiles, starts, program.stretches()):
         if path is None:
             times = [offset + t for t in _ruckig_passages(program, first, last, profile)]
         else:
@@ -114,9 +119,40 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
         stretches.append({"first": first, "last": last, "duration_s": profile.duration,
                           "timing": profile.details.to_dict() if profile.details else None,
                           "blends_narrowed": 0 if path is None else sum(b.narrowed for b in path.blends)})
-    joined = join_profiles(profiles, ProgramDetails(tuple(stretches), (0.0, *passages)))
-    schedule = stopped_schedules(profiles)
+        pieces.append(profile)
+        if program.rest_at(last) > 0.0:
+            pieces.append(rest_profile(profile, -1, program.rest_at(last), program.dt))
+    rests = tuple(program.rest_at(k) for k in range(len(program.moves) + 1))
+    joined = join_profiles(pieces, ProgramDetails(tuple(stretches), (0.0, *passages), rests))
+    schedule = stopped_schedules(pieces)
     return joined if schedule is None else dataclasses.replace(joined, schedule=schedule)
+
+
+def _stretch_starts(program: Program, profiles: list[Profile]) -> np.ndarray:
+    """When each stretch begins in the joined profile [s]: after the stretches before it and the rests at
+    their stops (and waypoint 0's)."""
+    rests = [program.rest_at(first) for first, _ in program.stretches()]
+    return np.cumsum([rests[0]] + [p.duration + rest for p, rest in zip(profiles[:-1], rests[1:])])
+
+
+def rest_profile(profile: Profile, sample: int, duration: float, dt: float) -> Profile:
+    """The robot at rest for ``duration`` [s] where ``profile`` is at its ``sample`` (0 or -1: a stop), sampled
+    about every ``dt`` [s], under the limits the profile has there."""
+    n = max(2, int(np.ceil(duration / dt)) + 1)
+    t = np.linspace(0.0, duration, n)
+
+    def held(array):
+        return None if array is None else np.repeat(array[sample][None, :], n, axis=0)
+
+    zeros = np.zeros((n, profile.dof))
+    tcp = None if profile.tcp is None else TcpSamples(held(profile.tcp.position), np.zeros(n), np.zeros(n))
+    schedule = None
+    if profile.schedule is not None:
+        index = 0 if sample == 0 else len(profile.schedule.bounds) - 2
+        schedule = LimitSchedule(np.array([0.0, duration]), *(values[index: index + 1] for values in (
+            profile.schedule.joint_speed, profile.schedule.tcp_speed, profile.schedule.tcp_accel)))
+    return dataclasses.replace(profile, t=t, q=held(profile.q), qd=zeros, qdd=zeros, qddd=zeros.copy(),
+                               tau=held(profile.tau), tcp=tcp, schedule=schedule, details=None, certificate=None)
 
 
 def stopped_schedules(profiles: list[Profile]) -> LimitSchedule | None:
@@ -168,10 +204,9 @@ def _ruckig_passages(program: Program, first: int, last: int, profile: Profile) 
     return [float(t) for t in np.cumsum(durations)[np.cumsum(edges) - 1]]
 
 
-def _blend_at(paths: list, profiles: list[Profile], t: float | None):
+def _blend_at(paths: list, profiles: list[Profile], offsets: np.ndarray, t: float | None):
     """(stretch index, the blend whose configurations come nearest the profile's at job time ``t``, or
-    None when the nearest part of the path is not a blend)."""
-    offsets = np.cumsum([0.0] + [p.duration for p in profiles])
+    None when the nearest part of the path is not a blend); ``offsets``: when each stretch begins [s]."""
     k = int(np.clip(np.searchsorted(offsets, t if t is not None else 0.0, side="right") - 1, 0, len(profiles) - 1))
     path, profile = paths[k], profiles[k]
     if path is None or t is None:

@@ -92,7 +92,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...program.model import CIRCULAR, JOINT, LINEAR, Program
-from ...program.timing import join_profiles, stopped_schedules
+from ...program.timing import join_profiles, rest_profile, stopped_schedules
 from ...program.tool_moves import joint_path_along
 from ...program.tool_path import ToolMove, ToolPath
 from ...timing import time_path
@@ -543,6 +543,7 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
     accel = np.inf if program.tcp_accel_max is None else program.tcp_accel_max
     profiles, passages, stretches = [], [], []
     offset = 0.0
+    last_of = {m.move.source: m.index for m in path.moves}        # a waypoint's last written move
     for stretch in path.stretches:
         if stretch.path is None:            # no motion: the stretch takes no time
             passages += [offset] * len(stretch.moves)
@@ -553,6 +554,9 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
         schedule = LimitSchedule(stretch.bounds, *speeds.T)
         profile = time_path(robot, stretch.path, method=method, speed_scale=program.speed_scale,
                             limits=program.limits, dt=program.dt, tcp=tcp, schedule=schedule)
+        if not profiles and program.rest_at(0) > 0.0:       # waypoint 0's waits, before the first move
+            profiles.append(rest_profile(profile, 0, program.rest_at(0), program.dt))
+            offset += program.rest_at(0)
         bound_times = profile.schedule.bounds
         # passages sit on schedule bounds: their times are exact
         index = np.searchsorted(stretch.bounds, stretch.passages - 1e-12)
@@ -560,6 +564,10 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
         stretches.append({"moves": list(stretch.moves), "duration_s": profile.duration})
         profiles.append(profile)
         offset += profile.duration
+        source = path.moves[stretch.moves[-1]].move.source
+        if source is not None and last_of[source] == stretch.moves[-1] and program.rest_at(source) > 0.0:
+            profiles.append(rest_profile(profile, -1, program.rest_at(source), program.dt))
+            offset += program.rest_at(source)
     details = WrittenDetails(tuple(stretches), tuple(passages))
     joined = join_profiles(profiles, details)
     schedule = stopped_schedules(profiles)

@@ -3,7 +3,7 @@ timing settings its header marks (``settings_mark``)."""
 
 from __future__ import annotations
 
-from .settings_mark import with_written_settings
+from .settings_mark import with_signal_names, with_written_settings
 
 #: The program file's suffix (KRL: the .src; its targets are in the .dat beside it) -> its language.
 READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".script": "urscript"}
@@ -24,4 +24,4 @@ def read_program_text(language: str, text: str, robot, source: str, dat: str | N
                "jbi": lambda: read_jbi(text, robot, source=source),
                "krl": lambda: read_krl(text, dat, robot, source, dat_source),
                "urscript": lambda: read_urscript(text, robot)}
-    return with_written_settings(readers[language](), text)
+    return with_signal_names(with_written_settings(readers[language](), text), text)

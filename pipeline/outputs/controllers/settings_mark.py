@@ -11,6 +11,10 @@ percentage capped at 100), its TCP acceleration (RAPID ``PathAccLim``, KRL ``$AC
 controller ignores the comment; a program without it (a pendant's) reads as before: toppra at scale 1.
 
 Each key is one word, so the mark survives the writers' wrapping of comments into short lines.
+
+The job's signal names ride in the same way where the language numbers its I/O (``signals_mark``:
+``dh.signal.gripper_close=out1 dh.signal.part_present=in3``): a reader names a numbered signal ``do<N>`` / ``di<N>``
+(or as the program itself names it), and ``with_signal_names`` gives it back the job's name.
 """
 
 from __future__ import annotations
@@ -18,7 +22,11 @@ from __future__ import annotations
 import math
 import re
 
+from ...program.actions import INPUT, OUTPUT, PULSE, SET, WAIT_INPUT
 from ...program.model import Program
+
+#: The action keys whose value is a signal's name.
+SIGNAL_KINDS = (SET, PULSE, WAIT_INPUT)
 
 #: Prefix of every key of the mark.
 PREFIX = "dh."
@@ -34,6 +42,41 @@ def settings_mark(program: Program) -> str:
               "tcp_accel_max": program.tcp_accel_max,
               "tcp_speed_limit": program.limits.tcp_speed_max}          # the job's safety limit (compile)
     return " ".join(f"{PREFIX}{key}={_text(values[key])}" for key in KEYS if values[key] is not None)
+
+
+def signals_mark(program: Program) -> str:
+    """The header comment naming ``program``'s numbered signals (module docstring; empty without any)."""
+    return " ".join(f"{PREFIX}signal.{s.name}={'out' if s.direction == OUTPUT else 'in'}{s.number}"
+                    for s in program.signals.values() if s.number is not None)
+
+
+_SIGNAL = re.compile(r"\bdh\.signal\.([A-Za-z][A-Za-z0-9_]{0,31})=(out|in)([0-9]{1,4})\b")
+
+
+def with_signal_names(document: dict, text: str) -> dict:
+    """``document`` (a reader's job document) with its numbered signals renamed as ``text``'s mark names them
+    (``signals_mark``), in its ``signals`` table and its waypoints' actions. A new dict; ``document`` as it is when
+    the text has no mark."""
+    table = document.get("signals") or {}
+    by_number = {(direction, number): name for name, entry in table.items() for direction, number in entry.items()}
+    renamed = {}
+    for name, direction, number in _SIGNAL.findall(text):
+        old = by_number.get((OUTPUT if direction == "out" else INPUT, int(number)))
+        if old is not None and name not in renamed.values() and (name == old or name not in table):
+            renamed[old] = name
+    if not renamed:
+        return document
+    signals = {renamed.get(name, name): entry for name, entry in table.items()}
+    waypoints = [_renamed_actions(w, renamed) for w in document["waypoints"]]
+    return {**document, "signals": signals, "waypoints": waypoints}
+
+
+def _renamed_actions(waypoint, renamed: dict):
+    if not isinstance(waypoint, dict) or "do" not in waypoint:
+        return waypoint
+    actions = [{key: renamed.get(value, value) if key in SIGNAL_KINDS else value for key, value in action.items()}
+               for action in waypoint["do"]]
+    return {**waypoint, "do": actions}
 
 
 def _text(value) -> str:
