@@ -1,11 +1,12 @@
 """Command line: ``python -m pipeline VERB ...``, VERB one of
-{run,program,read-program,show,fk,ik,check,check-cell,bench,build-kernels,export,import-urdf,batch,reach,ui}.
+{run,program,read-program,check-program,show,fk,ik,check,check-cell,bench,build-kernels,export,import-urdf,batch,
+reach,ui}.
 The only place that configures logging.
 
 Every failure is one line on stderr: ``error: ...`` and exit status 2 for bad input or an output that
 cannot be written (a PipelineError), ``internal error: ...`` and exit status 1 for a bug (``-v``
-prints its traceback), exit status 130 when interrupted. ``check`` above tolerance and ``batch`` with a
-failed job (a row of its summary) exit with status 1 too.
+prints its traceback), exit status 130 when interrupted. ``check`` above tolerance, ``check-program`` on a program
+that would collide or leave a limit, and ``batch`` with a failed job (a row of its summary) exit with status 1 too.
 """
 
 from __future__ import annotations
@@ -328,7 +329,7 @@ def cmd_read_program(args) -> int:
     load_robot(args.robot)                  # the robot file's own errors name that file, not the program
     from .outputs.controllers.read_units import in_program_units
 
-    document = in_program_units(_read_program(language, path, args.robot), language)
+    document = in_program_units(_read_program(language, path, args.robot, _tool_option(args.tool)), language)
     document["robot"] = _robot_reference(args.robot, out)
     job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
     header = f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
@@ -339,6 +340,57 @@ def cmd_read_program(args) -> int:
     write_text_atomic(out, text, args.force)
     print(f"read {path}: {len(document['waypoints'])} waypoints for {args.robot}; wrote {out}")
     return 0
+
+
+def cmd_check_program(args) -> int:
+    """Check an existing controller program in a cell (``pipeline.outputs.controllers.check_program``): read it,
+    solve its targets with its configuration data, time it as written, certify limits and clearance; print the
+    cycle time per move and what fails (exit 1), and write the report as JSON to --out when given."""
+    from .outputs.controllers.check_program import check_program
+    from .outputs.controllers.read_program import READ_SUFFIXES
+    from .program.compile import compile_job
+    from .program.job import parse_job
+    from .runner import collision_model
+
+    path = Path(args.file)
+    language = READ_SUFFIXES.get(path.suffix.lower())
+    if language is None:
+        raise _program_error(path, f"unknown program file type {path.suffix!r}: the readers take "
+                             f"{', '.join(READ_SUFFIXES)} (KRL: the .src, with its .dat beside it)")
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        prepare_file_target(out, args.force)
+    load_robot(args.robot)
+    document = _read_program(language, path, args.robot, _tool_option(args.tool))
+    document.update(robot=args.robot, allow_branch_change=True)     # the program's own configurations, as written
+    if args.cell:
+        document["cell"] = args.cell
+    job = parse_job(document, source=str(path), name=path.stem)
+    program = compile_job(job)                 # no planning, targets where the program puts them
+    check = check_program(program, collision_model(job))
+    cell = f" in {job.cell.name}" if job.cell is not None else " (no cell: clearance not checked)"
+    print(f"check-program {path}: {job.robot.name}{cell}, {len(program.moves)} moves, as the controller runs it")
+    print("\n".join(check.lines()))
+    if out is not None:
+        write_text_atomic(out, json.dumps(check.to_dict(), indent=1) + "\n", args.force)
+        print(f"wrote {out}")
+    return 0 if check.passed else 1
+
+
+def _tool_option(text: str | None) -> np.ndarray | None:
+    """``--tool x,y,z,roll,pitch,yaw`` (mm, deg) -> X_FT (4, 4) [m]; None when not given."""
+    if text is None:
+        return None
+    from .files.poses import rpy_position_to_pose
+
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 6 or not all(np.isfinite(values)) or max(abs(v) for v in values[:3]) > 10_000.0:
+        raise ConfigurationError(f"--tool {text!r}: give the tool as x,y,z,roll,pitch,yaw in mm and degrees (the TCP "
+                                 "in the flange frame, each length within 10 m), e.g. --tool 0,0,120,0,0,0")
+    return rpy_position_to_pose(np.radians(values[3:]), np.array(values[:3]) / 1000.0)
 
 
 def _robot_reference(robot: str, out: Path | None) -> str:
@@ -371,15 +423,16 @@ def _read_text(path: Path) -> str:
     return decode_text(read_file_bytes(path, fail, MAX_PROGRAM_BYTES), fail)
 
 
-def _read_program(language: str, path: Path, robot: str) -> dict:
+def _read_program(language: str, path: Path, robot: str, tool: np.ndarray | None = None) -> dict:
     """The job document of the program at ``path`` in ``language``, with the timing settings its header marks
-    (``settings_mark.with_written_settings``); every reader error names ``path``."""
+    (``settings_mark.with_written_settings``); ``tool``: X_FT (4, 4) [m] of the tool the program selects by number
+    (``--tool``); every reader error names ``path``."""
     from .outputs.controllers.read_program import read_program_text
 
     text = _read_text(path)
     dat = _dat_file(path) if language == "krl" else None
     try:
-        return read_program_text(language, text, robot, str(path), dat and _read_text(dat), str(dat))
+        return read_program_text(language, text, robot, str(path), dat and _read_text(dat), str(dat), tool)
     except FileFormatError as exc:
         if exc.source in (str(path), str(dat)):
             raise
@@ -609,6 +662,12 @@ examples:
 traceback), a check above tolerance or a batch with a failed job; 130 interrupted."""
 
 
+def _add_tool_option(parser) -> None:
+    parser.add_argument("--tool", metavar="X,Y,Z,ROLL,PITCH,YAW",
+                        help="the tool the program selects by number (UTOOL_NUM, ///TOOL, TOOL_DATA[n]) whose data "
+                             "the file does not hold: the TCP in the flange frame, mm and degrees")
+
+
 def _verb(sub, prog: str, name: str, summary: str, description: str, examples: list[str]) -> argparse.ArgumentParser:
     """A subcommand with a one-line summary (in the verb list), a description and examples (in its --help)."""
     lines = "\n".join(f"  {prog} {name} {example}" for example in examples)
@@ -688,8 +747,27 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     read.add_argument("file", help="the program: .mod (RAPID), .ls (FANUC), .jbi (Yaskawa), .src (KRL), .script (UR)")
     read.add_argument("--robot", required=True, help="preset name or robot file path of the arm the program runs on")
     read.add_argument("--out", metavar="JOB.yaml", help="the job file to write (default: print it)")
+    _add_tool_option(read)
     _add_force_option(read)
     read.set_defaults(func=cmd_read_program)
+
+    checked = _verb(sub, prog, "check-program", "check an existing controller program in a cell: reach, limits, "
+                    "collisions, cycle time as written",
+                    "Read a controller program (as read-program does), solve every target with its configuration\n"
+                    "data, and time it as the controller runs it (joint interpolation, lines, arcs, corners inside\n"
+                    "its zones, stops where it has none, its waits): the cycle time per move, the joint and TCP\n"
+                    "limits and, in a cell, the clearance with the closest pair. Exit 1 when it would collide or\n"
+                    "leave a limit (naming the move, the pair and the time).",
+                    ["out/controller/GP7_PICK.jbi --robot gp7 --cell gp7_wall_cell",
+                     "pick.mod --robot irb1600 --cell my_cell.yaml --out check.json"])
+    checked.add_argument("file", help="the program: .mod (RAPID), .ls (FANUC), .jbi (Yaskawa), .src (KRL), "
+                         ".script (UR)")
+    checked.add_argument("--robot", required=True, help="preset name or robot file path of the arm it runs on")
+    checked.add_argument("--cell", help="cell name or cell file to check it in (default: none, no clearance)")
+    checked.add_argument("--out", metavar="REPORT.json", help="also write the check as JSON")
+    _add_tool_option(checked)
+    _add_force_option(checked)
+    checked.set_defaults(func=cmd_check_program)
 
     show = _verb(sub, prog, "show", "print a robot's DH table, FK and Jacobian at q = 0",
                  "Print a robot's DH table with its units and limits, the end frame's pose, the Jacobian and the\n"

@@ -10,18 +10,21 @@ READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".s
 
 
 def read_program_text(language: str, text: str, robot, source: str, dat: str | None = None,
-                      dat_source: str = "<dat>") -> dict:
+                      dat_source: str = "<dat>", tool=None) -> dict:
     """The job document (SI lengths, angles in degrees) of the program ``text`` in ``language`` (rapid, ls, jbi,
     krl with its ``dat``, urscript) for ``robot`` (a preset name, robot file or Robot); ``source`` names it in
-    errors (FileFormatError from the readers)."""
+    errors (FileFormatError from the readers); ``tool``: X_FT (4, 4) [m] of the tool the program selects by number
+    without its data (None: none given)."""
     from .read_jbi import read_jbi
     from .read_krl import read_krl
     from .read_ls import read_ls
     from .read_rapid import read_rapid
     from .read_urscript import read_urscript
 
-    readers = {"rapid": lambda: read_rapid(text, robot), "ls": lambda: read_ls(text, robot, source=source),
-               "jbi": lambda: read_jbi(text, robot, source=source),
-               "krl": lambda: read_krl(text, dat, robot, source, dat_source),
-               "urscript": lambda: read_urscript(text, robot)}
+    extra = {} if tool is None else {"tool": tool}
+    readers = {"rapid": lambda: read_rapid(text, robot, **extra),
+               "ls": lambda: read_ls(text, robot, source=source, **extra),
+               "jbi": lambda: read_jbi(text, robot, source=source, **extra),
+               "krl": lambda: read_krl(text, dat, robot, source, dat_source, **extra),
+               "urscript": lambda: read_urscript(text, robot, **extra)}
     return with_signal_names(with_written_settings(readers[language](), text), text)
