@@ -139,13 +139,21 @@ def _joint_values(robot, texts: list[str], unit: str, what: str) -> np.ndarray:
 def _with_tool(robot, tool: list[float] | None):
     """(the robot whose end frame is the TCP of ``--tool X Y Z R P Y`` [mm, deg] in the flange, words for the
     TCP); without --tool the flange (the robot file's end frame)."""
-    from .files.poses import check_pose, rpy_position_to_pose
     from .model.robot import robot_with_tool
 
     if tool is None:
         return robot, "the flange (no --tool)"
-    X_FT = check_pose(rpy_position_to_pose(np.radians(tool[3:]), np.array(tool[:3]) * 1e-3), "--tool")
-    return robot_with_tool(robot, X_FT), f"--tool xyz [{_numbers(tool[:3])}] mm, rpy [{_numbers(tool[3:])}] deg"
+    words = f"--tool xyz [{_numbers(tool[:3])}] mm, rpy [{_numbers(tool[3:])}] deg"
+    return robot_with_tool(robot, _tool_pose(tool)), words
+
+
+def _tool_pose(tool: list[float] | None) -> np.ndarray | None:
+    """``--tool X Y Z R P Y`` [mm, deg] -> X_FT (4, 4) [m] (None without --tool)."""
+    from .files.poses import check_pose, rpy_position_to_pose
+
+    if tool is None:
+        return None
+    return check_pose(rpy_position_to_pose(np.radians(tool[3:]), np.array(tool[:3]) * 1e-3), "--tool")
 
 
 def _numbers(values, decimals: int = 3) -> str:
@@ -329,7 +337,7 @@ def cmd_read_program(args) -> int:
     load_robot(args.robot)                  # the robot file's own errors name that file, not the program
     from .outputs.controllers.read_units import in_program_units
 
-    document = in_program_units(_read_program(language, path, args.robot, _tool_option(args.tool)), language)
+    document = in_program_units(_read_program(language, path, args.robot, _tool_pose(args.tool)), language)
     document["robot"] = _robot_reference(args.robot, out)
     job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
     header = f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
@@ -361,7 +369,7 @@ def cmd_check_program(args) -> int:
     if out is not None:
         prepare_file_target(out, args.force)
     load_robot(args.robot)
-    document = _read_program(language, path, args.robot, _tool_option(args.tool))
+    document = _read_program(language, path, args.robot, _tool_pose(args.tool))
     document.update(robot=args.robot, allow_branch_change=True)     # the program's own configurations, as written
     if args.cell:
         document["cell"] = args.cell
@@ -375,22 +383,6 @@ def cmd_check_program(args) -> int:
         write_text_atomic(out, json.dumps(check.to_dict(), indent=1) + "\n", args.force)
         print(f"wrote {out}")
     return 0 if check.passed else 1
-
-
-def _tool_option(text: str | None) -> np.ndarray | None:
-    """``--tool x,y,z,roll,pitch,yaw`` (mm, deg) -> X_FT (4, 4) [m]; None when not given."""
-    if text is None:
-        return None
-    from .files.poses import rpy_position_to_pose
-
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 6 or not all(np.isfinite(values)) or max(abs(v) for v in values[:3]) > 10_000.0:
-        raise ConfigurationError(f"--tool {text!r}: give the tool as x,y,z,roll,pitch,yaw in mm and degrees (the TCP "
-                                 "in the flange frame, each length within 10 m), e.g. --tool 0,0,120,0,0,0")
-    return rpy_position_to_pose(np.radians(values[3:]), np.array(values[:3]) / 1000.0)
 
 
 def _robot_reference(robot: str, out: Path | None) -> str:
@@ -659,13 +651,8 @@ examples:
 
 "{prog} VERB --help" shows a verb's options and examples. Exit status: 0 done; 2 bad input, one line
 "error: ..." naming the file, line and field, nothing written; 1 an internal error (-v prints its
-traceback), a check above tolerance or a batch with a failed job; 130 interrupted."""
-
-
-def _add_tool_option(parser) -> None:
-    parser.add_argument("--tool", metavar="X,Y,Z,ROLL,PITCH,YAW",
-                        help="the tool the program selects by number (UTOOL_NUM, ///TOOL, TOOL_DATA[n]) whose data "
-                             "the file does not hold: the TCP in the flange frame, mm and degrees")
+traceback), a check above tolerance, a program check-program finds colliding or beyond a limit, or a batch
+with a failed job; 130 interrupted."""
 
 
 def _verb(sub, prog: str, name: str, summary: str, description: str, examples: list[str]) -> argparse.ArgumentParser:

@@ -72,7 +72,9 @@ def test_a_target_that_now_collides_fails_naming_move_pair_and_time(written, tmp
     assert [m["move"] for m in saved["moves"]] == [1, 2, 3]
 
 
-def test_a_bad_tool_option_is_one_error_line(written, capsys):
+def test_a_tool_option_is_six_numbers(written, capsys):
     path, _ = written
-    assert main(["check-program", str(path), "--robot", "gp7", "--tool", "0,0,120"]) == 2
-    assert "x,y,z,roll,pitch,yaw in mm and degrees" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(["check-program", str(path), "--robot", "gp7", "--tool", "0", "0", "120"])
+    assert exit_.value.code == 2
+    assert "--tool: expected 6 arguments" in capsys.readouterr().err
