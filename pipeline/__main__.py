@@ -335,12 +335,13 @@ def cmd_read_program(args) -> int:
     if out is not None:
         prepare_file_target(out, args.force)
     load_robot(args.robot)                  # the robot file's own errors name that file, not the program
-    from .outputs.controllers.read_units import in_program_units
+    from .outputs.controllers.read_units import in_program_units, units_line
 
     document = in_program_units(_read_program(language, path, args.robot, _tool_pose(args.tool)), language)
     document["robot"] = _robot_reference(args.robot, out)
     job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
-    header = f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
+    header = (f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
+              f"{units_line(language)}\n")
     text = header + yaml.safe_dump(document, sort_keys=False, default_flow_style=None, width=120)
     if out is None:
         print(text, end="")

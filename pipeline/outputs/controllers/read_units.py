@@ -12,10 +12,21 @@ from ...files.poses import quaternion_position_to_pose, rotation_to_rpy
 #: Language -> (length unit, whether orientations are written as rpy).
 PROGRAM_UNITS = {"rapid": ("mm", False), "ls": ("mm", True), "jbi": ("mm", True), "krl": ("mm", True),
                  "urscript": ("m", False)}
+#: Language -> how the job read from it writes orientations, against the program's own (the job's rpy: roll about x,
+#: pitch about y, yaw about z, fixed axes: R = Rz(yaw) Ry(pitch) Rx(roll)).
+ORIENTATIONS = {"rapid": "quaternions [w, x, y, z] as the program's rot [q1, q2, q3, q4]",
+                "ls": "rpy [deg] = the program's W, P, R", "jbi": "rpy [deg] = the program's Rx, Ry, Rz",
+                "krl": "rpy [deg] = the program's C, B, A (A about z, B about y, C about x)",
+                "urscript": "quaternions [w, x, y, z] of the program's rotation vectors"}
 #: Decimals kept of a length in mm (the readers' values are exact to far less).
 MM_DECIMALS = 9
 #: The job's TCP keys, lengths per second^k.
 _JOB_LENGTHS = ("tcp_speed_max", "tcp_accel_max", "tcp_speed_limit")
+
+
+def units_line(language: str) -> str:
+    """A comment line saying the job's units and how its orientations stand for the program's."""
+    return f"# lengths in {PROGRAM_UNITS[language][0]}; orientations as {ORIENTATIONS[language]}"
 
 
 def in_program_units(document: dict, language: str) -> dict:
