@@ -115,9 +115,9 @@ def test_rconf_in_force_selects_the_branch(programs):
 
 @pytest.mark.parametrize("edit, match", [
     (("MOVL C00002", "MOVL C00099"), "C00099"),
-    (("MOVC C00004", "MOVC C00099"), "C00099 is not in //POS"),
+    (("MOVC C00004", "MOVC C00099"), "C00099: not in //POS"),
     (("MOVC C00004 V=500.0\n", ""), "three MOVC"),
-    (("VJ=100.00", "VJ=100.00 XX"), "line"),
+    (("VJ=100.00", "VJ=100.00 XX"), "XX: not read"),
 ])
 def test_errors_name_what_is_wrong(programs, edit, match):
     text = write_jbi(programs["gp7_pick_place"], "DEMO", WHEN).replace(*edit, 1)

@@ -52,6 +52,7 @@ file, the line and the construct of what is refused.
 from __future__ import annotations
 
 import re
+
 import numpy as np
 from lark import Tree
 
@@ -142,9 +143,9 @@ def _check_groups(tree: Tree, source: str) -> None:
     for node in tree.find_data("group"):
         names = [str(t) for t in node.children[1:]]
         if str(node.children[0]) != "///GROUP1" or names != ["RB1"]:
-            raise ControllerProgramError(source, f"line {node.meta.line}", f"{node.children[0]} {','.join(names)}: "
-                                         "only a robot alone (///GROUP1 RB1) is read; a base axis, station or second "
-                                         "group moves axes the job has no model of", line=node.meta.line)
+            raise ControllerProgramError(source, f"{node.children[0]} {','.join(names)}", "only a robot alone "
+                                         "(///GROUP1 RB1) is read; a base axis, station or second group moves axes the "
+                                         "job has no model of", line=node.meta.line)
 
 
 def _points(tree: Tree) -> dict[str, dict]:
@@ -180,10 +181,10 @@ def _items(statements: list[tuple[int, str]], source: str) -> tuple[list[dict], 
     the first move, notes for the description)."""
     if not statements or statements[0][1] != "NOP":
         line = statements[0][0] if statements else None
-        raise ControllerProgramError(source, f"line {line}", "the first instruction must be NOP", line=line)
+        raise ControllerProgramError(source, "//INST", "the first instruction must be NOP", line=line)
     if statements[-1][1] != "END":
-        raise ControllerProgramError(source, f"line {statements[-1][0]}", f"{statements[-1][1]!r}: the last "
-                                     "instruction must be END", line=statements[-1][0])
+        raise ControllerProgramError(source, statements[-1][1], "the last instruction must be END",
+                                     line=statements[-1][0])
     items, header, skipped, k = [], [], 0, 1
     body = statements[1:-1]
     while k <= len(body):
@@ -233,7 +234,7 @@ def _item(line: int, text: str, following: list[tuple[int, str]], source: str) -
 
 
 def _refuse(source: str, line: int, text: str, why: str):
-    raise ControllerProgramError(source, f"line {line}", f"{text}: {why}", line=line)
+    raise ControllerProgramError(source, text, why, line=line)
 
 
 def _motion(line: int, text: str, source: str) -> dict:
@@ -258,7 +259,7 @@ def _motion(line: int, text: str, source: str) -> dict:
                     "motion would be timed at another acceleration)")
         else:
             _refuse(source, line, text, f"{tag}: not read (a coordinated group, a base or station point, a speed, "
-                    "position level or condition given otherwise than {speed_tag}=number and PL=n)")
+                    f"position level or condition given otherwise than {speed_tag}=number and PL=n)")
     if item["speed"] is None:
         _refuse(source, line, text, f"no {speed_tag}= speed")
     return item
@@ -300,8 +301,7 @@ def _point(points: dict, instruction: dict, source: str) -> dict:
     name = instruction["point"]
     if name not in points:
         where = "//POS" if name.startswith("C") else "//POS (a position variable's value lives on the controller)"
-        raise ControllerProgramError(source, f"line {instruction['line']}", f"{name} is not in {where}",
-                                     line=instruction["line"])
+        raise ControllerProgramError(source, name, f"not in {where}", line=instruction["line"])
     return points[name]
 
 
@@ -314,35 +314,34 @@ def _tool(robot, used: list[dict], tool, header_comments: list[str], source: str
     if number == 0:
         return tool_frame(robot, YASKAWA, None, [])
     if tool is None and (number != 1 or comment_tool(header_comments) is None):
-        raise ControllerProgramError(source, f"line {line}", f"///TOOL {number}: tool file {number}'s data is on the "
-                                     "controller, not in the file: give it (read_jbi's tool)", line=line)
+        raise ControllerProgramError(source, f"///TOOL {number}", f"tool file {number}'s data is on the controller, "
+                                     "not in the file: give it (read_jbi's tool), never taken as the flange", line=line)
     return tool_frame(robot, YASKAWA, tool, header_comments)
 
 
 def _solve(point: dict, context) -> dict:
     """{fields (a pose waypoint's), joints [deg] (pulse data), q (6,) [rad]} of a point (module docstring)."""
     robot, tool_robot, X_B_base, frame, pulses_per_degree, source = context
-    where = f"line {point['line']}"
+    where = point["name"]
     postype = point["postype"]
     if postype == "PULSE":
         if pulses_per_degree is None:
-            raise ControllerProgramError(source, where, f"{point['name']}: pulse data need the robot's pulses per "
-                                         "degree of each axis (read_jbi's pulses_per_degree)", line=point["line"])
+            raise ControllerProgramError(source, where, "pulse data need the robot's pulses per degree of each axis "
+                                         "(read_jbi's pulses_per_degree)", line=point["line"])
         joints = np.asarray(point["values"][:6], dtype=float) / np.asarray(pulses_per_degree, dtype=float)
         q = np.radians(joints)
         config = tuple(int(v) for v in configurations(robot, q, YASKAWA))
         return {"fields": pose_fields(tool_robot, tool_robot.fk(q), q, (YASKAWA, config)),
                 "joints": [float(v) for v in joints], "q": q, "raw": point}
     if postype not in ("ROBOT", "BASE", "USER"):
-        raise ControllerProgramError(source, where, f"{point['name']}: ///POSTYPE {postype} data are not read "
-                                     "(ROBOT, BASE, USER and PULSE are)", line=point["line"])
+        raise ControllerProgramError(source, where, f"///POSTYPE {postype} data are not read (ROBOT, BASE, USER "
+                                     "and PULSE are)", line=point["line"])
     X = controller_pose(np.eye(4), point["values"][:3], point["values"][3:6])
     if postype == "USER":
         number, user_line = point["user"] or (None, point["line"])
         if frame is None:
-            raise ControllerProgramError(source, f"line {user_line}", f"///USER {number}: user frame {number}'s "
-                                         "data is on the controller, not in the file: give it (read_jbi's frame)",
-                                         line=user_line)
+            raise ControllerProgramError(source, f"///USER {number}", f"user frame {number}'s data is on the "
+                                         "controller, not in the file: give it (read_jbi's frame)", line=user_line)
         X = np.asarray(frame, dtype=float) @ X
     fields, q = pose_waypoint(tool_robot, X_B_base @ X, point["rconf"], YASKAWA, point["name"], source)
     return {"fields": fields, "joints": None, "q": q, "raw": point}
@@ -378,10 +377,9 @@ def _same_point(a: dict, b: dict) -> bool:
 
 def _arc(three: list[dict], source: str) -> dict:
     """A circular move from three MOVC instructions (the first where the previous move ends)."""
-    line = f"line {three[0]['line']}"
     if len(three) < 3 or any(i["move"] != "movc" for i in three):
-        raise ControllerProgramError(source, line, "an arc is three MOVC points (start, via, end) in a row",
-                                     line=three[0]["line"])
+        raise ControllerProgramError(source, f"MOVC {three[0]['point']}", "an arc is three MOVC points (start, via, "
+                                     "end) in a row", line=three[0]["line"])
     return {**three[2], "kind": "circular", "points": [three[1]["point"], three[2]["point"]],
             "first": three[0]["line"], "last": three[2]["line"]}
 
@@ -422,8 +420,7 @@ def _waypoint(move: dict, solved: dict, pl_mm, source: str) -> dict:
     waypoint["speed"] = move["speed"] if move["kind"] == "joint" else move["speed"] / MM
     level = move["pl"] or 0
     if level > len(pl_mm):
-        raise ControllerProgramError(source, f"line {move['line']}", f"PL={level}: the table has {len(pl_mm)} levels",
-                                     line=move["line"])
+        raise ControllerProgramError(source, f"PL={level}", f"the table has {len(pl_mm)} levels", line=move["line"])
     if level:
         waypoint["zone"] = float(pl_mm[level - 1]) / MM
     return waypoint
