@@ -256,3 +256,23 @@ def test_constructs_without_static_meaning_are_refused_naming_file_line_and_cons
     line = text[:text.index(edit[1])].count("\n") + 1
     with pytest.raises(ControllerProgramError, match=r"^real.jbi" + match.replace("{line}", str(line))):
         read_jbi(text, "gp7", tool=TOOL_1, frame=FRAME_2, pulses_per_degree=PPD, source="real.jbi")
+
+
+def test_an_endless_loop_around_the_whole_job_reads_as_one_cycle():
+    looped = REAL_STYLE.replace("NOP\r\n", "NOP\r\n*CYCLE\r\n").replace("\r\nEND", "\r\nJUMP *CYCLE\r\nEND")
+    document = read_real_style_text(looped)
+    assert "the endless loop around the whole job (*CYCLE ... JUMP *CYCLE) read as one cycle" in document["description"]
+    assert document["waypoints"] == read_real_style()["waypoints"]
+    with pytest.raises(ControllerProgramError, match=r":32: \*CYCLE: a label: the target of a jump"):
+        read_real_style_text(looped.replace("JUMP *CYCLE", "JUMP *CYCLE IF IN#(1)=ON"))
+
+
+def read_real_style_text(text: str) -> dict:
+    return read_jbi(text, "gp7", tool=TOOL_1, frame=FRAME_2, pulses_per_degree=PPD)
+
+
+def test_a_job_without_comm_reads(gripper):
+    """Real jobs often have no ///COMM (the issue: refused at ///ATTR before)."""
+    text = write_jbi(gripper, "GRIP", WHEN)
+    without = "\n".join(line for line in text.split("\n") if not line.startswith("///COMM"))
+    assert read_jbi(without, "gp7") == read_jbi(text, "gp7")

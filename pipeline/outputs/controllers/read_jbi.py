@@ -45,6 +45,8 @@ file, the line and the construct of what is refused.
   or a group, a value given by a variable, an instruction setting a position variable (SET, SETE, CNVRT, GETS, ...),
   and every instruction this reader does not know. Setting another variable (``SET I025 1``) is skipped, and said
   in the description: nothing read from the job uses a variable (those uses are refused).
+* An endless loop around the whole job (a label first, ``JUMP`` to it without ``IF`` last) reads as one cycle, said
+  in the job's description.
 * A job without motion instruction (``MOVJ``/``MOVL``/``MOVC``) is refused: a job of actions alone has no pose to
   run them at.
 """
@@ -186,7 +188,7 @@ def _items(statements: list[tuple[int, str]], source: str) -> tuple[list[dict], 
         raise ControllerProgramError(source, statements[-1][1], "the last instruction must be END",
                                      line=statements[-1][0])
     items, header, skipped, k = [], [], 0, 1
-    body = statements[1:-1]
+    body, notes = _one_cycle(statements[1:-1])
     while k <= len(body):
         line, text = body[k - 1]
         item, consumed = _item(line, text, body[k:], source)
@@ -198,11 +200,20 @@ def _items(statements: list[tuple[int, str]], source: str) -> tuple[list[dict], 
             skipped += item.get("assignment", 0)
             continue
         items.append(item)
-    notes = [f"{skipped} assignment(s) of variables skipped (nothing read uses a variable)"] if skipped else []
+    notes += [f"{skipped} assignment(s) of variables skipped (nothing read uses a variable)"] if skipped else []
     first_move = next((n for n, i in enumerate(items) if i["kind"] == "motion"), len(items))
     if any(i["kind"] == "action" and i["action"] for i in items[:first_move]):
         notes.append("the actions before the first move run at the first waypoint")
     return items, header, notes
+
+
+def _one_cycle(body: list[tuple[int, str]]) -> tuple[list[tuple[int, str]], list[str]]:
+    """(the instructions, notes): an endless loop around the whole job (``*L`` first, ``JUMP *L`` without IF last)
+    is one cycle: both lines dropped and said; any other jump or label is refused where it stands."""
+    if len(body) >= 2 and re.fullmatch(r"\*\S+", body[0][1]) and body[-1][1] == f"JUMP {body[0][1]}":
+        return body[1:-1], [f"the endless loop around the whole job ({body[0][1]} ... JUMP {body[0][1]}) read as one "
+                            "cycle"]
+    return body, []
 
 
 def _item(line: int, text: str, following: list[tuple[int, str]], source: str) -> tuple[dict, int]:
