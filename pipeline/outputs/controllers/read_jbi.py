@@ -83,11 +83,11 @@ PAUSE_IF = re.compile(r"PAUSE\s+IF\s+IN#\((\d+)\)\s*=\s*(ON|OFF)")
 ASSIGNMENTS = ("SET", "SETE", "GETE", "GETS", "GETARG", "CNVRT", "ADD", "SUB", "MUL", "DIV", "INC", "DEC", "AND",
                "OR", "NOT", "XOR", "CLEAR", "DIN", "MFRAME", "GETPOS", "SETREG", "GETREG")
 POSITION_VARIABLE = re.compile(r"L?(P|BP|EX|PX)X?\d|L?P\[|L?(P|BP|EX)X?\[")
+BRANCH = "a branch on a condition known only when the job runs"
 #: Why an instruction (its first word) is refused.
 REFUSED = {
     "JUMP": "a jump has no static meaning (a loop or a branch taken when the job runs)",
-    "IF": "a branch on a condition known only when the job runs", "IFTHEN": "a branch on a condition known only "
-    "when the job runs", "IFTHENEXP": "a branch on a condition known only when the job runs",
+    "IF": BRANCH, "IFTHEN": BRANCH, "IFTHENEXP": BRANCH,
     "ELSEIF": "a branch", "ELSEIFEXP": "a branch", "ELSE": "a branch", "ENDIF": "a branch",
     "SWITCH": "a branch", "CASE": "a branch", "DEFAULT": "a branch", "ENDSWITCH": "a branch",
     "WHILE": "a loop", "WHILEEXP": "a loop", "ENDWHILE": "a loop", "FOR": "a loop", "NEXT": "a loop",
