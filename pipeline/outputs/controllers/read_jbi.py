@@ -211,8 +211,8 @@ def _one_cycle(body: list[tuple[int, str]]) -> tuple[list[tuple[int, str]], list
     """(the instructions, notes): an endless loop around the whole job (``*L`` first, ``JUMP *L`` without IF last)
     is one cycle: both lines dropped and said; any other jump or label is refused where it stands."""
     if len(body) >= 2 and re.fullmatch(r"\*\S+", body[0][1]) and body[-1][1] == f"JUMP {body[0][1]}":
-        return body[1:-1], [f"the endless loop around the whole job ({body[0][1]} ... JUMP {body[0][1]}) read as one "
-                            "cycle"]
+        label = body[0][1]
+        return body[1:-1], [f"the endless loop around the whole job ({label} ... JUMP {label}) read as one cycle"]
     return body, []
 
 
