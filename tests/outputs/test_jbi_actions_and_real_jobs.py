@@ -276,3 +276,16 @@ def test_a_job_without_comm_reads(gripper):
     text = write_jbi(gripper, "GRIP", WHEN)
     without = "\n".join(line for line in text.split("\n") if not line.startswith("///COMM"))
     assert read_jbi(without, "gp7") == read_jbi(text, "gp7")
+
+
+def test_a_linear_move_to_pulse_data_is_the_pose_of_its_joints():
+    text = REAL_STYLE.replace("MOVJ C00000 VJ=25.00\r\nEND", "MOVL C00000 V=200.0\r\nEND")
+    last = read_real_style_text(text)["waypoints"][-1]
+    assert last["move"] == "linear" and last["controller_config"] == {"yaskawa": "0,0,0,0,0,0"}
+    np.testing.assert_allclose(last["xyz"], [0.04 + 0.44, 0.0, 0.33 + 0.445 + 0.04 - 0.08 - 0.12], atol=1e-9)  # GP7 DH
+
+
+def test_an_action_inside_an_arc_is_refused(gripper):
+    text = write_jbi(gripper, "GRIP", WHEN).replace("MOVC C00004 V=500.0\n", "MOVC C00004 V=500.0\nTIMER T=0.10\n")
+    with pytest.raises(ControllerProgramError, match=r"TIMER T=0.10: an action inside an arc"):
+        read_jbi(text, "gp7")
