@@ -64,7 +64,12 @@ def controller_style(text: str) -> str:
 def test_controller_style_reads_the_same(programs, name):
     program = programs[name]
     text = write_jbi(program, "DEMO", WHEN)
-    assert read_jbi(controller_style(text), program.robot.name) == read_jbi(text, program.robot.name)
+    document = read_jbi(controller_style(text), program.robot.name)
+    commented = [w for w in document["waypoints"] if w.get("do") == [{"comment": "next"}]]
+    assert len(commented) == ("\nMOVL" in text)     # the comment added after a move: an action of its waypoint
+    for waypoint in commented:
+        del waypoint["do"]
+    assert document == read_jbi(text, program.robot.name)
 
 
 def test_robot_frame_undone(programs):
@@ -110,9 +115,9 @@ def test_rconf_in_force_selects_the_branch(programs):
 
 @pytest.mark.parametrize("edit, match", [
     (("MOVL C00002", "MOVL C00099"), "C00099"),
-    (("MOVC C00004", "MOVC C00099"), "C00099 not in //POS"),
+    (("MOVC C00004", "MOVC C00099"), "C00099: not in //POS"),
     (("MOVC C00004 V=500.0\n", ""), "three MOVC"),
-    (("VJ=100.00", "VJ=100.00 XX"), "line"),
+    (("VJ=100.00", "VJ=100.00 XX"), "XX: not read"),
 ])
 def test_errors_name_what_is_wrong(programs, edit, match):
     text = write_jbi(programs["gp7_pick_place"], "DEMO", WHEN).replace(*edit, 1)

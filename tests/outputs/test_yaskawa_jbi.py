@@ -45,8 +45,9 @@ def jbi_parser():
 def written_points(parser, text: str) -> list[dict]:
     """The Cxxxxx points in order: {"name", "rconf" (the ///RCONF fields in force), "xyz" [mm], "angles" [deg]}."""
     points, rconf = [], None
-    for item in next(parser.parse(text).find_data("pos")).find_data("point_data"):
-        node = item.children[0]
+    for node in next(parser.parse(text).find_data("pos")).children:
+        if node.data not in ("rconf", "point"):
+            continue
         if node.data == "rconf":
             rconf = tuple(int(t) for t in node.children)
             continue

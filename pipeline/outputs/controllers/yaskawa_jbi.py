@@ -50,6 +50,25 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
 * Frames: the robot frame is the robot file's yaskawa controller section's base frame (the GP7's 330 mm above
   its mounting face; ``fanuc_ls.controller_frame``); robots without one are written in our base frame. ``///TOOL 1``
   must hold the job's tool on the controller's flange frame, the section's flange (stated in the comments).
+* Actions (``pipeline.program.actions``): a waypoint's actions right after its last written move (waypoint 0's after
+  the joint move into it), one INFORM instruction each: ``DOUT OT#(n) ON``/``OFF`` (set an output), ``PULSE OT#(n)
+  T=0.10`` (an output on for T seconds while the job goes on), ``TIMER T=0.25`` (the job waits), ``WAIT IN#(n)=ON``
+  (waits for the input; with a timeout ``WAIT IN#(n)=ON T=2.00``, after which the controller goes on to the next
+  line whether or not the input came, so the writer follows it with ``PAUSE IF IN#(n)=OFF``: the job stops there
+  when the input did not come, the only pattern ``read_jbi`` reads as a timeout), ``'text`` (a comment, wrapped to 32
+  characters: a longer one reads back as several). Times are 0.01 s steps, 0.01 to 655.35 s (INFORM's T=). A
+  waypoint with a wait is an exact stop (no PL): the controller runs the next instruction once the robot is in
+  position there, so a TIMER or WAIT starts with the robot at rest at the point. INFORM numbers its I/O: a signal
+  without a number is refused, and the job's names ride in one header comment per signal
+  (``settings_mark.signals_mark``'s ``dh.signal.NAME=out1``; a name too long for a 32-character comment is left
+  out: it reads back as ``do1`` / ``di3``). A linear move into an arc whose end has actions is written as a MOVL
+  (the actions run there), the arc's first MOVC repeating its point, as after a joint move.
+  Sources: ros-industrial/motoman ``motoman_driver/Inform/*/INIT_ROS.JBI`` (BSD; ``DOUT OT#(890) OFF``, ``TIMER
+  T=0.05``, ``WAIT OT#(890)=ON``); AGSweeney/Motoman_EnIP_ToolChanger ``MH180_Progs/SAMPLE_TC.JBI`` (MIT; ``DOUT
+  OT#(186) OFF``, ``TIMER T=0.50``, ``WAIT IN#(204)=ON``, ``PULSE OT#(212)``); a public powder-coating job
+  generator (index id 53774280828) writing ``WAIT IN#(6)=ON T=5.00`` then ``JUMP *END IF IN#(6)=OFF`` (the job goes
+  on after T= and checks the input again); ``PAUSE IF IN#(12)=ON`` in a public INFORM instruction reference (index id
+  930884944); the FS100 INFORM manual section 1.1.2 (I/O instructions DOUT, WAIT; control instructions TIMER).
 """
 
 from __future__ import annotations
@@ -64,17 +83,22 @@ from ...errors import ConfigurationError
 from ...files.atomic import job_mark
 from ...model.vendors.axes import YASKAWA
 from ...model.vendors.configuration import configurations
+from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
                        payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
-from .settings_mark import settings_mark
+from .settings_mark import settings_mark, signals_mark
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
 NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
 #: ///RCONF fields after l, m, n, o, p, q on DX100 and later controllers (r1..r18, unused).
 UNUSED_RCONF = 18
+#: INFORM's T= of TIMER, PULSE and WAIT: 0.01 s steps up to 655.35 s.
+TIME_STEP_S, TIME_MAX_S = 0.01, 655.35
+#: Characters of a comment line (NX100 4.1: comments up to 32 characters).
+COMMENT_MAX = 32
 
 
 def pl_level(zone: float, pl_mm=PL_MM) -> int:
@@ -128,10 +152,12 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     zones (PL the closest level, ``pl_differences``), its certificate in the header."""
     check_name(name, NAME_PATTERN, "Yaskawa job")
     check_six_joints(program)
+    check_signal_numbers(program)
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     X_B_base, frame = controller_frame(program.robot, YASKAWA)
     header = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
+              *signal_mark_lines(program),
               *comment_lines(_header_text(program, frame)),
               *comment_lines(payload_text(program, "tool file 1 (W, Xg, Yg, Zg)"))]
     if written is not None:
@@ -151,6 +177,8 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
             index += 1
         following = motions[k + 1].move if k + 1 < len(motions) else None
         instructions.extend(_instructions(program, motion, labels, following, pl_mm, level))
+        if following is None or following is not motion.move:            # the waypoint's last written move
+            instructions.extend(action_lines(program, 0 if motion.move is None else motion.move.end))
     comments = [f"'{line}" for line in header]
     when = created or _dt.datetime.now(_dt.timezone.utc)
     return "\n".join(["/JOB", f"//NAME {name}", "//POS", f"///NPOS {index},0,0,0,0,0", "///TOOL 1",
@@ -164,8 +192,14 @@ def written_zone(program: Program, move: Move) -> float:
     after a joint move or an arc (whose first MOVC repeats this point), else the move's zone."""
     following = program.moves[move.end] if move.end < len(program.moves) else None
     stop = program.exact_stop_at(move) or (following is not None and following.kind == CIRCULAR
-                                           and move.kind != LINEAR)
+                                           and not _merges_into_arc(program, move))
     return 0.0 if stop else move.zone
+
+
+def _merges_into_arc(program: Program, move: Move | None) -> bool:
+    """Whether ``move`` (followed by an arc) is written as the arc's first MOVC point: a linear move without actions
+    at its end (module docstring)."""
+    return move is not None and move.kind == LINEAR and not program.actions_at(move.end)
 
 
 def _into_arc(motions: list[Motion], k: int) -> bool:
@@ -174,10 +208,10 @@ def _into_arc(motions: list[Motion], k: int) -> bool:
     return following is not None and following.kind == CIRCULAR and following is not motions[k].move
 
 
-def _line_into_arc(motions: list[Motion], k: int) -> bool:
-    """Whether motion k is a linear move into an arc: written as the arc's first MOVC point, which the controller
-    reaches on a straight line (module docstring)."""
-    return _into_arc(motions, k) and motions[k].move is not None and motions[k].move.kind == LINEAR
+def _line_into_arc(program: Program, motions: list[Motion], k: int) -> bool:
+    """Whether motion k is a linear move into an arc written as the arc's first MOVC point, which the controller
+    reaches on a straight line (module docstring: not when actions run at its end)."""
+    return _into_arc(motions, k) and _merges_into_arc(program, motions[k].move)
 
 
 def job_points(program: Program, written=None) -> list[Motion]:
@@ -189,10 +223,10 @@ def job_points(program: Program, written=None) -> list[Motion]:
     if written is None:
         motions = [replace(m, zone=written_zone(program, m.move)) if m.zone > 0.0 else m for m in motions]
     else:
-        motions = [replace(m, zone=0.0) if _into_arc(motions, k) and not _line_into_arc(motions, k) else m
+        motions = [replace(m, zone=0.0) if _into_arc(motions, k) and not _line_into_arc(program, motions, k) else m
                    for k, m in enumerate(motions)]
     return [replace(m, points=[motions[k - 1].points[-1], *m.points])
-            if m.move is not None and m.move.kind == CIRCULAR and not _line_into_arc(motions, k - 1) else m
+            if m.move is not None and m.move.kind == CIRCULAR and not _line_into_arc(program, motions, k - 1) else m
             for k, m in enumerate(motions)]
 
 
@@ -241,7 +275,59 @@ def _instructions(program: Program, motion: Motion, labels: list[str], following
         lines = [f"MOVC {label} {speed}" for label in labels[:-1]] + [f"MOVC {labels[-1]} {speed}{tail}{fpt}"]
     else:
         into_arc = following is not None and following.kind == CIRCULAR and following is not move
-        lines = [f"{'MOVC' if into_arc else 'MOVL'} {labels[0]} {speed}{tail}"]
+        lines = [f"{'MOVC' if into_arc and _merges_into_arc(program, move) else 'MOVL'} {labels[0]} {speed}{tail}"]
     if tail:
         lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{level(motion.zone, pl_mm)}")
     return lines
+
+
+def check_signal_numbers(program: Program) -> None:
+    """ConfigurationError naming the first signal the program's actions use without a number (INFORM addresses its
+    I/O as OT#(n) and IN#(n))."""
+    for k in range(len(program.waypoints)):
+        for action in program.actions_at(k):
+            signal = program.signals.get(action.signal) if action.signal is not None else None
+            if action.signal is not None and (signal is None or signal.number is None):
+                raise ConfigurationError(f"waypoint {k}: {action}: signal {action.signal!r} has no number; INFORM "
+                                         "addresses I/O by number (OT#(n), IN#(n)): give it one in the job's signals")
+
+
+def signal_mark_lines(program: Program) -> list[str]:
+    """The signals mark (``settings_mark.signals_mark``), one comment line per signal; an entry longer than a
+    comment line is left out (module docstring)."""
+    return [entry for entry in signals_mark(program).split() if len(entry) <= COMMENT_MAX]
+
+
+def action_lines(program: Program, k: int) -> list[str]:
+    """The INFORM lines of waypoint ``k``'s actions (module docstring)."""
+    return [line for action in program.actions_at(k) for line in _action_lines(program, action, k)]
+
+
+def _action_lines(program: Program, action: Action, k: int) -> list[str]:
+    if action.kind == COMMENT:
+        return [f"'{line}" for line in comment_lines(action.text)]
+    if action.kind == WAIT:
+        return [f"TIMER T={_seconds(action.time_s, k, action)}"]
+    number = program.signals[action.signal].number
+    if action.kind == SET:
+        return [f"DOUT OT#({number}) {_on_off(action.value)}"]
+    if action.kind == PULSE:
+        return [f"PULSE OT#({number}) T={_seconds(action.time_s, k, action)}"]
+    assert action.kind == WAIT_INPUT, action.kind
+    wait = f"WAIT IN#({number})={_on_off(action.value)}"
+    if action.timeout_s is None:
+        return [wait]
+    return [f"{wait} T={_seconds(action.timeout_s, k, action)}", f"PAUSE IF IN#({number})={_on_off(not action.value)}"]
+
+
+def _on_off(value: bool) -> str:
+    return "ON" if value else "OFF"
+
+
+def _seconds(t: float, k: int, action: Action) -> str:
+    """A time [s] as INFORM's T= (0.01 s steps); ConfigurationError when it rounds to 0 or exceeds 655.35 s."""
+    value = round(t / TIME_STEP_S) * TIME_STEP_S
+    if not TIME_STEP_S <= value <= TIME_MAX_S:
+        raise ConfigurationError(f"waypoint {k}: {action}: {t:g} s is not an INFORM time T= ({TIME_STEP_S:g} to "
+                                 f"{TIME_MAX_S:g} s in {TIME_STEP_S:g} s steps)")
+    return f"{value:.2f}"
