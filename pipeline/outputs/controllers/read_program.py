@@ -20,7 +20,8 @@ def read_program_text(language: str, text: str, robot, source: str, dat: str | N
     from .read_rapid import read_rapid
     from .read_urscript import read_urscript
 
-    readers = {"rapid": lambda: read_rapid(text, robot), "ls": lambda: read_ls(text, robot, source=source),
+    readers = {"rapid": lambda: read_rapid(text, robot, source=source),
+               "ls": lambda: read_ls(text, robot, source=source),
                "jbi": lambda: read_jbi(text, robot, source=source),
                "krl": lambda: read_krl(text, dat, robot, source, dat_source),
                "urscript": lambda: read_urscript(text, robot)}
