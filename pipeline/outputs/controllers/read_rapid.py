@@ -13,11 +13,13 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   a TO b [STEP s] DO ... ENDFOR`` over numbers is its body that many times (refused when the body uses ``i``); a
   ``WHILE TRUE DO ... ENDWHILE`` that ends ``main`` (the endless production loop) reads as one cycle, which the
   job's ``description`` says; a ``RETURN`` that ends a procedure is nothing. Data declared in a procedure is read as
-  the module's.
+  the module's; a ``RECORD`` (a data type) declares nothing read.
 * Instructions: ``ConfJ``/``ConfL`` (\\On or \\Off: the confdata is read either way, it names the branch),
   ``MoveAbsJ``, ``MoveJ``, ``MoveL``, ``MoveC`` (\\NoEOffs and \\WObj read, \\ID and the like ignored), and the
   actions below. Each move is one waypoint, the first move's target the job's first waypoint (no move into it;
-  ``write_rapid``'s approach ``MoveAbsJ j0``). Targets are declared data or inline aggregates.
+  ``write_rapid``'s approach ``MoveAbsJ j0``); a move to where the robot already is (the same joint values, as when
+  one RobotStudio path ends where the next begins) adds no waypoint: the one before stops if either move does.
+  Targets are declared data or inline aggregates.
 * Actions (``pipeline.program.actions``), each on the waypoint of the move before it (before the first move: on
   waypoint 0, where the job starts): ``SetDO sig, 1|0`` (\\Sync read), ``Set sig`` / ``Reset sig`` -> set on/off;
   ``PulseDO [\\PLength:=t,] sig`` -> pulse of t [s] (0.2 s without \\PLength, the manual's default); ``WaitTime
@@ -62,7 +64,7 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
 What has no static meaning is a ``RapidReadError`` naming the file (``source``), the line and the construct, found
 before parsing so that the first one in the file is named: ``IF``, ``TEST``, ``GOTO`` and labels, ``WHILE`` on a
 condition, ``FOR`` over bounds that are not numbers, an assignment, ``WaitUntil``, ``RETURN`` before the end of a
-procedure, ``TRAP`` routines and ``CONNECT`` (interrupts), ``FUNC``, ``RECORD``, procedures with parameters, error
+procedure, ``TRAP`` routines and ``CONNECT`` (interrupts), ``FUNC``, procedures with parameters, error
 handlers (``ERROR``, ``BACKWARD``, ``UNDO``); after parsing: a ``WHILE TRUE`` that is not the end of ``main``, a call of
 a routine the module does not hold, and the known instructions that act at run time (``REFUSED_INSTRUCTIONS``:
 interrupts, path control such as ``StopMove``/``ClearPath``, sockets, multi-move synchronisation, externally guided
@@ -124,19 +126,18 @@ REFUSED_INSTRUCTIONS = {
 }
 #: Statements refused before parsing (first word of a line in lower case, outside comments and strings): why.
 REFUSED_KEYWORDS = {
-    "if": "IF: a branch on a condition has no static meaning",
-    "test": "TEST: a branch on a value has no static meaning",
-    "goto": "GOTO: a jump has no static meaning",
-    "trap": "TRAP: an interrupt routine runs on events, not in the program's order",
-    "connect": "CONNECT: interrupts run TRAP routines on events, not in the program's order",
-    "func": "FUNC: a function computes values at run time",
-    "record": "RECORD: a user-defined data type is not read",
-    "alias": "ALIAS: a data type alias is not read",
-    "error": "ERROR: an error handler runs on errors, not in the program's order",
-    "backward": "BACKWARD: a backward handler runs when stepping backwards, not in the program's order",
-    "undo": "UNDO: an undo handler runs on aborts, not in the program's order",
-    "raise": "RAISE: an error raised at run time has no static meaning",
-    "waituntil": "WaitUntil waits on an expression, which is not read (WaitDI signal, value is)",
+    "if": "a branch on a condition has no static meaning",
+    "test": "a branch on a value has no static meaning",
+    "goto": "a jump has no static meaning",
+    "trap": "an interrupt routine runs on events, not in the program's order",
+    "connect": "interrupts run TRAP routines on events, not in the program's order",
+    "func": "a function computes values at run time",
+    "alias": "a data type alias is not read",
+    "error": "an error handler runs on errors, not in the program's order",
+    "backward": "a backward handler runs when stepping backwards, not in the program's order",
+    "undo": "an undo handler runs on aborts, not in the program's order",
+    "raise": "an error raised at run time has no static meaning",
+    "waituntil": "it waits on an expression, which is not read (WaitDI signal, value is)",
 }
 #: A line's first statement word; a label (``name:``); an assignment (``x :=``, ``p.trans.z :=``, ``a{i} :=``).
 _FIRST_WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
@@ -265,7 +266,7 @@ def _refuse_statements(text: str, source: str) -> None:
             continue
         reason = _refused_line(code, word.group(0).lower(), lines[number:])
         if reason is not None:
-            raise RapidReadError(source, code.split()[0].rstrip(";"), reason, line=number)
+            raise RapidReadError(source, code.split()[0].rstrip(";:"), reason, line=number)
 
 
 def _refused_line(code: str, word: str, rest: list[str]) -> str | None:
@@ -470,7 +471,9 @@ class _Reader:
             return
         name = step.name.lower()
         if name in MOVES:
-            self.waypoints.append(self.waypoint(step))
+            waypoint = self.waypoint(step)
+            if waypoint is not None:
+                self.waypoints.append(waypoint)
         elif name in ACTION_INSTRUCTIONS:
             action = self.action(step)
             if action is not None:
@@ -547,7 +550,9 @@ class _Reader:
                                  line=call.line)
         return value
 
-    def waypoint(self, call: _Call) -> dict:
+    def waypoint(self, call: _Call) -> dict | None:
+        """The waypoint of a move; None for a move to where the robot already is (the waypoint before, which stops
+        there if either move ends in a stop)."""
         kind = call.name.lower()
         count = 5 if kind == "movec" else 4
         if len(call.required) != count:
@@ -566,6 +571,10 @@ class _Reader:
                 X_via = self.pose(self.data.get(targets[0], "robtarget", call.name, call.line), call)
                 waypoint["via"] = {"xyz": X_via[:3, 3].tolist()}
         first = self.q_previous is None
+        if not first and np.array_equal(q, self.q_previous):
+            previous = self.waypoints[-1]
+            previous["zone"] = min(previous.get("zone", 0.0), self.zone(zone, call))
+            return None
         if not first:
             self.add_speed(waypoint, kind, speed, call, q)
             waypoint["zone"] = self.zone(zone, call)
