@@ -18,7 +18,8 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   ``MoveAbsJ``, ``MoveJ``, ``MoveL``, ``MoveC`` (\\NoEOffs and \\WObj read, \\ID and the like ignored), and the
   actions below. Each move is one waypoint, the first move's target the job's first waypoint (no move into it;
   ``write_rapid``'s approach ``MoveAbsJ j0``); a move to where the robot already is (the same joint values, as when
-  one RobotStudio path ends where the next begins) adds no waypoint: the one before stops if either move does.
+  one RobotStudio path ends where the next begins, or a MoveL to the TCP pose the move before reached,
+  ``SAME_POSE_M``) adds no waypoint: the one before stops if either move does.
   Targets are declared data or inline aggregates.
 * Actions (``pipeline.program.actions``), each on the waypoint of the move before it (before the first move: on
   waypoint 0, where the job starts): ``SetDO sig, 1|0`` (\\Sync read), ``Set sig`` / ``Reset sig`` -> set on/off;
@@ -106,6 +107,9 @@ PREDEFINED_SPEEDS = frozenset((5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300
 PREDEFINED_ZONES = frozenset((0, 1, 5, 10, 15, 20, 30, 40, 50, 60, 80, 100, 150, 200))
 #: PulseDO's pulse without \PLength [s] (RAPID Instructions manual, PulseDO: "a 0.2 s pulse").
 DEFAULT_PULSE_S = 0.2
+#: A move this close to where the robot is goes nowhere: joint values [rad]; a MoveL's TCP [m], [rad] (below the
+#: 0.001 mm and 1e-6 quaternion rounding of written modules).
+SAME_JOINTS_RAD, SAME_POSE_M, SAME_POSE_RAD = 1e-9, 1e-7, 1e-7
 #: A FOR loop is flattened up to this many turns (a larger count is refused, not unrolled).
 MAX_FOR_TURNS = 1000
 #: The source named in errors when the caller names none (the reader gets text, not a file).
@@ -571,15 +575,29 @@ class _Reader:
                 X_via = self.pose(self.data.get(targets[0], "robtarget", call.name, call.line), call)
                 waypoint["via"] = {"xyz": X_via[:3, 3].tolist()}
         first = self.q_previous is None
-        if not first and np.array_equal(q, self.q_previous):
+        if not first and self.at_previous(kind, q):
             previous = self.waypoints[-1]
-            previous["zone"] = min(previous.get("zone", 0.0), self.zone(zone, call))
+            if "zone" in previous:
+                previous["zone"] = min(previous["zone"], self.zone(zone, call))
             return None
         if not first:
             self.add_speed(waypoint, kind, speed, call, q)
             waypoint["zone"] = self.zone(zone, call)
         self.q_previous = q
         return waypoint
+
+    def at_previous(self, kind: str, q: np.ndarray) -> bool:
+        """Whether a move to joint values q (6,) [rad] goes where the robot already is: the same joint values, or
+        for a MoveL the same TCP pose within SAME_POSE_M and SAME_POSE_RAD (RobotStudio's first MoveL to the pose
+        the MoveAbsJ home before it reached)."""
+        if np.allclose(q, self.q_previous, rtol=0.0, atol=SAME_JOINTS_RAD):
+            return True
+        if kind != "movel":
+            return False
+        X_previous, X = self.robot_tool.fk(self.q_previous), self.robot_tool.fk(q)
+        turn = np.clip((np.trace(X_previous[:3, :3].T @ X[:3, :3]) - 1.0) / 2.0, -1.0, 1.0)
+        return (float(np.linalg.norm(X[:3, 3] - X_previous[:3, 3])) <= SAME_POSE_M
+                and math.acos(turn) <= SAME_POSE_RAD)
 
     def use_tool(self, call: _Call) -> None:
         name = call.required[-1]
