@@ -187,6 +187,7 @@ def refused(text: str, source: str = "cell.mod", **keywords) -> RapidReadError:
 @pytest.mark.parametrize("file, line, field", [
     ("rosi_ROS_motion.mod", 45, "CONNECT"),                       # ROS-Industrial driver: interrupts, then more
     ("rparak_sorting_irb1200_T_ROB1_Module1.mod", 57, "TEST"),    # a state machine
+    ("flo_abb_PickPlace.mod", 50, "PROC"),                        # targets computed from parameters (Offs)
 ])
 def test_real_driver_and_state_machine_modules_are_refused(file, line, field):
     error = refused(file_text(DATA / file), source=file)
