@@ -47,7 +47,7 @@ def calib_tool() -> np.ndarray:
 
 def path_targets(text: str, routine: str) -> list[str]:
     """The target names of the MoveL instructions of a procedure of the module, in order."""
-    body = re.search(rf"PROC {routine}\(\)(.*?)ENDPROC", text, re.S).group(1)
+    body = re.search(rf"PROC {routine}\(\)(.*?)ENDPROC", text, re.DOTALL).group(1)
     return re.findall(r"MoveL (\w+),", body)
 
 
@@ -123,41 +123,40 @@ def test_the_tutorial_rewritten_reads_the_same(tutorial, rewritten):
 #: A module as a pendant or RobotStudio keeps it (written for these tests): tabs, CR LF, no newline at the end, a
 #: RECORD, data of every storage class, a tool and a work object declared in the module, main calling procedures,
 #: comments, an ending WHILE TRUE, a FOR over numbers, WaitDI with \MaxTime, Set/Reset, SetDO, WaitTime \InPos, 0.
-PENDANT = "\r\n".join([
-    "MODULE Cell(SYSMODULE)",
-    "\tRECORD partdata",
-    "\t\tnum mass;",
-    "\tENDRECORD",
-    "\tTASK PERS tooldata tGripper:=[TRUE,[[0,0,100],[1,0,0,0]],[2,[0,0,50],[1,0,0,0],0,0,0]];",
-    "\tTASK PERS wobjdata wTable:=[FALSE,TRUE,\"\",[[100,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];",
-    "\tLOCAL CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-    "\tCONST jointtarget jClear:=[[20,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-    "\tCONST robtarget pPick:=[[850,0,800],[0.382683,0,0.92388,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-    "\tVAR num nCount:=0;",
-    "\tPERS bool bDone:=FALSE;",
-    "\tPROC main()",
-    "\t\t! start at home",
-    "\t\tMoveAbsJ jHome\\NoEOffs,v1000,fine,tGripper\\WObj:=wTable;",
-    "\t\tWHILE TRUE DO",
-    "\t\t\tPick;",
-    "\t\t\tFOR i FROM 1 TO 2 DO",
-    "\t\t\t\tMoveAbsJ jHome,v500,z50,tGripper;",
-    "\t\t\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;",
-    "\t\t\tENDFOR",
-    "\t\tENDWHILE",
-    "\tENDPROC",
-    "\tPROC Pick()",
-    "\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;",
-    "\t\tWaitDI diPart,1\\MaxTime:=2;",
-    "\t\tSet doGrip;",
-    "\t\tWaitTime 0.5;",
-    "\t\tReset doGrip;",
-    "\t\tSetDO \\Sync, doBlow,1;",
-    "\t\tMoveAbsJ jClear,v500,z50,tGripper;",
-    "\t\tWaitTime \\InPos,0;",
-    "\t\tRETURN;",
-    "\tENDPROC",
-    "ENDMODULE"])
+PENDANT = """MODULE Cell(SYSMODULE)
+\tRECORD partdata
+\t\tnum mass;
+\tENDRECORD
+\tTASK PERS tooldata tGripper:=[TRUE,[[0,0,100],[1,0,0,0]],[2,[0,0,50],[1,0,0,0],0,0,0]];
+\tTASK PERS wobjdata wTable:=[FALSE,TRUE,"",[[100,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];
+\tLOCAL CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+\tCONST jointtarget jClear:=[[20,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+\tCONST robtarget pPick:=[[850,0,800],[0.382683,0,0.92388,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+\tVAR num nCount:=0;
+\tPERS bool bDone:=FALSE;
+\tPROC main()
+\t\t! start at home
+\t\tMoveAbsJ jHome\\NoEOffs,v1000,fine,tGripper\\WObj:=wTable;
+\t\tWHILE TRUE DO
+\t\t\tPick;
+\t\t\tFOR i FROM 1 TO 2 DO
+\t\t\t\tMoveAbsJ jHome,v500,z50,tGripper;
+\t\t\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;
+\t\t\tENDFOR
+\t\tENDWHILE
+\tENDPROC
+\tPROC Pick()
+\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;
+\t\tWaitDI diPart,1\\MaxTime:=2;
+\t\tSet doGrip;
+\t\tWaitTime 0.5;
+\t\tReset doGrip;
+\t\tSetDO \\Sync, doBlow,1;
+\t\tMoveAbsJ jClear,v500,z50,tGripper;
+\t\tWaitTime \\InPos,0;
+\t\tRETURN;
+\tENDPROC
+ENDMODULE""".replace("\n", "\r\n")
 
 
 def test_a_pendant_module_reads_with_procedures_loops_and_actions():
@@ -176,6 +175,13 @@ def test_a_pendant_module_reads_with_procedures_loops_and_actions():
     assert "one cycle of the endless WHILE TRUE loop of main (cell.mod:15)" in document["description"]
     np.testing.assert_allclose(document["tool"]["xyz"], [0.0, 0.0, 0.1], atol=1e-12)
     compile_job(parse_job(document, source="cell.mod"))
+
+
+def test_a_stop_that_ends_the_program_is_nothing():
+    text = PENDANT.replace("\t\tWHILE TRUE DO", "\t\tFOR k FROM 1 TO 1 DO").replace("\t\tENDWHILE",
+                                                                                "\t\tENDFOR\r\n\t\tStop;")
+    document = read_rapid(text, "irb1600", source="cell.mod")
+    assert document["waypoints"] == read_rapid(PENDANT, "irb1600")["waypoints"] and "description" not in document
 
 
 def refused(text: str, source: str = "cell.mod", **keywords) -> RapidReadError:
@@ -215,6 +221,7 @@ PICK_BODY = "\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;"
     ("\t\tClearPath;", "ClearPath", "path control"),
     ("\t\tSocketCreate sock;", "SocketCreate", "socket"),
     ("\t\tTPWrite \"hello\";", "TPWrite", "FlexPendant"),
+    ("\t\tStop;", "Stop", "stops the program"),
     ("\t\tGripperOpen;", "GripperOpen", "routine the module does not hold"),
     ("\t\tWaitDI diPart,1\\MaxTime:=2\\TimeFlag:=bDone;", "WaitDI", "TimeFlag"),
     ("\t\tWaitTime -1;", "WaitTime time", "seconds"),

@@ -12,7 +12,8 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   (``Path_10;``) is that procedure's body in its place (RobotStudio's ``main`` calling ``Path_10``); a ``FOR i FROM
   a TO b [STEP s] DO ... ENDFOR`` over numbers is its body that many times (refused when the body uses ``i``); a
   ``WHILE TRUE DO ... ENDWHILE`` that ends ``main`` (the endless production loop) reads as one cycle, which the
-  job's ``description`` says; a ``RETURN`` that ends a procedure is nothing. Data declared in a procedure is read as
+  job's ``description`` says; a ``RETURN`` that ends a procedure, and a ``Stop`` or ``EXIT`` that ends the program,
+  are nothing (elsewhere they are refused). Data declared in a procedure is read as
   the module's; a ``RECORD`` (a data type) declares nothing read.
 * Instructions: ``ConfJ``/``ConfL`` (\\On or \\Off: the confdata is read either way, it names the branch),
   ``MoveAbsJ``, ``MoveJ``, ``MoveL``, ``MoveC`` (\\NoEOffs and \\WObj read, \\ID and the like ignored), and the
@@ -101,6 +102,8 @@ from .settings_mark import _SIGNAL as SIGNAL_MARK
 MOVES = ("moveabsj", "movej", "movel", "movec")
 CONFIG_INSTRUCTIONS = ("confj", "confl", "pathacclim")
 ACTION_INSTRUCTIONS = ("setdo", "set", "reset", "pulsedo", "waittime", "waitdi")
+#: Instructions that end the program: read as nothing where they are its last step.
+ENDING_INSTRUCTIONS = ("stop", "exit")
 #: Predefined data (RAPID Instructions manual, "speeddata", "zonedata"): vN is N mm/s, zN is N mm, z0 and fine 0.
 PREDEFINED_SPEEDS = frozenset((5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000, 1500,
                                2000, 2500, 3000, 4000, 5000, 6000, 7000))
@@ -215,10 +218,9 @@ class _Call:
 
 @dataclass(frozen=True)
 class _Comment:
-    """A comment line in a procedure: its text (without ``!``) and line."""
+    """A comment in a procedure: its text (without ``!``)."""
 
     text: str
-    line: int
 
 
 def read_rapid(text: str, robot, base_in_world: np.ndarray | None = None, *, source: str = SOURCE,
@@ -240,8 +242,8 @@ def read_rapid(text: str, robot, base_in_world: np.ndarray | None = None, *, sou
     base_in_world = (np.linalg.inv(controller_frames(robot_model, ABB)[0]) if base_in_world is None
                      else np.asarray(base_in_world))
     reader = _Reader(robot_model, data, base_in_world, source, tool)
-    for step in steps:
-        reader.step(step)
+    for k, step in enumerate(steps):
+        reader.step(step, last=k == len(steps) - 1)
     document = reader.document(reference, _marked_numbers(text))
     calls = [step for step in steps if isinstance(step, _Call)]
     accel = _path_acceleration(calls)
@@ -295,12 +297,8 @@ def _refused_line(code: str, word: str, rest: list[str]) -> str | None:
 
 def _comments(text: str) -> list[tuple[int, _Comment]]:
     """(character offset, comment) of every ``!`` comment outside strings, in order."""
-    out = []
-    for match in _STRING_OR_COMMENT.finditer(text):
-        if match.group(0).startswith("!"):
-            line = text.count("\n", 0, match.start()) + 1
-            out.append((match.start(), _Comment(match.group(1).strip(), line)))
-    return out
+    return [(match.start(), _Comment(match.group(1).strip())) for match in _STRING_OR_COMMENT.finditer(text)
+            if match.group(0).startswith("!")]
 
 
 def _declarations(module: lark.Tree, source: str) -> _Data:
@@ -467,8 +465,11 @@ class _Reader:
         self.stops: set[int] = set()                          # waypoints where a WaitTime \InPos, 0 stops
         self.signals: dict[str, tuple[str, str]] = {}         # lower-case name -> (name as first written, direction)
 
-    def step(self, step) -> None:
-        """Read one instruction or comment (module docstring)."""
+    def step(self, step, last: bool = False) -> None:
+        """Read one instruction or comment (module docstring); ``last``: the program's last step, where ``Stop`` or
+        ``EXIT`` only ends what ends there anyway."""
+        if last and isinstance(step, _Call) and step.name.lower() in ENDING_INSTRUCTIONS:
+            return
         if isinstance(step, _Comment):
             for text in _comment_texts(step.text):
                 self.add_action({COMMENT: text})
