@@ -66,7 +66,7 @@ def test_without_the_mark_signals_have_no_number(gripper):
     assert compile_job(parse_job(document, source="unmarked.mod")).actions == gripper[0].actions
 
 
-@pytest.mark.parametrize("name", ["While", "proc", "x" * 33])
+@pytest.mark.parametrize("name", ["While", "proc", "x" * 33, "P2", "tool_job", "fine", "main_gripper"])
 def test_a_signal_rapid_cannot_name_is_refused(gripper, name):
     program = gripper[0]
     actions = list(program.actions)

@@ -62,7 +62,7 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   ``PulseDO``/``WaitTime`` in rparak/ABB-RobotStudio-Tutorial-Simple, ``PulseDO \\PLength:=2.0, WeldStarted;`` and
   ``WaitDI di, 1 \\MaxTime:=...`` in controller backups found by the code search). A RAPID signal is a name
   configured on the controller (EIO): the job's signal name is written as it is (a RAPID identifier, not a reserved
-  word, else OutputError naming the signal); its number, where the job gives one, is not RAPID's, so it rides in the
+  word, not a name of the module's data, else OutputError naming the signal); its number, where the job gives one, is not RAPID's, so it rides in the
   header's signals mark (``settings_mark.signals_mark``) for ``read_rapid`` to keep.
 * ``ConfJ \\On`` and ``ConfL \\On``: the controller keeps the written configurations (its default after
   loading, written out so that a changed default cannot pick another branch).
@@ -114,6 +114,8 @@ DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", 
 #: constants; all LOCAL to the module (module docstring, "Scope").
 STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "speeddata": "LOCAL CONST", "zonedata": "LOCAL CONST",
            "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
+#: Predefined data the module writes (RAPID Instructions manual, speeddata, zonedata, tooldata, wobjdata).
+PREDEFINED_NAMES = ("vmax", APPROACH_SPEED, "fine", "z0", "tool0", "wobj0")
 #: The global entry routine's name is this prefix and the module's name (module docstring, "Scope").
 ENTRY_PREFIX = "main_"
 
@@ -132,6 +134,7 @@ def write_rapid(program: Program, module_name: str, written: WrittenProgram | No
     comments = [a.text for k in range(len(program.waypoints)) for a in program.actions_at(k) if a.kind == COMMENT]
     lint(program, RAPID, module_name, module.header(module_name) + comments, written_configurations(program))
     module.add_moves()
+    module.check_signal_names(module_name)
     return module.text(module_name)
 
 
@@ -360,6 +363,17 @@ class _Module:
     def add_actions(self, k: int) -> None:
         """Waypoint ``k``'s actions, after the last move written into it (module docstring, "Actions")."""
         self.instructions += [action_instruction(action) for action in self.program.actions_at(k)]
+
+    def check_signal_names(self, module_name: str) -> None:
+        """OutputError naming a signal whose name is also a name the module declares or uses (its data, the predefined
+        data it writes, the module or its entry routine): RAPID would take that name for the data, not the signal."""
+        taken = {name.lower() for name in self.declarations} | {name.lower() for name in PREDEFINED_NAMES}
+        taken |= {module_name.lower(), entry_routine(module_name).lower()}
+        for k in range(len(self.program.waypoints)):
+            for action in self.program.actions_at(k):
+                if action.signal is not None and action.signal.lower() in taken:
+                    raise OutputError(f"RAPID signal name {action.signal!r} (waypoint {k}) is also a name the module "
+                                      "declares or uses for data: rename the signal in the job")
 
     def add_move(self, move: Move) -> None:
         program, k = self.program, move.end
