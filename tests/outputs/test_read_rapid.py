@@ -159,7 +159,7 @@ ENDMODULE
 
 
 @pytest.mark.parametrize("second, field", [
-    ("WaitTime 1;", "WaitTime"),
+    ("StopMove;", "StopMove"),
     ("MoveL p9, v100, fine, tool0;", "MoveL"),
     ("MoveL p1, v100, fine, tool9;", "MoveL"),
     ("MoveL p1, vmax\\T:=2, fine, tool0;", "MoveL"),

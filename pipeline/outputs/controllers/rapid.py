@@ -51,6 +51,19 @@ Functions and Data types", the entries named; "Technical reference manual - RAPI
   program's stops and at both ends of a planned joint move (``Program.exact_stop_at``); a zone of R mm as pzone_tcp = R with the other fields in the ratios of the predefined
   z10..z200 (1.5 R mm for pzone_ori, pzone_eax, zone_leax; 0.15 R deg for zone_ori, zone_reax); ``z0`` (the
   smallest fly-by zone, 0.3 mm) at a waypoint the program passes through without a zone.
+* Actions (``pipeline.program.actions``) right after the last move written into their waypoint (waypoint 0's
+  after the approach ``MoveAbsJ j0`` and ``PathAccLim``, before the first move), in the RAPID Instructions manual's
+  words: a set ``SetDO sig, 1;`` / ``SetDO sig, 0;`` ("SetDO"); a pulse ``PulseDO \\PLength:=t, sig;`` (t [s],
+  "PulseDO": the program goes on while the output is high); a wait ``WaitTime \\InPos, t;`` ("WaitTime": \\InPos
+  starts the time once the robot stands still in position; its waypoint ends in ``fine``, the job's exact stop); a
+  wait for an input ``WaitDI sig, 1;`` with ``\\MaxTime:=t`` for a timeout ("WaitDI": without \\TimeFlag the
+  controller stops the program with ERR_WAIT_MAXTIME once t [s] pass, the job's timeout; the move before it ends in
+  ``fine``, so the robot is at the point); a comment ``! text``. Real programs write the same (e.g. RobotStudio's
+  ``PulseDO``/``WaitTime`` in rparak/ABB-RobotStudio-Tutorial-Simple, ``PulseDO \\PLength:=2.0, WeldStarted;`` and
+  ``WaitDI di, 1 \\MaxTime:=...`` in controller backups found by the code search). A RAPID signal is a name
+  configured on the controller (EIO): the job's signal name is written as it is (a RAPID identifier, not a reserved
+  word, not a name of the module's data, else OutputError naming the signal); its number, where the job gives one, is not RAPID's, so it rides in the
+  header's signals mark (``settings_mark.signals_mark``) for ``read_rapid`` to keep.
 * ``ConfJ \\On`` and ``ConfL \\On``: the controller keeps the written configurations (its default after
   loading, written out so that a changed default cannot pick another branch).
 * Names: identifiers of at most 32 characters, letters, digits and underscores, starting with a letter,
@@ -72,11 +85,12 @@ from ...model.vendors import selection
 from ...model.vendors.axes import ABB, axis_angles
 from ...model.vendors.configuration import format_configuration
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
+from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .controller_motion import PASS_THROUGH_ZONE_M, WrittenProgram
 from .lint import RAPID, lint
 from .names import RESERVED_WORDS
-from .settings_mark import settings_mark
+from .settings_mark import settings_mark, signals_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
 #: v_ori [deg/s], v_leax [mm/s], v_reax [deg/s] of every predefined speeddata v5..v7000.
@@ -100,6 +114,8 @@ DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", 
 #: constants; all LOCAL to the module (module docstring, "Scope").
 STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "speeddata": "LOCAL CONST", "zonedata": "LOCAL CONST",
            "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
+#: Predefined data the module writes (RAPID Instructions manual, speeddata, zonedata, tooldata, wobjdata).
+PREDEFINED_NAMES = ("vmax", APPROACH_SPEED, "fine", "z0", "tool0", "wobj0")
 #: The global entry routine's name is this prefix and the module's name (module docstring, "Scope").
 ENTRY_PREFIX = "main_"
 
@@ -115,8 +131,10 @@ def write_rapid(program: Program, module_name: str, written: WrittenProgram | No
     if program.robot.dof != 6:
         raise OutputError(f"{program.robot.name}: a RAPID robtarget needs a 6-joint arm, it has {program.robot.dof}")
     module = _Module(program, written)
-    lint(program, RAPID, module_name, module.header(module_name), written_configurations(program))
+    comments = [a.text for k in range(len(program.waypoints)) for a in program.actions_at(k) if a.kind == COMMENT]
+    lint(program, RAPID, module_name, module.header(module_name) + comments, written_configurations(program))
     module.add_moves()
+    module.check_signal_names(module_name)
     return module.text(module_name)
 
 
@@ -194,6 +212,24 @@ def zone_data(zone_m: float, stop: bool = False) -> tuple[str, str | None]:
     fields = [number(mm, MM), *[number(mm * ZONE_MM_RATIO, MM)] * 2, number(mm * ZONE_DEG_PER_MM, MM),
               number(mm * ZONE_MM_RATIO, MM), number(mm * ZONE_DEG_PER_MM, MM)]
     return name, f"[FALSE,{','.join(fields)}]"
+
+
+def action_instruction(action: Action) -> str:
+    """The RAPID instruction (or ``! comment``) of one action (module docstring, "Actions"); OutputError when its
+    signal's name is not a RAPID identifier."""
+    if action.kind == COMMENT:
+        return f"! {action.text}"
+    if action.kind == WAIT:
+        return f"WaitTime \\InPos, {number(action.time_s, 3)};"
+    signal = check_identifier(action.signal, "signal name")
+    if action.kind == SET:
+        return f"SetDO {signal}, {int(action.value)};"
+    if action.kind == PULSE:
+        return f"PulseDO \\PLength:={number(action.time_s, 3)}, {signal};"
+    if action.kind == WAIT_INPUT:
+        timeout = "" if action.timeout_s is None else f" \\MaxTime:={number(action.timeout_s, 3)}"
+        return f"WaitDI {signal}, {int(action.value)}{timeout};"
+    raise OutputError(f"RAPID has no instruction for an action of kind {action.kind!r}")
 
 
 def path_acceleration(program: Program) -> float | None:
@@ -319,8 +355,25 @@ class _Module:
             # after the approach: PathAccLim acts on the TCP of the moves that follow
             limit = number(accel, 3)
             self.instructions.append(f"PathAccLim TRUE\\AccMax:={limit}, TRUE\\DecelMax:={limit};")
+        self.add_actions(0)
         for move in program.moves:
             self.add_move(move)
+            self.add_actions(move.end)
+
+    def add_actions(self, k: int) -> None:
+        """Waypoint ``k``'s actions, after the last move written into it (module docstring, "Actions")."""
+        self.instructions += [action_instruction(action) for action in self.program.actions_at(k)]
+
+    def check_signal_names(self, module_name: str) -> None:
+        """OutputError naming a signal whose name is also a name the module declares or uses (its data, the predefined
+        data it writes, the module or its entry routine): RAPID would take that name for the data, not the signal."""
+        taken = {name.lower() for name in self.declarations} | {name.lower() for name in PREDEFINED_NAMES}
+        taken |= {module_name.lower(), entry_routine(module_name).lower()}
+        for k in range(len(self.program.waypoints)):
+            for action in self.program.actions_at(k):
+                if action.signal is not None and action.signal.lower() in taken:
+                    raise OutputError(f"RAPID signal name {action.signal!r} (waypoint {k}) is also a name the module "
+                                      "declares or uses for data: rename the signal in the job")
 
     def add_move(self, move: Move) -> None:
         program, k = self.program, move.end
@@ -371,6 +424,7 @@ class _Module:
             frames_words(program.robot, ABB, "the base frame", "tool0", "confdata and jointtargets") + ".",
             job_mark(program.job_name or program.name),
             settings_mark(program),
+            *([signals_mark(program)] if signals_mark(program) else []),
             (f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one."
              if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (no inertia)."),
             (f"Data are LOCAL to this module; run {entry_routine(module_name)} (PP to Routine, or call it from the "

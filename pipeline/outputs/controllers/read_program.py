@@ -22,7 +22,7 @@ def read_program_text(language: str, text: str, robot, source: str, dat: str | N
     from .read_urscript import read_urscript
 
     extra = {} if tool is None else {"tool": tool}
-    readers = {"rapid": lambda: read_rapid(text, robot, **extra),
+    readers = {"rapid": lambda: read_rapid(text, robot, source=source, **extra),
                "ls": lambda: read_ls(text, robot, source=source, **extra),
                "jbi": lambda: read_jbi(text, robot, source=source, **extra),
                "krl": lambda: read_krl(text, dat, robot, source, dat_source, **extra),

@@ -50,7 +50,8 @@ def signals_mark(program: Program) -> str:
                     for s in program.signals.values() if s.number is not None)
 
 
-_SIGNAL = re.compile(r"\bdh\.signal\.([A-Za-z][A-Za-z0-9_]{0,31})=(out|in)([0-9]{1,4})\b")
+#: One signal of the mark: (name, out or in, number).
+SIGNAL_MARK = re.compile(r"\bdh\.signal\.([A-Za-z][A-Za-z0-9_]{0,31})=(out|in)([0-9]{1,4})\b")
 
 
 def with_signal_names(document: dict, text: str) -> dict:
@@ -60,7 +61,7 @@ def with_signal_names(document: dict, text: str) -> dict:
     table = document.get("signals") or {}
     by_number = {(direction, number): name for name, entry in table.items() for direction, number in entry.items()}
     renamed = {}
-    for name, direction, number in _SIGNAL.findall(text):
+    for name, direction, number in SIGNAL_MARK.findall(text):
         old = by_number.get((OUTPUT if direction == "out" else INPUT, int(number)))
         if old is not None and name not in renamed.values() and (name == old or name not in table):
             renamed[old] = name

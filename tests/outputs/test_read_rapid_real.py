@@ -1,0 +1,273 @@
+"""Real RAPID modules written by others (tests/data/programs/abb/SOURCES.md) and what pendants and RobotStudio write
+(issue 37): a RobotStudio module (tabs, CR LF, no newline at the end, main calling paths, PulseDO, WaitTime, a tool in
+the task's CalibData module) reads into a job whose every target is the file's, and the job compiled and re-written
+by write_rapid reads the same again; the constructs the reader takes (declarations of every storage, RECORD, tool
+and work object data, procedures inlined, FOR over numbers, an ending WHILE TRUE as one cycle, WaitDI, Set/Reset,
+SetDO, WaitTime \\InPos, 0) read; what has no static meaning is refused naming the file, the line and the construct,
+and read-program then writes nothing."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.__main__ import main
+from pipeline.files.poses import quaternion_position_to_pose
+from pipeline.outputs.controllers.rapid import write_rapid
+from pipeline.outputs.controllers.read_rapid import RapidReadError, read_rapid
+from pipeline.program.compile import compile_job
+from pipeline.program.job import parse_job
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "programs" / "abb"
+ROBOT = str(DATA / "irb120.yaml")
+TUTORIAL = DATA / "rparak_tutorial_Module1.mod"
+NUMBER = r"-?\d+(?:\.\d+)?(?:E[+-]?\d+)?"
+ROBTARGET = re.compile(rf"CONST robtarget (\w+):=\[\[({NUMBER}),({NUMBER}),({NUMBER})\],"
+                       rf"\[({NUMBER}),({NUMBER}),({NUMBER}),({NUMBER})\]")
+#: The writer rounds positions to 0.001 mm and quaternion components to 1e-6: half of each, and round-off.
+WRITTEN_M, WRITTEN_Q = 0.5e-6 + 1e-12, 0.5e-6 + 1e-12
+
+
+def file_text(path: Path) -> str:
+    """The file's text as it is (CR LF kept)."""
+    return path.read_bytes().decode("utf-8")
+
+
+def calib_tool() -> np.ndarray:
+    """The tframe (4, 4) [m] of smc_gripper in the tutorial's CalibData module (the task's other module)."""
+    text = file_text(DATA / "rparak_tutorial_CalibData.mod")
+    match = re.search(rf"smc_gripper:=\[TRUE,\[\[({NUMBER}),({NUMBER}),({NUMBER})\],\[({NUMBER}),({NUMBER}),"
+                      rf"({NUMBER}),({NUMBER})\]\]", text)
+    values = [float(v) for v in match.groups()]
+    return quaternion_position_to_pose(np.array(values[3:]), np.array(values[:3]) / 1e3)
+
+
+def path_targets(text: str, routine: str) -> list[str]:
+    """The target names of the MoveL instructions of a procedure of the module, in order."""
+    body = re.search(rf"PROC {routine}\(\)(.*?)ENDPROC", text, re.DOTALL).group(1)
+    return re.findall(r"MoveL (\w+),", body)
+
+
+@pytest.fixture(scope="module")
+def tutorial() -> dict:
+    return read_rapid(file_text(TUTORIAL), ROBOT, source=TUTORIAL.name, tool=calib_tool())
+
+
+def test_the_tutorial_module_is_what_robotstudio_writes():
+    text = file_text(TUTORIAL)
+    assert "\r\n" in text and "\tPROC Path_10()" in text and not text.endswith("\n")
+    assert "MoveAbsJ [[0,0,0,0,90,0],[9E9,9E9,9E9,9E9,9E9,9E9]]\\NoEOffs" in text and "PulseDO object_1_att;" in text
+
+
+def test_every_target_is_the_files(tutorial):
+    text = file_text(TUTORIAL)
+    declared = {m.group(1): [float(v) for v in m.groups()[1:]] for m in ROBTARGET.finditer(text)}
+    order = [name for path in ("Path_10", "Path_20", "Path_30") for name in path_targets(text, path)]
+    # a move to where the robot is adds no waypoint: Target_10 after Path_10 (and Path_20), and the first MoveL to
+    # Target_10, the TCP pose the MoveAbsJ home reached with smc_gripper
+    order = [name for k, name in enumerate(order) if k > 0 and name != order[k - 1]]
+    waypoints = tutorial["waypoints"]
+    assert waypoints[0]["joints"] == [0.0, 0.0, 0.0, 0.0, 90.0, 0.0]
+    assert len(waypoints) == 1 + len(order)
+    for waypoint, name in zip(waypoints[1:], order, strict=True):
+        values = declared[name]
+        assert waypoint["move"] == "linear" and waypoint["speed"] == pytest.approx(0.1)
+        np.testing.assert_allclose(np.array(waypoint["xyz"]) * 1e3, values[:3], atol=1e-9)
+        quaternion = np.array(values[3:]) / np.linalg.norm(values[3:])
+        sign = np.sign(np.dot(quaternion, waypoint["quaternion"]))
+        np.testing.assert_allclose(sign * np.array(waypoint["quaternion"]), quaternion, atol=1e-12)
+    np.testing.assert_allclose(tutorial["tool"]["xyz"], [0.0, 0.004e-3, 0.197001], atol=1e-12)
+
+
+def test_the_tutorial_actions_and_signals(tutorial):
+    waypoints = tutorial["waypoints"]
+    assert waypoints[0]["do"] == [{"comment": "****** Home Position ******!"},
+                                  {"comment": "****** Pick and Place - Object 1 ******!"}]
+    pulses = [(k, a["pulse"]) for k, w in enumerate(waypoints) for a in w.get("do", ()) if "pulse" in a]
+    assert [name for _, name in pulses] == ["object_1_att", "object_1_det", "object_2_att", "object_2_det",
+                                            "object_3_att", "object_3_det"]
+    for k, _ in pulses:           # PulseDO without \PLength is 0.2 s; WaitTime 1 after it; the move there is fine
+        assert waypoints[k]["do"][-2:] == [{"pulse": waypoints[k]["do"][-2]["pulse"], "time": 0.2}, {"wait": 1.0}]
+        assert "zone" not in waypoints[k]
+    assert tutorial["signals"] == {name: {"output": None} for _, name in pulses}
+
+
+@pytest.fixture(scope="module")
+def rewritten(tutorial) -> tuple:
+    """(the tutorial job compiled; written by write_rapid and read back; that compiled)."""
+    program = compile_job(parse_job(tutorial, source=TUTORIAL.name))
+    again = read_rapid(write_rapid(program, "tutorial"), ROBOT, source="tutorial.mod")
+    return program, again, compile_job(parse_job(again, source="tutorial.mod"))
+
+
+def test_the_tutorial_rewritten_reads_the_same(tutorial, rewritten):
+    program, again, compiled = rewritten
+    assert len(again["waypoints"]) == len(tutorial["waypoints"])
+    for read, first in zip(again["waypoints"], tutorial["waypoints"], strict=True):
+        assert read.get("do") == first.get("do") and read.get("move") == first.get("move")
+        if "joints" in first:
+            np.testing.assert_allclose(read["joints"], first["joints"], atol=0.5e-4 + 1e-9)
+            continue
+        np.testing.assert_allclose(read["xyz"], first["xyz"], atol=WRITTEN_M)
+        sign = np.sign(np.dot(read["quaternion"], first["quaternion"]))
+        np.testing.assert_allclose(sign * np.array(read["quaternion"]), first["quaternion"], atol=WRITTEN_Q)
+    # the confdata may name the other side of a quadrant boundary an axis sits on (0 deg here): the same joints
+    assert np.abs(compiled.targets - program.targets).max() <= 1e-4
+    assert again["signals"] == tutorial["signals"] and compiled.actions == program.actions
+    np.testing.assert_allclose(again["tool"]["xyz"], tutorial["tool"]["xyz"], atol=WRITTEN_M)
+
+
+#: A module as a pendant or RobotStudio keeps it (written for these tests): tabs, CR LF, no newline at the end, a
+#: RECORD, data of every storage class, a tool and a work object declared in the module, main calling procedures,
+#: comments, an ending WHILE TRUE, a FOR over numbers, WaitDI with \MaxTime, Set/Reset, SetDO, WaitTime \InPos, 0.
+PENDANT = """MODULE Cell(SYSMODULE)
+\tRECORD partdata
+\t\tnum mass;
+\tENDRECORD
+\tTASK PERS tooldata tGripper:=[TRUE,[[0,0,100],[1,0,0,0]],[2,[0,0,50],[1,0,0,0],0,0,0]];
+\tTASK PERS wobjdata wTable:=[FALSE,TRUE,"",[[100,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];
+\tLOCAL CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+\tCONST jointtarget jClear:=[[20,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+\tCONST robtarget pPick:=[[850,0,800],[0.382683,0,0.92388,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+\tVAR num nCount:=0;
+\tPERS bool bDone:=FALSE;
+\tPROC main()
+\t\t! start at home
+\t\tMoveAbsJ jHome\\NoEOffs,v1000,fine,tGripper\\WObj:=wTable;
+\t\tWHILE TRUE DO
+\t\t\tPick;
+\t\t\tFOR i FROM 1 TO 2 DO
+\t\t\t\tMoveAbsJ jHome,v500,z50,tGripper;
+\t\t\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;
+\t\t\tENDFOR
+\t\tENDWHILE
+\tENDPROC
+\tPROC Pick()
+\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;
+\t\tWaitDI diPart,1\\MaxTime:=2;
+\t\tSet doGrip;
+\t\tWaitTime 0.5;
+\t\tReset doGrip;
+\t\tSetDO \\Sync, doBlow,1;
+\t\tMoveAbsJ jClear,v500,z50,tGripper;
+\t\tWaitTime \\InPos,0;
+\t\tRETURN;
+\tENDPROC
+ENDMODULE""".replace("\n", "\r\n")
+
+
+def test_a_pendant_module_reads_with_procedures_loops_and_actions():
+    document = read_rapid(PENDANT, "irb1600", source="cell.mod")
+    waypoints = document["waypoints"]
+    assert [w.get("move", "joints") for w in waypoints] == ["joints", "linear", "joints", "joints", "linear",
+                                                            "joints", "linear"]
+    assert waypoints[0]["do"] == [{"comment": "start at home"}]
+    assert waypoints[1]["do"] == [{"wait_input": "diPart", "value": "on", "timeout": 2.0},
+                                  {"set": "doGrip", "value": "on"}, {"wait": 0.5}, {"set": "doGrip", "value": "off"},
+                                  {"set": "doBlow", "value": "on"}]
+    assert "zone" not in waypoints[1] and "zone" not in waypoints[2]     # a wait there; WaitTime \InPos, 0
+    assert waypoints[3]["zone"] == pytest.approx(0.05) and waypoints[4]["zone"] == pytest.approx(0.01)
+    np.testing.assert_allclose(waypoints[1]["xyz"], [0.95, 0.0, 0.8], atol=1e-12)   # in wTable (x + 100 mm)
+    assert document["signals"] == {"diPart": {"input": None}, "doGrip": {"output": None}, "doBlow": {"output": None}}
+    assert "one cycle of the endless WHILE TRUE loop of main (cell.mod:15)" in document["description"]
+    np.testing.assert_allclose(document["tool"]["xyz"], [0.0, 0.0, 0.1], atol=1e-12)
+    compile_job(parse_job(document, source="cell.mod"))
+
+
+def test_a_stop_that_ends_the_program_is_nothing():
+    text = PENDANT.replace("\t\tWHILE TRUE DO", "\t\tFOR k FROM 1 TO 1 DO").replace("\t\tENDWHILE",
+                                                                                "\t\tENDFOR\r\n\t\tStop;")
+    document = read_rapid(text, "irb1600", source="cell.mod")
+    assert document["waypoints"] == read_rapid(PENDANT, "irb1600")["waypoints"] and "description" not in document
+
+
+def refused(text: str, source: str = "cell.mod", **keywords) -> RapidReadError:
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(text, "irb1600", source=source, **keywords)
+    return error.value
+
+
+@pytest.mark.parametrize("file, line, field", [
+    ("rosi_ROS_motion.mod", 45, "CONNECT"),                       # ROS-Industrial driver: interrupts, then more
+    ("rparak_sorting_irb1200_T_ROB1_Module1.mod", 57, "TEST"),    # a state machine
+    ("flo_abb_PickPlace.mod", 50, "PROC"),                        # targets computed from parameters (Offs)
+])
+def test_real_driver_and_state_machine_modules_are_refused(file, line, field):
+    error = refused(file_text(DATA / file), source=file)
+    assert (error.source, error.line, error.field) == (file, line, field)
+    assert str(error).startswith(f"{file}:{line}: {field}: ")
+
+
+PICK_BODY = "\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;"
+
+
+@pytest.mark.parametrize("replacement, field, problem", [
+    ("\t\tIF bDone THEN\r\n\t\t\tStop;\r\n\t\tENDIF", "IF", "branch"),
+    ("\t\tTEST nCount\r\n\t\tCASE 1:\r\n\t\t\tStop;\r\n\t\tENDTEST", "TEST", "branch"),
+    ("\t\tGOTO next;", "GOTO", "jump"),
+    ("\t\tnext:", "next", "label"),
+    ("\t\tWHILE nCount < 3 DO\r\n\t\t\tnCount:=nCount+1;\r\n\t\tENDWHILE", "WHILE", "loop on a variable"),
+    ("\t\tFOR i FROM 1 TO nCount DO\r\n\t\tENDFOR", "FOR", "loop on a variable"),
+    ("\t\tnCount:=nCount+1;", "nCount:=nCount+1", "assignment"),
+    ("\t\tpPick.trans.z:=900;", "pPick.trans.z:=900", "assignment"),
+    ("\t\tWaitUntil DInput(diPart)=1;", "WaitUntil", "expression"),
+    ("\t\tCONNECT iPart WITH tPart;", "CONNECT", "interrupts"),
+    ("\t\tRETURN;\r\n" + PICK_BODY, "RETURN", "jump"),
+    ("\t\tISignalDI diPart,1,iPart;", "ISignalDI", "interrupt"),
+    ("\t\tStopMove;", "StopMove", "path control"),
+    ("\t\tClearPath;", "ClearPath", "path control"),
+    ("\t\tSocketCreate sock;", "SocketCreate", "socket"),
+    ("\t\tTPWrite \"hello\";", "TPWrite", "FlexPendant"),
+    ("\t\tStop;", "Stop", "stops the program"),
+    ("\t\tGripperOpen;", "GripperOpen", "routine the module does not hold"),
+    ("\t\tWaitDI diPart,1\\MaxTime:=2\\TimeFlag:=bDone;", "WaitDI", "TimeFlag"),
+    ("\t\tWaitTime -1;", "WaitTime time", "seconds"),
+    ("\t\tSetDO doGrip,2;", "SetDO", "0 or 1"),
+    ("\t\tSet diPart;", "Set", "used as a digital input before"),
+])
+def test_what_has_no_static_meaning_is_named_with_its_line(replacement, field, problem):
+    text = PENDANT.replace("\t\tReset doGrip;", replacement)
+    line = PENDANT.split("\r\n").index("\t\tReset doGrip;") + 1
+    error = refused(text)
+    assert (error.source, error.line, error.field) == ("cell.mod", line, field)
+    assert problem in error.problem
+
+
+@pytest.mark.parametrize("old, new, line, field, problem", [
+    ("\t\tENDWHILE", "\t\tENDWHILE\r\n\t\tMoveAbsJ jHome,v500,fine,tGripper;", 15, "WHILE TRUE", "ends main"),
+    ("\tPROC Pick()", "\tPROC Pick(num n)", 23, "PROC", "parameters"),
+    ("\t\tRETURN;", "\t\tPick;", 32, "Pick", "recursive"),
+    ("\t\t\t\tMoveAbsJ jHome,v500,z50,tGripper;", "\t\t\t\tMoveAbsJ jHome,v500,z50,tGripper\\ID:=i;", 17, "FOR i",
+     "uses the loop variable"),
+    ("tGripper:=[TRUE", "tOther:=[TRUE", 14, "MoveAbsJ", "pass its tframe"),
+    ("\tTASK PERS wobjdata wTable:=", "\tTASK PERS wobjdata wOther:=", 24, "MoveL", "no wobjdata named wTable"),
+    ("\tTRAP", "\tTRAP", None, None, None),
+])
+def test_structures_without_static_meaning_are_named(old, new, line, field, problem):
+    if field is None:                                          # a TRAP routine after the procedures
+        text = PENDANT.replace("ENDMODULE", "\tTRAP tPart\r\n\t\tStop;\r\n\tENDTRAP\r\nENDMODULE")
+        line, field, problem = PENDANT.count("\r\n") + 1, "TRAP", "interrupt routine"
+    else:
+        assert old in PENDANT
+        text = PENDANT.replace(old, new)
+    error = refused(text)
+    assert (error.line, error.field) == (line, field)
+    assert problem in error.problem
+
+
+def test_an_undeclared_tool_reads_with_the_callers_tframe():
+    text = PENDANT.replace("tGripper:=[TRUE", "tOther:=[TRUE")
+    tool = quaternion_position_to_pose(np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.1]))
+    assert read_rapid(text, "irb1600", tool=tool)["waypoints"][1]["xyz"] == pytest.approx([0.95, 0.0, 0.8])
+
+
+def test_read_program_writes_nothing_for_a_refused_module(tmp_path, capsys):
+    program = tmp_path / "driver.mod"
+    program.write_bytes((DATA / "rosi_ROS_motion.mod").read_bytes())
+    out = tmp_path / "job.yaml"
+    assert main(["read-program", str(program), "--robot", "irb1600", "--out", str(out)]) == 2
+    assert f"{program}:45: CONNECT: " in capsys.readouterr().err
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["driver.mod"]
