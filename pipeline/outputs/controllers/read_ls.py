@@ -579,8 +579,7 @@ def _tool(robot, frames: _Frames, tool: np.ndarray | None, header: list[str], so
         return tool_frame(robot, FANUC, np.eye(4), [])
     if tool is None and (frames.ut != 1 or comment_tool(header) is None):
         raise ControllerProgramError(source, f"line {frames.ut_line}", f"tool {frames.ut} (UTOOL_NUM / UT): its data "
-                                     "is on the controller, not in the file: give it (read-program --tool, or "
-                                     "read_ls(tool=X_FT))", line=frames.ut_line)
+                                     "is on the controller, not in the file: give it (read_ls(tool=X_FT))", line=frames.ut_line)
     return tool_frame(robot, FANUC, tool, header)
 
 
