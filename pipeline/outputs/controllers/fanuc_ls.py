@@ -59,6 +59,22 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   a section is written in our base frame). UT 1 must hold the job's tool on the controller's flange (faceplate)
   frame, the section's flange (stated in the header comment; the identity when the job has none).
 
+* Actions (``pipeline.program.actions``), after the last written move of their waypoint (waypoint 0's after the
+  joint move into it), in TP's own instructions (FANUC R-30iA/R-30iB operator's manuals, "I/O instructions", "Wait
+  instructions", "Branching instructions"; the Lincoln Electric copy of the FANUC ArcTool manual, ch. 26 "Wait
+  instructions", ch-delivery.lincolnelectric.com/api/public/content/67cd62debb004088957ebe41ecebc9c1: WAIT time in
+  seconds with a minimum unit of 0.01 s; "Time out, LBL[i]" with $WAITTMOUT "in 100ths of a second"):
+  ``DO[n:name]=ON`` / ``=OFF`` (set), ``DO[n:name]=PULSE,t sec`` (pulse, t in 0.1 s steps as the pendant shows it;
+  the program goes on), ``WAIT t(sec)`` (wait, 0.01 s steps; it follows a FINE move, since the job stops wherever
+  it waits, so the robot is at rest: FINE waits for the move to end before the next instruction),
+  ``WAIT DI[n:name]=ON`` (wait for an input) and, with a timeout, ``$WAITTMOUT=k`` (k hundredths of a second) then
+  ``WAIT DI[n:name]=ON TIMEOUT,LBL[999]``; the program then ends in ``END``, ``LBL[999:input timeout]``,
+  ``UALM[1]`` (user alarm 1: set its message, $UALRM_MSG[1], and a stopping severity on the controller) and
+  ``ABORT``, so a timeout stops the program with an alarm (``timeout_lines``); a comment is ``!text`` lines of at
+  most 32 characters, each but the last ending in ``+``. Signals are numbered I/O with the job's name as the I/O
+  comment in the brackets, and the header carries the signals mark (``settings_mark.signals_mark``); a signal
+  without a number is refused (``check_signal_numbers``).
+
 ``program_points`` (the motions in the order they are written, with their points' joint values) and
 ``controller_frame`` are shared with the Yaskawa writer.
 """

@@ -58,7 +58,10 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
 * Refused, naming the line and the construct: jumps and labels (``JMP``, ``LBL``), branches (``IF``, ``SELECT``),
   calls of other programs (``CALL``, ``RUN``), register and flag assignments, register speeds and CNT, targets in
   position registers (``PR[i]``: their values are not in the file), ``SKIP CONDITION``, waits on other conditions,
-  ``OVERRIDE``, ``PAYLOAD``, timers, and any instruction the grammar does not read.
+  ``OVERRIDE`` or ``PAYLOAD`` after the first move, timers, and any instruction the grammar does not read.
+* ``OVERRIDE=n%`` before the first move is the job's ``speed_scale`` n / 100 (the controller runs every speed at n %
+  of the program's); ``PAYLOAD[n]`` before the first move is noted in the job's description (the schedule's data is
+  on the controller).
 
 ``ControllerProgramError`` names the file, the line or point and what is wrong. ``tool_frame``,
 ``zone_from_cnt`` and ``pose_waypoint`` are shared with the Yaskawa reader; ``parse_subset`` with the RAPID and
@@ -301,8 +304,8 @@ REFUSED = (
     (re.compile(r"(UFRAME_NUM|UTOOL_NUM)"), "selects a frame by a register: its number is not in the file"),
     (re.compile(r"PR\["), "a position register assignment: its value is not in the file"),
     (re.compile(r"(R|SR|AR|F|M)\["), "a register or flag assignment: registers have no static value in the file"),
-    (re.compile(r"OVERRIDE\b"), "changes the speed override: the job's speeds are the program's own"),
-    (re.compile(r"PAYLOAD\["), "selects a payload schedule whose data is on the controller, not in the file"),
+    (re.compile(r"OVERRIDE\b"), "changes the speed override during the program (read before the first move only)"),
+    (re.compile(r"PAYLOAD\["), "selects a payload schedule during the program (read before the first move only)"),
     (re.compile(r"TIMER\["), "a timer"),
     (re.compile(r"UALM\[|ABORT\b|END\b"), ("ends or stops the program before its end (only the timeout pattern "
      "END ; LBL[x] ; UALM[m] ; ABORT at the program's end is read)")),
@@ -353,6 +356,8 @@ class _Walk:
         self.waittmout: float | None = None
         self.timed: list[tuple[int, int]] = []       # (line, label) of each timed wait
         self.after_end: list[tuple[int, str, int | None]] | None = None
+        self.override = 1.0
+        self.notes: list[str] = []
 
     @property
     def actions(self) -> list[dict]:
@@ -481,6 +486,20 @@ class _Walk:
     def _pr_element(self, line: int, text: str, node: Tree) -> None:
         register, element = (int(v) for v in re.findall(r"\d+", str(node.children[0])))
         self.registers[(register, element)] = float(node.children[1])
+
+    def _override(self, line: int, text: str, node: Tree) -> None:
+        """OVERRIDE=n% before the first move: the job's speed_scale n / 100 (module docstring)."""
+        percent = int(node.children[0])
+        if self.motions or not 1 <= percent <= 100:
+            raise ControllerProgramError(self.source, f"line {line}", f"{text}: an override is read before the first "
+                                         "move only, 1 to 100 %", line=line)
+        self.override = percent / 100.0
+
+    def _payload(self, line: int, text: str, node: Tree) -> None:
+        """PAYLOAD[n] before the first move: noted in the job's description (its data is on the controller)."""
+        if self.motions:
+            raise refusal(self.source, line, text)
+        self.notes.append(f"{text} selects a payload schedule whose data is on the controller (not read)")
 
     def _end(self, line: int, text: str, node) -> None:
         self.after_end = []
@@ -666,10 +685,12 @@ def _document(reference: str, X_FT, walk: _Walk, points: list[list[dict]], accel
         waypoints.append(waypoint)
     start = ends[0]["q"] if "xyz" in ends[0]["waypoint"] else None
     document = job_document(reference, X_FT, waypoints, start, accel)
-    if walk.before:
-        document = {"description": "the actions before the program's first move run once the robot is at the "
-                                   "first waypoint", **document}
-    return document
+    notes = walk.notes + (["the actions before the program's first move run once the robot is at the first "
+                           "waypoint"] if walk.before else [])
+    if walk.override != 1.0:
+        document["speed_scale"] = walk.override
+        notes.append(f"OVERRIDE={walk.override * 100:g}% is the speed scale")
+    return {"description": "; ".join(notes), **document} if notes else document
 
 
 def _is_wait(action: dict) -> bool:
