@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from pipeline.model.ik.branches import configuration_labels
-from pipeline.outputs.controllers.fanuc_ls import cnt_value, rounding_bound, write_ls, zone_reach
 from pipeline.model.vendors.axes import joint_values
+from pipeline.outputs.controllers.fanuc_ls import cnt_value, rounding_bound, write_ls, zone_reach
 from pipeline.outputs.controllers.read_ls import ControllerProgramError, read_ls
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job

@@ -297,7 +297,7 @@ REFUSED = (
     (re.compile(r"(CALL|RUN)\b"), "a call of another program, which is not in this file"),
     (re.compile(r"SKIP\s+CONDITION\b"), "a skip condition: the move ends where an input changes"),
     (re.compile(r"(FOR|ENDFOR)\b"), "a loop on a register"),
-    (re.compile(r"[RP]I\[|RO\["), ("robot I/O (the end-of-arm connector): a job's signal is written back as DO[n] / "
+    (re.compile(r"(WAIT\s+)?R[IO]\["), ("robot I/O (the end-of-arm connector): a job's signal is written back as DO[n] / "
      "DI[n], another signal")),
     (re.compile(r"WAIT\b"), "a wait on a condition other than one digital input (a flag, register or expression)"),
     (re.compile(r"(UFRAME|UTOOL)\["), "sets a frame's data from a register or position register"),
@@ -430,11 +430,15 @@ class _Walk:
         """The ``!zone`` comments just before a CNT move (taken out of the previous waypoint's actions)."""
         if not self.motions:
             return self.header
-        taken = []
-        while (termination != "FINE" and self.actions and "comment" in self.actions[-1]
-               and ZONE_COMMENT.search(self.actions[-1]["comment"])):
-            taken.insert(0, self.actions.pop()["comment"])
-        return taken
+        actions, start = self.actions, len(self.actions)
+        while termination != "FINE" and start > 0 and "comment" in actions[start - 1]:
+            start -= 1
+        for i in range(start, len(actions)):
+            if ZONE_COMMENT.search(actions[i]["comment"]):       # the zone comment and its wrapped lines
+                taken = [a["comment"] for a in actions[i:]]
+                del actions[i:]
+                return taken
+        return []
 
     def _comment(self, line: int, text: str, node: Tree) -> None:
         comment = str(node.children[0])[1:].strip()
@@ -520,6 +524,8 @@ class _Walk:
 
     def _signal(self, line: int, text: str, io: str, direction: str) -> str:
         """The name of the signal ``io`` (``DO[1:name]``; module docstring, "Actions"), added to the table."""
+        if io.startswith("R"):
+            raise refusal(self.source, line, text)
         number, comment = _IO.match(io).groups()
         number = int(number)
         name = _STATE_PREFIX.sub("", (comment or "").strip())
@@ -642,7 +648,10 @@ def _point(robot, tool_robot, positions: dict, ref: int, X_B_UF: np.ndarray, wal
     X = controller_pose(X_B_UF, [values[a] for a in "XYZ"], [values[a] for a in "WPR"])
     if motion.offset is not None:
         X = _offset(X, X_B_UF, motion, walk.registers, source)
-    waypoint, q = pose_waypoint(tool_robot, X, group["config"], FANUC, where, source)
+    try:
+        waypoint, q = pose_waypoint(tool_robot, X, group["config"], FANUC, where, source)
+    except ControllerProgramError as error:
+        raise ControllerProgramError(source, where, error.problem, line=group["line"]) from None
     return {"waypoint": waypoint, "q": q, "p": X[:3, 3], "pose": waypoint}
 
 
@@ -685,8 +694,8 @@ def _document(reference: str, X_FT, walk: _Walk, points: list[list[dict]], accel
         waypoints.append(waypoint)
     start = ends[0]["q"] if "xyz" in ends[0]["waypoint"] else None
     document = job_document(reference, X_FT, waypoints, start, accel)
-    notes = walk.notes + (["the actions before the program's first move run once the robot is at the first "
-                           "waypoint"] if walk.before else [])
+    notes = walk.notes + ([("the actions before the program's first move run once the robot is at the first "
+                           "waypoint")] if walk.before else [])
     if walk.override != 1.0:
         document["speed_scale"] = walk.override
         notes.append(f"OVERRIDE={walk.override * 100:g}% is the speed scale")
