@@ -320,3 +320,18 @@ def test_a_timeout_label_must_be_the_alarm_pattern():
     assert document["waypoints"][0]["do"] == [{"wait_input": "di1", "value": "on", "timeout": 1.5}]
     with pytest.raises(ControllerProgramError, match="TIMEOUT,LBL\\[7\\]: the label must be"):
         read_ls(timed.replace("/POS", pattern.replace("UALM[1] ;\n   9:  ABORT", "UALM[1]"), 1), "lrmate200id")
+
+
+@pytest.mark.slow
+def test_nothing_is_written_when_a_signal_has_no_number(tmp_path, capsys):
+    """``program --lang ls`` of a job whose signal has no number: one error line naming it, no file (compiles and
+    times the job: a few seconds)."""
+    from pipeline.__main__ import main
+
+    text = (DATA / "gp7_gripper_pick_place.yaml").read_text().replace("blow_off: {output: 2}", "blow_off: {output: null}")
+    job = tmp_path / "unnumbered.yaml"
+    job.write_text(text)
+    out = tmp_path / "out"
+    assert main(["program", str(job), "--lang", "ls", "--out", str(out)]) != 0
+    assert "signal 'blow_off' has no number" in capsys.readouterr().err
+    assert not out.exists() or not any(out.iterdir())

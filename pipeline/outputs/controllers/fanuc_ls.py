@@ -73,7 +73,9 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   ``ABORT``, so a timeout stops the program with an alarm (``timeout_lines``); a comment is ``!text`` lines of at
   most 32 characters, each but the last ending in ``+``. Signals are numbered I/O with the job's name as the I/O
   comment in the brackets, and the header carries the signals mark (``settings_mark.signals_mark``); a signal
-  without a number is refused (``check_signal_numbers``).
+  without a number is refused (``check_signal_numbers``). An output at a waypoint with a zone (CNT, where the job
+  neither waits nor stops) follows the CNT move: the controller runs it as the robot rounds the corner, not at the
+  point (unverified how early).
 
 ``program_points`` (the motions in the order they are written, with their points' joint values) and
 ``controller_frame`` are shared with the Yaskawa writer.
