@@ -216,7 +216,7 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
     writer rounded CNT over (comment-less CNT); ``source``: the file's name for errors; ``frame``: the selected
     user frame (UF n, n > 0) as X (4, 4) [m] in the controller's world frame (its UFRAME data)."""
     robot, reference = as_robot(robot)
-    tree = _parse(text if text.endswith("\n") else text + "\n", "start", source)
+    tree = parse_text("fanuc_ls", text, source)
     positions = dict(map(_position, tree.find_data("position")))
     walk = _Walk(source)
     for line, instruction in _mn_lines(tree):
@@ -237,23 +237,10 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
 
 
 @cache
-def _ls_parser() -> Lark:
-    """The LALR parser of ``grammars/fanuc_ls.lark`` with its two start symbols (the file, one /MN instruction)."""
+def _instruction_parser() -> Lark:
+    """The LALR parser of one /MN instruction's text (``grammars/fanuc_ls.lark``, start symbol ``instruction``)."""
     text = resources.files(__package__).joinpath("grammars", "fanuc_ls.lark").read_text()
-    return Lark(text, parser="lalr", start=["start", "instruction"], propagate_positions=True)
-
-
-def _parse(text: str, start: str, source: str, line: int | None = None) -> Tree:
-    """The parse tree of ``text`` from ``start``; ControllerProgramError at the line where lark stops (``line``: the
-    /MN line an instruction's text is on)."""
-    try:
-        return _ls_parser().parse(text, start=start)
-    except UnexpectedInput as error:
-        where = line if line is not None else error.line
-        raise ControllerProgramError(source, f"line {where}", "not in the subset this reader reads: "
-                                     f"{str(error).splitlines()[0]}", line=where) from None
-    except LarkError as error:
-        raise ControllerProgramError(source, "file", f"not in the subset this reader reads: {error}") from None
+    return Lark(text, parser="lalr", start="instruction")
 
 
 def _mn_lines(tree: Tree) -> list[tuple[int, str]]:
@@ -367,7 +354,7 @@ class _Walk:
     def read(self, line: int, text: str) -> None:
         """Read one /MN instruction (its file ``line`` and text)."""
         try:
-            tree = _ls_parser().parse(text, start="instruction")
+            tree = _instruction_parser().parse(text)
         except LarkError:
             raise refusal(self.source, line, text) from None
         node = tree.children[0]
