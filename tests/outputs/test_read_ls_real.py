@@ -158,6 +158,9 @@ def test_example_ls_reads_the_pendants_header_override_and_payload():
     assert document["speed_scale"] == 0.3                           # OVERRIDE=30%
     assert "PAYLOAD[1:spray]" in document["description"]
     assert [w.get("move") for w in document["waypoints"][1:]] == ["joint", "linear", "circular", "linear"]
+    via = file_points((PROGRAMS / "EXAMPLE.LS").read_text())[4]                 # C P[4] / : P[5]: the via point
+    assert document["waypoints"][4]["via"]["xyz"] == pytest.approx([via["X"] / 1000, via["Y"] / 1000,
+                                                                    via["Z"] / 1000 + 0.525], abs=1e-12)
 
 
 def test_tmpa_ls_reads_its_output_as_a_signal():
@@ -311,6 +314,17 @@ def test_frames_tools_and_extended_axes_not_in_the_file(edits, match):
 def test_an_extended_axis_at_zero_is_ignored():
     text = OURS.replace("R =     0.000 deg\n};\n/END", "R =     0.000 deg,\n\tE1=     0.000  mm\n};\n/END")
     assert read_ls(text, "lrmate200id") == read_ls(OURS, "lrmate200id")
+
+
+def test_an_endless_outer_loop_reads_as_one_cycle():
+    looped = OURS.replace("   3:J P[1]", "   0:  LBL[1:cycle] ;\n   3:J P[1]").replace("/POS", "   5:  JMP LBL[1] ;\n/POS", 1)
+    document = read_ls(looped, "lrmate200id")
+    assert "endless loop (LBL[1] at line 29, JMP back at line 32) reads as one cycle" in document["description"]
+    assert document["waypoints"] == read_ls(OURS, "lrmate200id")["waypoints"]
+    with pytest.raises(ControllerProgramError, match="ours.ls:29: line 29: LBL\\[1\\]: a label without the JMP"):
+        read_ls(looped.replace("   5:  JMP LBL[1] ;\n", ""), "lrmate200id", source="ours.ls")
+    with pytest.raises(ControllerProgramError, match="ours.ls:33: line 33: DO\\[1\\]=ON: after the outer loop"):
+        read_ls(looped.replace("/POS", "   6:  DO[1]=ON ;\n/POS", 1), "lrmate200id", source="ours.ls")
 
 
 def test_a_timeout_label_must_be_the_alarm_pattern():

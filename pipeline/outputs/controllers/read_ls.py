@@ -55,7 +55,9 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
   ``tool`` (4, 4) [m], else for ``UT 1`` the ``UT 1 = tool x y z w p r`` the writer states in its header comment,
   else an error naming the line and the number; the tool is on the controller's flange frame (the section's
   flange, ``controller.controller_frames``), carried to our end frame.
-* Refused, naming the line and the construct: jumps and labels (``JMP``, ``LBL``), branches (``IF``, ``SELECT``),
+* An endless outer loop, a ``LBL[n]`` before the first move and ``JMP LBL[n]`` as the last instruction (before
+  ``END`` and the timeout pattern), reads as one cycle, said in the job's description.
+* Refused, naming the line and the construct: other jumps and labels (``JMP``, ``LBL``), branches (``IF``, ``SELECT``),
   calls of other programs (``CALL``, ``RUN``), register and flag assignments, register speeds and CNT, targets in
   position registers (``PR[i]``: their values are not in the file), ``SKIP CONDITION``, waits on other conditions,
   ``OVERRIDE`` or ``PAYLOAD`` after the first move, timers, and any instruction the grammar does not read.
@@ -345,6 +347,8 @@ class _Walk:
         self.after_end: list[tuple[int, str, int | None]] | None = None
         self.override = 1.0
         self.notes: list[str] = []
+        self.loop: tuple[int, int] | None = None     # the outer loop's label and its line
+        self.looped: int | None = None               # the line of the JMP back to it
 
     @property
     def actions(self) -> list[dict]:
@@ -362,6 +366,9 @@ class _Walk:
         if self.after_end is not None:
             self._after_end(line, text, kind, node)
             return
+        if self.looped is not None and kind != "END":
+            raise ControllerProgramError(self.source, f"line {line}", f"{text}: after the outer loop's JMP only END "
+                                         "and the timeout pattern are read", line=line)
         getattr(self, f"_{kind.lower()}")(line, text, node)
 
     def _motion(self, line: int, text: str, node: Tree) -> None:
@@ -496,9 +503,21 @@ class _Walk:
         self.after_end = []
 
     def _label(self, line: int, text: str, node) -> None:
+        """A label before the first move opens the program's outer loop (``_jump``); any other is refused."""
+        if self.motions or self.loop is not None:
+            raise refusal(self.source, line, text)
+        self.loop = (_label(node.children[0]), line)
+
+    def _jump(self, line: int, text: str, node) -> None:
+        """JMP back to the outer loop's label as the program's last instruction (before END): one cycle."""
+        if self.loop is None or _label(node.children[0]) != self.loop[0] or self.looped is not None:
+            raise refusal(self.source, line, text)
+        self.looped = line
+
+    def _alarm(self, line: int, text: str, node) -> None:
         raise refusal(self.source, line, text)
 
-    _alarm = _abort = _label
+    _abort = _alarm
 
     def _after_end(self, line: int, text: str, kind: str, node) -> None:
         """An instruction after END: only the timeout pattern (LBL[x], UALM[m], ABORT) is read."""
@@ -525,7 +544,15 @@ class _Walk:
         return name
 
     def finish(self) -> None:
-        """Check the timeout pattern: every timed wait jumps to the label of a complete END ; LBL ; UALM ; ABORT."""
+        """Check the outer loop (its label needs its JMP) and the timeout pattern: every timed wait jumps to the label
+        of a complete END ; LBL ; UALM ; ABORT."""
+        if self.loop is not None and self.looped is None:
+            label, line = self.loop
+            raise ControllerProgramError(self.source, f"line {line}", f"LBL[{label}]: a label without the JMP back "
+                                         "to it at the program's end (no static meaning)", line=line)
+        if self.looped is not None:
+            self.notes.append(f"the program's endless loop (LBL[{self.loop[0]}] at line {self.loop[1]}, JMP back at "
+                              f"line {self.looped}) reads as one cycle")
         pattern = self.after_end or []
         label = pattern[0][2] if len(pattern) == 3 else None
         for line, target in self.timed:
