@@ -159,7 +159,7 @@ def test_example_ls_reads_the_pendants_header_override_and_payload():
     assert "PAYLOAD[1:spray]" in document["description"]
     assert [w.get("move") for w in document["waypoints"][1:]] == ["joint", "linear", "circular", "linear"]
     via = file_points((PROGRAMS / "EXAMPLE.LS").read_text())[4]                 # C P[4] / : P[5]: the via point
-    assert document["waypoints"][4]["via"]["xyz"] == pytest.approx([via["X"] / 1000, via["Y"] / 1000,
+    assert document["waypoints"][3]["via"]["xyz"] == pytest.approx([via["X"] / 1000, via["Y"] / 1000,
                                                                     via["Z"] / 1000 + 0.525], abs=1e-12)
 
 
