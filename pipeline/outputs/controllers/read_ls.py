@@ -51,7 +51,7 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
   its turns (t1, t4, t6) are the ones the file gives. Joint points are J1..J6 [deg] as the pendant shows them,
   turned back into model joint values (``axes.joint_values``: the inverse of ``axes.axis_angles``, FANUC's
   J3 = q3 - q2).
-* Tool: ``UT 0`` is the flange. Another tool's data lives on the controller, not in the file: the caller's
+* Tool: ``UT 0`` is the flange (a caller's ``tool`` is not used). Another tool's data lives on the controller, not in the file: the caller's
   ``tool`` (4, 4) [m], else for ``UT 1`` the ``UT 1 = tool x y z w p r`` the writer states in its header comment,
   else an error naming the line and the number; the tool is on the controller's flange frame (the section's
   flange, ``controller.controller_frames``), carried to our end frame.
