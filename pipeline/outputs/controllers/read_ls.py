@@ -10,8 +10,8 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
 
 * Moves: the first motion line is the job's first waypoint (the move to it starts wherever the robot is, so its
   speed is not a job quantity); ``J`` is a joint move with ``speed`` its ``%``, ``L`` a linear and ``C`` a circular
-  move (via point, then end point) with ``speed`` its ``mm/sec`` as m/s. The job's ``speed_scale`` is 1: the speeds
-  are the ones the controller runs. ``ACC100`` (the default acceleration) is read; another ``ACC n`` is refused
+  move (via point, then end point) with ``speed`` its ``mm/sec`` as m/s. The job's ``speed_scale`` is 1 (but for ``OVERRIDE``,
+  below): the speeds are the ones the controller runs. ``ACC100`` (the default acceleration) is read; another ``ACC n`` is refused
   (the job has no acceleration override). ``Offset,PR[i]`` / ``Tool_Offset,PR[i]`` are read where the file gives the
   register's six elements as constants before the move (``PR[i,1]=..`` to ``PR[i,6]=..``) and only shift the
   position (W, P, R 0): the target is moved by (X, Y, Z) in the user frame / the tool frame; otherwise refused.
@@ -23,8 +23,8 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
   at the move's speed, otherwise half the shorter of this move and the next (TCP chords). The writer
   takes n = ceil(100 zone / reach), so below CNT100 this is the largest zone that gives n, at most
   reach / 100 above the zone written; CNT100 stands for every zone from 0.99 reach up and reads as the reach.
-  A CNT move whose waypoint has a wait reads as a stop (zone 0): the program waits there before it reads the next
-  move, and the job stops wherever it waits.
+  A CNT move whose waypoint has a wait reads as a stop (zone 0; our reading: the program waits there before it reads
+  the next move), as the job stops wherever it waits.
 * Actions (``pipeline.program.actions``; the instructions after a move are its waypoint's actions, those before the
   first move are waypoint 0's, as the job runs them once the robot is there; the job's description says so):
   ``DO[n]=ON/OFF`` (set), ``DO[n]=PULSE,t sec`` (pulse; ``PULSE`` without a width, a system setting, is refused),
@@ -51,9 +51,9 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
   its turns (t1, t4, t6) are the ones the file gives. Joint points are J1..J6 [deg] as the pendant shows them,
   turned back into model joint values (``axes.joint_values``: the inverse of ``axes.axis_angles``, FANUC's
   J3 = q3 - q2).
-* Tool: ``UT 0`` is the flange (a caller's ``tool`` is not used). Another tool's data lives on the controller, not in the file: the caller's
-  ``tool`` (4, 4) [m], else for ``UT 1`` the ``UT 1 = tool x y z w p r`` the writer states in its header comment,
-  else an error naming the line and the number; the tool is on the controller's flange frame (the section's
+* Tool: ``UT 0`` is the flange (a caller's ``tool`` is not used). Another tool's data lives on the controller, not
+  in the file: the caller's ``tool`` (4, 4) [m], else for ``UT 1`` the ``UT 1 = tool x y z w p r`` the writer states
+  in its header comment, else an error naming the line and the number; the tool is on the controller's flange frame (the section's
   flange, ``controller.controller_frames``), carried to our end frame.
 * An endless outer loop, a ``LBL[n]`` before the first move and ``JMP LBL[n]`` as the last instruction (before
   ``END`` and the timeout pattern), reads as one cycle, said in the job's description.
