@@ -290,6 +290,9 @@ def test_offset_by_a_position_register_the_file_sets():
     ("L P[1] 100mm/sec FINE Tool_Offset,PR[8]", "Tool_Offset,PR\\[8\\]: read only where the file sets"),
     ("L P[1] 100mm/sec FINE INC", "INC: a motion option this reader does not read"),
     ("A P[1] 100mm/sec FINE", "A P\\[1\\] 100mm/sec FINE: an arc move"),
+    ("UFRAME[9:STRIP_DRILL]=PR[9]", "UFRAME\\[9:STRIP_DRILL\\]=PR\\[9\\]: sets a frame's data"),
+    ("J P[1] R[23]% FINE", "speed R\\[23\\]% is a register"),
+    ("WAIT RI[1]=ON", "WAIT RI\\[1\\]=ON: robot I/O"),
 ])
 def test_each_refused_construct_names_file_line_and_construct(instruction, match):
     with pytest.raises(ControllerProgramError, match=rf"ours.ls:{L_LINE}: line {L_LINE}: .*{match}"):
@@ -302,6 +305,8 @@ def test_each_refused_construct_names_file_line_and_construct(instruction, match
     ([("UTOOL_NUM=0", "UTOOL_NUM=2")], "ours.ls:33: P\\[1\\]: UT : 0, but UTOOL_NUM=2: .*frame mismatch"),
     ([("R =     0.000 deg\n};\n/END", "R =     0.000 deg,\n\tE1=   120.000  mm\n};\n/END")],
      "ours.ls:39: P\\[2\\]: extended axes"),
+    ([("R =     0.000 deg\n};\n/END", "R =     0.000 deg\n   GP2:\n\tUF : 0, UT : 0,\t\n\tJ1=     6.428 deg\n};\n/END")],
+     "ours.ls:38: P\\[2\\]: motion group GP2"),
 ])
 def test_frames_tools_and_extended_axes_not_in_the_file(edits, match):
     text = OURS
