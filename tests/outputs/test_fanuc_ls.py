@@ -49,15 +49,15 @@ def written_positions(parser, text: str) -> dict[int, dict]:
     """P index -> {"config": text, "xyz": [mm], "wpr": [deg]} or {"joints": [deg]}, from the parse tree."""
     out = {}
     for position in parser.parse(text).find_data("position"):
-        index = int(position.children[0])
-        cartesian = next(position.find_data("cartesian"), None)
-        if cartesian is None:
-            out[index] = {"joints": np.array([float(j.children[1]) for j in position.find_data("joint")])}
+        index = int(str(position.children[0])[2:-1])
+        values = {str(v.children[0]): float(v.children[1]) for v in position.find_data("value")}
+        config = next(position.find_data("config"), None)
+        if config is None:
+            out[index] = {"joints": np.array([values[f"J{i}"] for i in range(1, 7)])}
             continue
-        flip, up, front, *turns = (str(t) for t in next(cartesian.find_data("config")).children)
+        flip, up, front, *turns = (str(t) for t in config.children)
         out[index] = {"config": f"{flip} {up} {front}, {', '.join(turns)}",
-                      "xyz": np.array([float(t) for t in next(cartesian.find_data("xyz")).children]),
-                      "wpr": np.array([float(t) for t in next(cartesian.find_data("wpr")).children])}
+                      "xyz": np.array([values[a] for a in "XYZ"]), "wpr": np.array([values[a] for a in "WPR"])}
     return out
 
 

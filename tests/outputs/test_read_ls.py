@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from pipeline.model.ik.branches import configuration_labels
-from pipeline.outputs.controllers.fanuc_ls import cnt_value, rounding_bound, write_ls, zone_reach
 from pipeline.model.vendors.axes import joint_values
+from pipeline.outputs.controllers.fanuc_ls import cnt_value, rounding_bound, write_ls, zone_reach
 from pipeline.outputs.controllers.read_ls import ControllerProgramError, read_ls
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
@@ -134,14 +134,15 @@ def test_tool_from_the_header_or_the_caller(programs):
     text = write_ls(program, "DEMO", WHEN)
     assert read_ls(text, "gp7")["tool"] == {"xyz": [0.0, 0.0, 0.12], "rpy": [0.0, 0.0, 0.0]}
     stripped = text.replace("UT 1 = tool", "UT 1 = TOOL")
-    assert "tool" not in read_ls(stripped, "gp7")                   # the flange at the written poses
+    with pytest.raises(ControllerProgramError, match=r"demo.ls:\d+: line \d+: tool 1 .*not in the file"):
+        read_ls(stripped, "gp7", source="demo.ls")                 # UT 1's data is on the controller
     assert read_ls(stripped, "gp7", tool=program.tool.X_FT) == read_ls(text, "gp7")
 
 
 @pytest.mark.parametrize("edit, match", [
-    (("UF : 0", "UF : 1"), "UF 1"),
+    (("UF : 0", "UF : 1"), "P\\[1\\]: UF : 1, but UFRAME_NUM=0"),
     (("J P[2]", "J P[99]"), "P\\[99\\]"),
-    (("FINE", "FINE FINE"), "line"),
+    (("500mm/sec FINE", "500mm/sec FINE FINE"), r"demo.ls:\d+: line \d+: L P\[3\] .*FINE: a motion option"),
     (("'N U T, 0, 0, 0'", "'N U T, 5, 0, 0'"), "P\\[1\\]"),
 ])
 def test_errors_name_what_is_wrong(programs, edit, match):

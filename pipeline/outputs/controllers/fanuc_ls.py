@@ -59,6 +59,24 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   a section is written in our base frame). UT 1 must hold the job's tool on the controller's flange (faceplate)
   frame, the section's flange (stated in the header comment; the identity when the job has none).
 
+* Actions (``pipeline.program.actions``), after the last written move of their waypoint (waypoint 0's after the
+  joint move into it), in TP's own instructions (FANUC R-30iA/R-30iB operator's manuals, "I/O instructions", "Wait
+  instructions", "Branching instructions"; the Lincoln Electric copy of the FANUC ArcTool manual, ch. 26 "Wait
+  instructions", ch-delivery.lincolnelectric.com/api/public/content/67cd62debb004088957ebe41ecebc9c1: WAIT time in
+  seconds with a minimum unit of 0.01 s; "Time out, LBL[i]" with $WAITTMOUT "in 100ths of a second"):
+  ``DO[n:name]=ON`` / ``=OFF`` (set), ``DO[n:name]=PULSE,t sec`` (pulse, t in 0.1 s steps as the pendant shows it;
+  the program goes on), ``WAIT t(sec)`` (wait, 0.01 s steps; it follows a FINE move, since the job stops wherever
+  it waits, so the robot is at rest: FINE waits for the move to end before the next instruction),
+  ``WAIT DI[n:name]=ON`` (wait for an input) and, with a timeout, ``$WAITTMOUT=k`` (k hundredths of a second) then
+  ``WAIT DI[n:name]=ON TIMEOUT,LBL[999]``; the program then ends in ``END``, ``LBL[999:input timeout]``,
+  ``UALM[1]`` (user alarm 1: set its message, $UALRM_MSG[1], and a stopping severity on the controller) and
+  ``ABORT``, so a timeout stops the program with an alarm (``timeout_lines``); a comment is ``!text`` lines of at
+  most 32 characters, each but the last ending in ``+``. Signals are numbered I/O with the job's name as the I/O
+  comment in the brackets, and the header carries the signals mark (``settings_mark.signals_mark``); a signal
+  without a number is refused (``check_signal_numbers``). An output at a waypoint with a zone (CNT, where the job
+  neither waits nor stops) follows the CNT move: the controller runs it as the robot rounds the corner, not at the
+  point (unverified how early).
+
 ``program_points`` (the motions in the order they are written, with their points' joint values) and
 ``controller_frame`` are shared with the Yaskawa writer.
 """
@@ -80,9 +98,10 @@ from ...model.vendors.axes import FANUC, YASKAWA, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
+from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
-from .settings_mark import settings_mark
+from .settings_mark import settings_mark, signals_mark
 
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
@@ -300,7 +319,9 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
     X_B_base, frame = controller_frame(program.robot, FANUC)
+    check_signal_numbers(program)
     comments = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
+                *comment_lines(signals_mark(program)),
                 *comment_lines(_header_text(program, frame)),
                 *comment_lines(payload_text(program, "PAYLOAD schedule (UT 1)"))]
     if written is not None:
@@ -312,7 +333,7 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
     lint(program, FANUC_LS, name, comments + zones, configs)
     lines = [f"UFRAME_NUM={USER_FRAME}", f"UTOOL_NUM={TOOL_FRAME}", *(f"!{line}" for line in comments)]
     positions, index = [], 0
-    for motion in motions:
+    for m, motion in enumerate(motions):
         labels = []
         for point in motion.points:
             index += 1
@@ -321,9 +342,81 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
         if motion.zone > 0.0:
             lines.extend(f"!{line}" for line in comment_lines(_zone_comment(program, motion)))
         lines.append(_motion(program, motion, labels))
+        if m + 1 == len(motions) or motions[m + 1].move is not motion.move:     # the waypoint's last motion
+            k = 0 if motion.move is None else motion.move.end
+            lines.extend(line for action in program.actions_at(k) for line in action_lines(program, action))
+    lines.extend(timeout_lines(program))
     return "\n".join([f"/PROG  {name}", *_attributes(program, len(lines), created), "/MN",
                       *(f"{n:4d}:  {line} ;" for n, line in enumerate(lines, start=1)), "/POS", *positions, "/END",
                       ""])
+
+
+#: The label a timed wait for an input jumps to, the user alarm it raises there (module docstring, "Actions").
+TIMEOUT_LABEL, TIMEOUT_ALARM = 999, 1
+#: The timeout label's comment, and the lines that end the program there: the fixed pattern the reader recognises.
+TIMEOUT_COMMENT = "input timeout"
+#: $WAITTMOUT counts hundredths of a second; WAIT t(sec) takes 0.01 s steps; a pulse's width 0.1 s steps [s].
+WAITTMOUT_S, WAIT_STEP_S, PULSE_STEP_S = 0.01, 0.01, 0.1
+
+
+def check_signal_numbers(program: Program) -> None:
+    """ConfigurationError naming the first signal an action uses that has no number: TP addresses I/O by
+    number (``DO[n]``, ``DI[n]``)."""
+    for k in range(len(program.waypoints)):
+        for action in program.actions_at(k):
+            signal = program.signals.get(action.signal) if action.signal is not None else None
+            if signal is not None and signal.number is None:
+                raise ConfigurationError(f"waypoint {k}: {action}: signal {signal.name!r} has no number; a FANUC TP "
+                                         f"program addresses I/O by number (give it one: signals: {{{signal.name}: "
+                                         f"{{{signal.direction}: N}}}})")
+
+
+def action_lines(program: Program, action: Action) -> list[str]:
+    """The /MN lines (without number and ``;``) of one action (module docstring, "Actions")."""
+    if action.kind == COMMENT:
+        return [f"!{line}" for line in comment_action_lines(action.text)]
+    if action.kind == WAIT:
+        return [f"WAIT {_steps(action.time_s, WAIT_STEP_S, 'wait'):6.2f}(sec)"]
+    signal = program.signals[action.signal]
+    io = f"{'DO' if action.kind in (SET, PULSE) else 'DI'}[{signal.number}:{signal.name}]"
+    if action.kind == SET:
+        return [f"{io}={'ON' if action.value else 'OFF'}"]
+    if action.kind == PULSE:
+        return [f"{io}=PULSE,{_steps(action.time_s, PULSE_STEP_S, 'pulse'):.1f}sec"]
+    wait = f"WAIT {io}={'ON' if action.value else 'OFF'}"
+    if action.timeout_s is None:
+        return [wait]
+    ticks = round(_steps(action.timeout_s, WAITTMOUT_S, "timeout") / WAITTMOUT_S)
+    return [f"$WAITTMOUT={ticks}", f"{wait} TIMEOUT,LBL[{TIMEOUT_LABEL}]"]
+
+
+def _steps(time_s: float, step: float, what: str) -> float:
+    """``time_s`` [s] rounded to the instruction's ``step`` [s]; ConfigurationError where that leaves nothing."""
+    value = round(time_s / step) * step
+    if value <= 0.0:
+        raise ConfigurationError(f"a {what} of {time_s:g} s: FANUC writes it in steps of {step:g} s, so it would be 0")
+    return value
+
+
+#: A comment action's line that the next line continues (the pendant's comment lines hold 32 characters).
+CONTINUED = "+"
+
+
+def comment_action_lines(text: str) -> list[str]:
+    """A comment action as ``!`` lines of at most COMMENT_CHARS characters, without the characters pendants
+    refuse; every line but the last ends with CONTINUED (the reader joins them with a space)."""
+    lines = textwrap.wrap(re.sub(r"[;'\"!]", "", text), COMMENT_CHARS - len(CONTINUED), break_on_hyphens=False)
+    return [f"{line}{CONTINUED}" for line in lines[:-1]] + lines[-1:] if lines else [""]
+
+
+def timeout_lines(program: Program) -> list[str]:
+    """The program's end when a wait for an input has a timeout: ``END``, then the label the wait jumps to, the
+    user alarm and ``ABORT`` (module docstring, "Actions"); none without such a wait."""
+    timed = any(a.kind == WAIT_INPUT and a.timeout_s is not None
+                for k in range(len(program.waypoints)) for a in program.actions_at(k))
+    if not timed:
+        return []
+    return ["END", f"LBL[{TIMEOUT_LABEL}:{TIMEOUT_COMMENT}]", f"UALM[{TIMEOUT_ALARM}]", "ABORT"]
 
 
 #: The header's statement of how a written zone becomes CNT (with the certified motion).
