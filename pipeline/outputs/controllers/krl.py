@@ -43,6 +43,22 @@ Programming Instructions for System Integrators; the chapter and section named a
 * Load: ``$LOAD.M`` [kg] and ``$LOAD.CM`` {X, Y, Z [mm], A, B, C 0} (centre of mass in the flange frame) from the
   job's ``payload`` ("$LOAD"; inertia not written: the machine data's); without a payload a PLACEHOLDER comment
   says that the controller keeps its own $LOAD and to set it.
+* Actions (``pipeline.program.actions``), each waypoint's right after its last written motion (waypoint 0's after
+  the PTP to the start), with the signals' numbers on the controller (a signal without a number is an OutputError
+  naming it; the job's names ride in the header's signals mark, ``settings_mark.signals_mark``, and each output
+  statement ends in a comment naming its signal): ``set`` -> ``$OUT[n] = TRUE`` / ``FALSE`` ("Switching functions",
+  "OUT"); ``pulse`` -> ``PULSE($OUT[n], TRUE, t)`` (the output on for t [s] while the program goes on: "PULSE");
+  ``wait`` -> ``WAIT SEC t`` (it stops the advance run, so the time runs once the robot rests at the exact-stop point
+  the job makes there: "WAIT SEC", "Advance run"); ``wait_input`` -> ``WAIT FOR $IN[n]`` / ``WAIT FOR NOT $IN[n]``
+  ("WAIT FOR"), and with a timeout, as KRL's WAIT FOR has none, this fixed pattern (``TIMER``: KRL timer 1, [ms];
+  "$TIMER", "$TIMER_STOP"; the pattern industrialmonitordirect.com's "KUKA KRL WAIT FOR Timeout" page shows):
+  ``$TIMER[1] = 0``, ``$TIMER_STOP[1] = FALSE``, ``WAIT FOR $IN[n] OR ($TIMER[1] > ms)``, ``$TIMER_STOP[1] = TRUE``,
+  ``IF NOT $IN[n] THEN`` / ``HALT`` / ``ENDIF`` (the program stops when the input has not come); ``comment`` -> a
+  ``; text`` line. Times are written to 0.001 s, a timeout in whole ms. An output statement or PULSE without
+  CONTINUE stops the advance run too (KSS: "statements that trigger an advance run stop"; the pendant's OUT and
+  PULSE inline forms write CONTINUE before it only with their CONT option): the controller cannot approximate a
+  waypoint with actions, as the header says. Manual: KUKA System Software 8.3, Operating and Programming Instructions
+  for System Integrators (studylib.net/doc/26132835), "Programming for user group Expert / KRL syntax".
 * Names: the program name is never a KRL keyword nor an XP/XA point name (``names``: ``DEF END( )`` is not
   KRL); the header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
 * E6POS ``{X, Y, Z, A, B, C, S, T, E1..E6}``: the TCP in the base frame, X, Y, Z [mm] rounded to 0.001
@@ -69,9 +85,10 @@ from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
+from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
-from .settings_mark import settings_mark
+from .settings_mark import settings_mark, signals_mark
 
 #: Controller generations (module docstring): the approximation keyword of a PTP with a zone.
 KRC2, KSS8 = "krc2", "kss8"
@@ -84,6 +101,8 @@ MM_DECIMALS, DEG_DECIMALS = 3, 4
 #: (0.002 deg: the written rounding moves the joints by a few 1e-4 deg away from singular poses).
 SELECTED_TOL = np.radians(0.002)
 _NO_EXTERNAL = ",".join(f"E{i} 0.0" for i in range(1, 7))
+#: The KRL timer ($TIMER[n], [ms]) a wait for an input with a timeout uses (module docstring).
+TIMER = 1
 
 
 def kuka_abc(R: np.ndarray) -> tuple[float, float, float]:
@@ -163,6 +182,7 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         f"{WRITTEN_BY} (pipeline.outputs.controllers.krl)",
         f"{job_mark(program.job_name or program.name)} generation={generation}",
         settings_mark(program),
+        *([signals_mark(program)] if signals_mark(program) else []),
         ptp,
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "
@@ -174,6 +194,7 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         "- LIN and CIRC keep the start's configuration and ignore a target's S and T; only PTP uses them",
         "- PTP targets whose E6POS with S and T would name more than one joint solution are written as E6AXIS",
         "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
+        "- an output, PULSE or WAIT stops the advance run: the robot stops exactly at a waypoint with actions",
         "Assumed (no BAS call): no external axes; "
         + frames_words(program.robot, KUKA, "$ROBROOT", "$FLANGE", "S/T"),
         f"Axis angles: {mapping.source}",
@@ -310,6 +331,53 @@ def _ptp_lines(program, point: str, q_from: np.ndarray, q_to: np.ndarray, q_next
     return [f"$APO.CDIS = {zone_m * 1000.0:.3f}", f"$APO.CPTP = {percent}", f"PTP {point} C_PTP"]
 
 
+def _io(program, name: str, direction: str) -> str:
+    """``$OUT[n]`` / ``$IN[n]`` of the job's signal ``name``; OutputError when it has no number."""
+    number = program.signals[name].number
+    if number is None:
+        raise OutputError(f"signal {name!r} has no number: KRL addresses digital I/O by number ($OUT[n], $IN[n]); "
+                          f"give it one in the job's signals: {{{name}: {{{direction}: N}}}}")
+    return f"${'OUT' if direction == 'output' else 'IN'}[{number}]"
+
+
+def _seconds(value: float) -> str:
+    """A time [s] as written (to 0.001 s)."""
+    return f"{value:.3f}"
+
+
+def _wait_input_lines(program, action) -> list[str]:
+    """A wait for an input (module docstring): WAIT FOR, with a timeout the $TIMER pattern ending in HALT."""
+    signal = _io(program, action.signal, "input")
+    wanted = signal if action.value else f"NOT {signal}"
+    if action.timeout_s is None:
+        return [f"WAIT FOR {wanted}"]
+    ms = int(round(action.timeout_s * 1000.0))
+    missing = f"NOT {signal}" if action.value else signal
+    return [f"$TIMER[{TIMER}] = 0", f"$TIMER_STOP[{TIMER}] = FALSE",
+            f"WAIT FOR {wanted} OR ($TIMER[{TIMER}] > {ms})", f"$TIMER_STOP[{TIMER}] = TRUE",
+            f"IF {missing} THEN", f"HALT ; {action.signal}: no {'on' if action.value else 'off'} within "
+            f"{action.timeout_s:g} s", "ENDIF"]
+
+
+def action_lines(program, k: int) -> list[str]:
+    """The KRL lines of waypoint k's actions (module docstring)."""
+    lines = []
+    for action in program.actions_at(k):
+        if action.kind == SET:
+            lines.append(f"{_io(program, action.signal, 'output')} = {'TRUE' if action.value else 'FALSE'} ; "
+                         f"{action.signal}")
+        elif action.kind == PULSE:
+            lines.append(f"PULSE({_io(program, action.signal, 'output')}, TRUE, {_seconds(action.time_s)}) ; "
+                         f"{action.signal}")
+        elif action.kind == WAIT:
+            lines.append(f"WAIT SEC {_seconds(action.time_s)}")
+        elif action.kind == WAIT_INPUT:
+            lines += _wait_input_lines(program, action)
+        elif action.kind == COMMENT:
+            lines.append(f"; {action.text}")
+    return lines
+
+
 def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgram | None = None) -> tuple[str, str]:
     """The program's .src and .dat texts (module docstring) as program ``name`` for the controller
     ``generation`` (``GENERATIONS``). ``lint`` runs first: a ControllerLintError names what KRL cannot hold (a
@@ -323,9 +391,11 @@ def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgra
         raise OutputError(f"KRL controller generation {generation!r}: one of {', '.join(GENERATIONS)}")
     status_turn = written_status_turn(program)
     comments = header(program, name, generation) + ([] if written is None else written.header_lines())
-    lint(program, KRL, name, comments, status_turn)
+    actions = [action_lines(program, k) for k in range(len(program.targets))]
+    lint(program, KRL, name, comments + [line[2:] for lines in actions for line in lines if line.startswith("; ")],
+         status_turn)
     angles = axis_angles(program.robot, program.targets, KUKA)
-    body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
+    body, speeds = ["PTP XP0", *actions[0]], {"axis": BCO_PERCENT}
     for move in program.moves:
         body += _speed_lines(program, move, speeds)
         vertices = _vertices(move, written)
@@ -340,6 +410,7 @@ def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgra
             zone = 0.0 if program.exact_stop_at(move) else move.zone
         body += _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone,
                         generation)
+        body += actions[move.end]
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
     dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}, "
            f"{job_mark(program.job_name or program.name)}",
