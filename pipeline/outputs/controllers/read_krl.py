@@ -15,7 +15,8 @@ spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and 
 * The main routine (the first DEF) in order: each ``PTP``/``LIN``/``CIRC`` to a point name or an aggregate
   (``PTP {A1 0, A2 -90, ...}``) is one waypoint; the first motion (the BCO run to the start) is the job's first
   waypoint, without a move, speed or zone. Calls of parameterless routines of the same file are read in place; a FOR
-  over constants is flattened (its variable may index system variables: ``$VEL_AXIS[I]``); an outermost endless
+  over constants is flattened (its variable may index system variables: ``$VEL_AXIS[I]``); the KSS 8 motion inline
+  forms' ``SET_CD_PARAMS``/``USE_CD_PARAMS`` (collision detection data sets) are read past; an outermost endless
   ``LOOP ... ENDLOOP`` that ends the main routine reads as one cycle (the job's description says so).
 * Speeds ("$VEL_AXIS", "$VEL", the basis package): a PTP's ``$VEL_AXIS[1..6]`` [% of the axes' maximum speeds],
   equal on the six axes, or the inline form's ``BAS(#PTP_PARAMS, v)`` / ``BAS(#VEL_PTP, v)`` -> ``speed`` [%]; a LIN's
@@ -51,7 +52,8 @@ spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and 
   $IN[n]`` / ``$IN[n] == TRUE`` / a SIGNAL input's name -> ``wait_input`` without timeout (KRL's WAIT FOR has none),
   and exactly ``write_krl``'s timeout pattern (``WAIT FOR <input> OR ($TIMER[n] > ms)`` then ``IF <not input> THEN
   HALT ENDIF``; the $TIMER / $TIMER_STOP assignments around it are read past) -> ``wait_input`` with ``timeout``;
-  full-line ``;`` comments after the first motion (not fold lines) -> ``comment``. The pendant's OUT, PULSE, WAIT and
+  full-line ``;`` comments after the first motion (not fold lines) and the pendant's comment inline form (``;FOLD ;
+  text;%{PE}...%CCOMMENT``) -> ``comment``. The pendant's OUT, PULSE, WAIT and
   WAIT FOR inline forms are these statements inside their folds (CONTINUE before an output: set in the advance run).
   Numbered signals are named ``do<n>`` / ``di<n>`` (a SIGNAL's own name where the file declares one) in the
   document's ``signals``; ``read_program`` renames them by the header's signals mark.
@@ -101,6 +103,10 @@ ROBOT_BASES = ("$ROBROOT", "$WORLD", "$NULLFRAME")
 STOP_HANDLER = "IR_STOPM"
 #: Basis-package commands read past: they set what the file does not hold (machine data defaults, accelerations).
 IGNORED_BAS = ("#INITMOV", "#ACC_PTP", "#ACC_CP", "#ACC_ORI")
+#: Basis-package routines of KSS 8's motion inline forms read past: the collision detection's data set (no motion).
+IGNORED_CALLS = ("SET_CD_PARAMS", "USE_CD_PARAMS")
+#: A pendant's comment inline form: the text is in the fold line (``;FOLD ; text;%{PE}...%CCOMMENT...``).
+COMMENT_FOLD = re.compile(r";\s*FOLD\s*;\s*(.*?)\s*;\s*%\{PE\}.*%CCOMMENT", re.IGNORECASE)
 #: Statements of a refused construct, by their first word (upper case) -> what it is (the KrlReadError's problem).
 REFUSED_WORDS = {
     "WHILE": "a loop on a condition has no static meaning: how often it runs is known only when the robot runs",
@@ -216,8 +222,8 @@ def read_krl(src: str, dat: str, robot, src_name: str = "<src>", dat_name: str =
     errors; ``tool``: X_FT (4, 4) [m] of the tool the program selects by a number other than 0; ``frame``: the user
     frame (4, 4) [m] in the robot's base frame that a base number other than 0 selects. KrlReadError names what cannot
     be read."""
-    data = _Data.of(parse_krl(dat, "dat", dat_name))
-    program = _Program(parse_krl(src, "src", src_name), src, data, src_name)
+    tree = parse_krl(src, "src", src_name)
+    program = _Program(tree, src, _Data.of(parse_krl(dat, "dat", dat_name)), src_name)
     program.run()
     if not program.motions:
         raise KrlReadError(src_name, "DEF", "the program has no motion (PTP, LIN, CIRC)")
@@ -391,7 +397,10 @@ class _Program:
         comments = []
         for number in range(start + 1, min(end, len(lines)) + 1):
             text = lines[number - 1].strip()
-            if text.startswith(";") and not re.match(r";\s*(END)?FOLD\b", text, re.IGNORECASE):
+            pendant = COMMENT_FOLD.match(text)
+            if pendant:
+                comments.append((number, pendant[1]))
+            elif text.startswith(";") and not re.match(r";\s*(END)?FOLD\b", text, re.IGNORECASE):
                 comments.append((number, text[1:].strip()))
         statements = [(_line(s), s) for s in routine.children[1:]]
         return [item for _, item in sorted(comments + statements, key=lambda pair: pair[0])]
@@ -738,6 +747,8 @@ class _Program:
     def on_call(self, node, env: dict) -> None:
         """A call of a parameterless routine of the file, read in place; any other call is refused."""
         name = str(node.children[0]).upper()
+        if name in IGNORED_CALLS:
+            return
         routine = self.routines.get(name)
         args = [c for c in node.children[1:] if c is not None]
         if routine is None or args or routine.children[0].children[1:] != [None] or name in self.calls:
