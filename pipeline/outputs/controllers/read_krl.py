@@ -675,7 +675,8 @@ class _Program:
         if str(level).upper() != "TRUE":
             self.fail(node, "PULSE", "a pulse of FALSE (an output off for a time) is not an action of a job", level)
         name = _text(target, env)
-        self.add_action(node, {PULSE: self.signal(node, name, OUTPUT), "time": round(_number(time_s), 6)})
+        self.add_action(node, {PULSE: self.signal(node, name, OUTPUT), "time": round(_number(time_s), 6)},
+                        stops=not self.in_advance)
 
     def output(self, node, name: str, value) -> None:
         if not isinstance(value, bool):
@@ -798,7 +799,7 @@ class _Reader:
             self.fail(motion, tool.unknown, "selects a tool the file does not hold (FDAT_ACT of a record not in the "
                       ".dat): a pose target needs its tool")
         if not tool.number:
-            return np.eye(4)
+            return controller_frames(self.robot, KUKA)[1]
         return self.given(motion, tool, "tool", self.given_tool, "X_FT of the tool, (4, 4) [m]")
 
     def base_pose(self, motion: _Motion) -> np.ndarray:
