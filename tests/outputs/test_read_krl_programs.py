@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pipeline.__main__ import main
 from pipeline.errors import OutputError
 from pipeline.model.ik.result import rotation_angle
 from pipeline.model.vendors.controller import controller_frames
@@ -274,7 +275,7 @@ def test_a_pendant_programs_out_wait_pulse_and_comment_folds_are_actions(pendant
 
 
 def test_a_pendant_program_rewritten_by_our_writer_reads_the_same(pendant, kr6):
-    doc, program = pendant
+    _, program = pendant
     src, dat = write_krl(program, "PENDANT")
     again = compile_job(parse_job(read_program_text("krl", src, kr6, "PENDANT.src", dat, "PENDANT.dat")))
     assert np.degrees(np.abs(again.targets - program.targets)).max() < TARGET_TOL_DEG
@@ -351,3 +352,12 @@ def test_the_real_driver_and_generated_programs_are_refused_naming_line_and_cons
         read_krl(src, dat, "gp7", f"{name}.src", f"{name}.dat")
     assert (error.value.source, error.value.field, error.value.line) == (f"{name}.src", field, line)
     assert construct in str(error.value)
+
+
+def test_read_program_writes_nothing_for_a_refused_program(tmp_path, capsys):
+    for suffix in (".src", ".dat"):
+        (tmp_path / f"eki{suffix}").write_bytes((REAL / f"kuka_eki_hw_interface{suffix}").read_bytes())
+    code = main(["read-program", str(tmp_path / "eki.src"), "--robot", "gp7", "--out", str(tmp_path / "eki.yaml")])
+    _, err = capsys.readouterr()
+    assert code == 2 and f"{tmp_path / 'eki.src'}:72: " in err and "EKI_" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eki.dat", "eki.src"]

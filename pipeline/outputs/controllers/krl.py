@@ -351,12 +351,12 @@ def _wait_input_lines(program, action) -> list[str]:
     wanted = signal if action.value else f"NOT {signal}"
     if action.timeout_s is None:
         return [f"WAIT FOR {wanted}"]
-    ms = int(round(action.timeout_s * 1000.0))
+    ms = round(action.timeout_s * 1000.0)
     missing = f"NOT {signal}" if action.value else signal
+    halt = f"HALT ; {action.signal}: no {'on' if action.value else 'off'} within {action.timeout_s:g} s"
     return [f"$TIMER[{TIMER}] = 0", f"$TIMER_STOP[{TIMER}] = FALSE",
             f"WAIT FOR {wanted} OR ($TIMER[{TIMER}] > {ms})", f"$TIMER_STOP[{TIMER}] = TRUE",
-            f"IF {missing} THEN", f"HALT ; {action.signal}: no {'on' if action.value else 'off'} within "
-            f"{action.timeout_s:g} s", "ENDIF"]
+            f"IF {missing} THEN", halt, "ENDIF"]
 
 
 def action_lines(program, k: int) -> list[str]:

@@ -178,6 +178,8 @@ def _refusal(text: str) -> str:
     if "RSI_" in upper:
         return "an RSI_ (RobotSensorInterface) call corrects the motion from a sensor: no static meaning"
     words = [w.upper() for w in _WORD.findall(text)]
+    if words[:1] in (["DEF"], ["DEFDAT"], ["GLOBAL"]) and any(len(w) > 24 for w in words):
+        return "a name has at most 24 characters in KRL (\"Names\")"
     for word in words[:3]:
         if word in REFUSED_WORDS:
             return REFUSED_WORDS[word]
