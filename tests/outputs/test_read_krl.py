@@ -139,7 +139,7 @@ def test_syntax_errors_and_swapped_files_are_refused(written):
     assert error.value.field == "PTP XP1 XP2" and error.value.line is not None and "not KRL" in error.value.problem
     with pytest.raises(KrlReadError) as error:
         read_krl(dat, src, "gp7")
-    assert error.value.field == "dat"
+    assert error.value.field == "src"                   # the .src given is a data list
 
 
 def test_a_first_e6pos_gives_the_start_its_status_and_turn_select(programs, written):

@@ -599,7 +599,7 @@ class _Program:
         PDAT_ACT's APO_DIST as $APO.CDIS."""
         pdat = self.records.get("PDAT_ACT")
         if command == "#PTP_DAT":
-            value = self.record_value(node, pdat, "PDAT_ACT", "VEL")
+            value = self.record_value(pdat, "VEL")
         for i in range(1, 7):
             self.settings[f"$VEL_AXIS[{i}]"] = value
         if command != "#VEL_PTP" and pdat is not None and "APO_DIST" in pdat.values:
@@ -609,15 +609,17 @@ class _Program:
         """The CP speed [m/s] (the argument, or LDAT_ACT's VEL for #CP_DAT) and LDAT_ACT's APO_DIST as $APO.CDIS."""
         ldat = self.records.get("LDAT_ACT")
         if command == "#CP_DAT":
-            value = self.record_value(node, ldat, "LDAT_ACT", "VEL")
+            value = self.record_value(ldat, "VEL")
         self.settings["$VEL.CP"] = value
         if command != "#VEL_CP" and ldat is not None and "APO_DIST" in ldat.values:
             self.settings["$APO.CDIS"] = ldat.values["APO_DIST"]
 
-    def record_value(self, node, record: _Point | None, name: str, key: str) -> float:
-        if record is None or not isinstance(record.values.get(key), float):
-            self.fail(node, name, f"must be a record of the file with a number {key} here")
-        return record.values[key]
+    @staticmethod
+    def record_value(record: _Point | None, key: str) -> float | None:
+        """A record's number ``key``; None where the file does not hold the record (e.g. $config.dat's PDEFAULT):
+        a motion that needs it is refused naming its line."""
+        value = None if record is None else record.values.get(key)
+        return value if isinstance(value, float) else None
 
     def on_wait_sec(self, node, env: dict) -> None:
         time_s = _number(node.children[0])
