@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from pipeline.__main__ import main
 from pipeline.errors import OutputError
@@ -361,3 +362,19 @@ def test_read_program_writes_nothing_for_a_refused_program(tmp_path, capsys):
     _, err = capsys.readouterr()
     assert code == 2 and f"{tmp_path / 'eki.src'}:72: " in err and "EKI_" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["eki.dat", "eki.src"]
+
+
+def test_outputs_at_an_approximated_waypoint_switch_by_trigger_and_read_back():
+    """A set at the zoned waypoint 3 (60 mm): TRIGGER WHEN DISTANCE=1 before its motion, no exact stop."""
+    document = yaml.safe_load((ROOT / "tests" / "data" / "gp7_gripper_pick_place.yaml").read_text())
+    waypoints = [dict(w) for w in document["waypoints"]]
+    waypoints[3]["do"] = [{"set": "blow_off", "value": "on"}, {"pulse": "gripper_close", "time": 0.5}]
+    program = compile_job(parse_job({**document, "waypoints": waypoints}))
+    src, dat = write_krl(program, "PICK")
+    lines = src.splitlines()
+    at = lines.index("LIN XP3 C_DIS")
+    assert lines[at - 2:at] == ["TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[2] = TRUE ; blow_off",
+                                "TRIGGER WHEN DISTANCE=1 DELAY=0 DO PULSE($OUT[1], TRUE, 0.500) ; gripper_close"]
+    again = compile_job(parse_job(read_program_text("krl", src, "gp7", "PICK.src", dat, "PICK.dat")))
+    assert again.actions_at(3) == program.actions_at(3) and again.moves[2].zone == pytest.approx(0.06)
+    assert krl_report({".src": src, ".dat": dat}) == []

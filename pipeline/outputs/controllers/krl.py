@@ -54,10 +54,12 @@ Programming Instructions for System Integrators; the chapter and section named a
   "$TIMER", "$TIMER_STOP"; the pattern industrialmonitordirect.com's "KUKA KRL WAIT FOR Timeout" page shows):
   ``$TIMER[1] = 0``, ``$TIMER_STOP[1] = FALSE``, ``WAIT FOR $IN[n] OR ($TIMER[1] > ms)``, ``$TIMER_STOP[1] = TRUE``,
   ``IF NOT $IN[n] THEN`` / ``HALT`` / ``ENDIF`` (the program stops when the input has not come); ``comment`` -> a
-  ``; text`` line. Times are written to 0.001 s, a timeout in whole ms. An output statement or PULSE without
-  CONTINUE stops the advance run too (KSS: "statements that trigger an advance run stop"; the pendant's OUT and
-  PULSE inline forms write CONTINUE before it only with their CONT option): the controller cannot approximate a
-  waypoint with actions, as the header says. Manual: KUKA System Software 8.3, Operating and Programming Instructions
+  ``; text`` line. Times are written to 0.001 s, a timeout in whole ms. An output statement or PULSE stops the
+  advance run (KSS: "statements that trigger an advance run stop"; the pendant's OUT and PULSE inline forms write
+  CONTINUE before it only with their CONT option), so at an approximated waypoint (a zone, no wait: the job refuses
+  a wait there) its outputs are ``TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[n] = ...`` / ``DO PULSE(...)`` before
+  the motion ("Path-related switching actions (TRIGGER)": DISTANCE=1 switches at the end point, in the middle of
+  its approximation contour), its comments after it. Manual: KUKA System Software 8.3, Operating and Programming Instructions
   for System Integrators (studylib.net/doc/26132835), "Programming for user group Expert / KRL syntax".
 * Names: the program name is never a KRL keyword nor an XP/XA point name (``names``: ``DEF END( )`` is not
   KRL); the header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
@@ -194,7 +196,8 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         "- LIN and CIRC keep the start's configuration and ignore a target's S and T; only PTP uses them",
         "- PTP targets whose E6POS with S and T would name more than one joint solution are written as E6AXIS",
         "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
-        "- an output, PULSE or WAIT stops the advance run: the robot stops exactly at a waypoint with actions",
+        "- a waypoint's outputs switch at its exact stop, or by TRIGGER WHEN DISTANCE=1 in the middle of its "
+        "approximation contour",
         "Assumed (no BAS call): no external axes; "
         + frames_words(program.robot, KUKA, "$ROBROOT", "$FLANGE", "S/T"),
         f"Axis angles: {mapping.source}",
@@ -359,23 +362,41 @@ def _wait_input_lines(program, action) -> list[str]:
             f"IF {missing} THEN", halt, "ENDIF"]
 
 
-def action_lines(program, k: int) -> list[str]:
-    """The KRL lines of waypoint k's actions (module docstring)."""
-    lines = []
+def _output_statement(program, action) -> str:
+    """``$OUT[n] = TRUE`` / ``FALSE`` of a set, ``PULSE($OUT[n], TRUE, t)`` of a pulse."""
+    output = _io(program, action.signal, "output")
+    if action.kind == SET:
+        return f"{output} = {'TRUE' if action.value else 'FALSE'}"
+    return f"PULSE({output}, TRUE, {_seconds(action.time_s)})"
+
+
+def action_lines(program, k: int, zoned: bool = False) -> tuple[list[str], list[str]]:
+    """The KRL lines of waypoint k's actions (module docstring): (before its motion, after it). ``zoned``: the
+    motion to k is approximated, so its outputs switch on the path (TRIGGER WHEN DISTANCE=1: at the middle of the
+    approximation contour), written before the motion; its comments follow the motion (a job refuses waits there)."""
+    before, after = [], []
     for action in program.actions_at(k):
-        if action.kind == SET:
-            lines.append(f"{_io(program, action.signal, 'output')} = {'TRUE' if action.value else 'FALSE'} ; "
-                         f"{action.signal}")
-        elif action.kind == PULSE:
-            lines.append(f"PULSE({_io(program, action.signal, 'output')}, TRUE, {_seconds(action.time_s)}) ; "
-                         f"{action.signal}")
+        if action.kind in (SET, PULSE):
+            statement = f"{_output_statement(program, action)} ; {action.signal}"
+            if zoned:
+                before.append(f"TRIGGER WHEN DISTANCE=1 DELAY=0 DO {statement}")
+            else:
+                after.append(statement)
         elif action.kind == WAIT:
-            lines.append(f"WAIT SEC {_seconds(action.time_s)}")
+            after.append(f"WAIT SEC {_seconds(action.time_s)}")
         elif action.kind == WAIT_INPUT:
-            lines += _wait_input_lines(program, action)
+            after += _wait_input_lines(program, action)
         elif action.kind == COMMENT:
-            lines.append(f"; {action.text}")
-    return lines
+            after.append(f"; {action.text}")
+    return before, after
+
+
+def _written_zone(program, move, written: WrittenProgram | None) -> float:
+    """The zone [m] written at the end of ``move`` (0: an exact stop): the certified motion's (``written``), else the
+    job's unless the program stops there."""
+    if written is not None:
+        return written.of(move.end)[-1].zone_m
+    return 0.0 if program.exact_stop_at(move) else move.zone
 
 
 def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgram | None = None) -> tuple[str, str]:
@@ -391,11 +412,12 @@ def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgra
         raise OutputError(f"KRL controller generation {generation!r}: one of {', '.join(GENERATIONS)}")
     status_turn = written_status_turn(program)
     comments = header(program, name, generation) + ([] if written is None else written.header_lines())
-    actions = [action_lines(program, k) for k in range(len(program.targets))]
-    lint(program, KRL, name, comments + [line[2:] for lines in actions for line in lines if line.startswith("; ")],
+    zones = [0.0] + [_written_zone(program, move, written) for move in program.moves]
+    actions = [action_lines(program, k, zones[k] > 0.0) for k in range(len(program.targets))]
+    lint(program, KRL, name, comments + [line[2:] for _, after in actions for line in after if line.startswith("; ")],
          status_turn)
     angles = axis_angles(program.robot, program.targets, KUKA)
-    body, speeds = ["PTP XP0", *actions[0]], {"axis": BCO_PERCENT}
+    body, speeds = ["PTP XP0", *actions[0][1]], {"axis": BCO_PERCENT}
     for move in program.moves:
         body += _speed_lines(program, move, speeds)
         vertices = _vertices(move, written)
@@ -404,13 +426,10 @@ def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgra
             q_next = vertices[i + 1][1] if i + 1 < len(vertices) else move.target
             body += _ptp_lines(program, point, q_from, q, q_next, zone, generation)
             q_from = q
-        if written is not None:
-            zone = written.of(move.end)[-1].zone_m
-        else:
-            zone = 0.0 if program.exact_stop_at(move) else move.zone
-        body += _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone,
-                        generation)
-        body += actions[move.end]
+        motion = _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None,
+                         zones[move.end], generation)
+        before, after = actions[move.end]
+        body += motion[:-1] + before + motion[-1:] + after
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
     dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}, "
            f"{job_mark(program.job_name or program.name)}",

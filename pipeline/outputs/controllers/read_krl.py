@@ -52,6 +52,8 @@ spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and 
   $IN[n]`` / ``$IN[n] == TRUE`` / a SIGNAL input's name -> ``wait_input`` without timeout (KRL's WAIT FOR has none),
   and exactly ``write_krl``'s timeout pattern (``WAIT FOR <input> OR ($TIMER[n] > ms)`` then ``IF <not input> THEN
   HALT ENDIF``; the $TIMER / $TIMER_STOP assignments around it are read past) -> ``wait_input`` with ``timeout``;
+  ``TRIGGER WHEN DISTANCE=1 DELAY=0 DO`` an output or PULSE (``write_krl``'s outputs at an approximated waypoint) ->
+  that action for the waypoint of the motion after it, before that waypoint's other actions, without an exact stop;
   full-line ``;`` comments after the first motion (not fold lines) and the pendant's comment inline form (``;FOLD ;
   text;%{PE}...%CCOMMENT``) -> ``comment``. The pendant's OUT, PULSE, WAIT and
   WAIT FOR inline forms are these statements inside their folds (CONTINUE before an output: set in the advance run).
@@ -61,9 +63,9 @@ spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and 
 What has no static meaning is a ``KrlReadError`` naming the file, the line and the construct: a loop on a condition
 (WHILE, REPEAT) or a LOOP other than the outermost one, IF (but the timeout pattern), SWITCH, GOTO, an INTERRUPT other
 than the INI fold's stop handler (``... DO IR_STOPM ( )``), HALT, EKI_ (Ethernet KRL) and RSI_ (RobotSensorInterface)
-calls, a call of a routine not in the file or with parameters, an assignment to a program variable, TRIGGER, a
-motion to a live position ($POS_ACT, $AXIS_ACT ...), as is anything else outside the grammar, a missing point or a
-speed that is not a number.
+calls, a TRIGGER other than the one above, a call of a routine not in the file or with parameters, an assignment
+to a program variable, a motion to a live position ($POS_ACT, $AXIS_ACT ...), as is anything else outside the
+grammar, a missing point or a speed that is not a number.
 
 The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`` deg, ``tool``, ``start``,
 ``tcp_accel_max``, ``signals``, ``waypoints`` (with ``do`` lists), ``description`` where a LOOP was read as one cycle.
@@ -118,7 +120,8 @@ REFUSED_WORDS = {
     "CASE": "a branch has no static meaning", "DEFAULT": "a branch has no static meaning",
     "GOTO": "a jump has no static meaning", "EXIT": "leaving a loop has no static meaning",
     "INTERRUPT": "an interrupt has no static meaning: when it fires is known only when the robot runs",
-    "TRIGGER": "a path-triggered action (TRIGGER) is not read: its time depends on the controller's path",
+    "TRIGGER": "a path-triggered action is read only at the end point (TRIGGER WHEN DISTANCE=1 DELAY=0 DO an output "
+               "or PULSE): other switching points depend on the controller's path",
     "DEFFCT": "a function has no static meaning here", "RETURN": "a return from a routine is not read",
     "BRAKE": "BRAKE belongs to an interrupt routine: no static meaning",
 }
@@ -379,6 +382,8 @@ class _Program:
     interrupts: set = field(default_factory=set)
     timed: tuple | None = None
     in_advance: bool = False
+    triggered: list | None = None
+    pending: list = field(default_factory=list)
     calls: tuple = ()
 
     def fail(self, node, field_name: str, problem: str, value=None):
@@ -560,6 +565,9 @@ class _Program:
         aux, aux_name = self.point(points[0], node) if len(points) == 2 else (None, None)
         self.motions.append(_Motion(motion.data, target, target_name, aux, aux_name, approx, _line(node),
                                     dict(self.settings), self.tool, self.base, self.records.get("PDAT_ACT")))
+        if self.pending:
+            self.actions.setdefault(len(self.motions) - 1, []).extend(self.pending)
+            self.pending = []
 
     def point(self, node, statement) -> tuple[_Point, str]:
         """A motion's point and its name (an aggregate's text)."""
@@ -708,8 +716,11 @@ class _Program:
         return label
 
     def add_action(self, node, action: dict, stops: bool = True) -> None:
-        """``action`` for the waypoint of the last motion (the first waypoint before any); ``stops``: the advance run
-        stops there, so that waypoint is an exact stop."""
+        """``action`` for the waypoint of the last motion (the first waypoint before any), or, inside a TRIGGER, for
+        the next motion's; ``stops``: the advance run stops there, so that waypoint is an exact stop."""
+        if self.triggered is not None:
+            self.triggered.append(action)
+            return
         k = max(len(self.motions) - 1, 0)
         self.actions.setdefault(k, []).append(action)
         if stops and self.motions:
@@ -721,6 +732,23 @@ class _Program:
         text = text.replace('"', "").replace("'", "").strip()[:MAX_COMMENT_CHARS].strip()
         if self.motions and text and text.isprintable():
             self.actions.setdefault(len(self.motions) - 1, []).append({COMMENT: text})
+
+    def on_trigger(self, node, env: dict) -> None:
+        """TRIGGER WHEN DISTANCE=1 DELAY=0 DO <output or PULSE>: an action of the next motion's waypoint, switched
+        in the middle of its approximation contour (no exact stop)."""
+        where, distance, delay, statement, _ = node.children
+        if str(where).upper() != "DISTANCE" or _number(distance) != 1.0 or _number(delay) != 0.0 \
+                or statement.data == "call":
+            self.fail(node, "TRIGGER", REFUSED_WORDS["TRIGGER"], self.line_text(node))
+        self.triggered = []
+        try:
+            handler = self.on_pulse if statement.data == "pulse" else self.on_assignment
+            handler(statement, env)
+            if not self.triggered or any(SET not in a and PULSE not in a for a in self.triggered):
+                self.fail(node, "TRIGGER", REFUSED_WORDS["TRIGGER"], self.line_text(node))
+            self.pending += self.triggered
+        finally:
+            self.triggered = None
 
     def on_halt(self, node, env: dict) -> None:
         self.fail(node, "HALT", "the program stops until the operator starts it again: no static meaning (read only "
