@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -278,6 +279,7 @@ def test_a_pendant_programs_out_wait_pulse_and_comment_folds_are_actions(pendant
 def test_a_pendant_program_rewritten_by_our_writer_reads_the_same(pendant, kr6):
     _, program = pendant
     src, dat = write_krl(program, "PENDANT")
+    assert krl_report({".src": src, ".dat": dat}) == []
     again = compile_job(parse_job(read_program_text("krl", src, kr6, "PENDANT.src", dat, "PENDANT.dat")))
     assert np.degrees(np.abs(again.targets - program.targets)).max() < TARGET_TOL_DEG
     assert [again.actions_at(k) for k in range(len(again.targets))] == \
@@ -378,3 +380,20 @@ def test_outputs_at_an_approximated_waypoint_switch_by_trigger_and_read_back():
     again = compile_job(parse_job(read_program_text("krl", src, "gp7", "PICK.src", dat, "PICK.dat")))
     assert again.actions_at(3) == program.actions_at(3) and again.moves[2].zone == pytest.approx(0.06)
     assert krl_report({".src": src, ".dat": dat}) == []
+
+
+def test_a_base_number_is_the_callers_frame(gripper_files):
+    """$BASE = BASE_DATA[2] with ``frame`` = 10 mm along x: the .dat's points 10 mm less in X are the same targets;
+    without ``frame`` the reader names the line and number."""
+    src, dat = gripper_files
+    shifted = re.sub(r"\{X (-?[0-9.]+),", lambda m: f"{{X {float(m[1]) - 10.0:.3f},", dat)
+    based = src.replace("$BASE = $ROBROOT", "$BASE = BASE_DATA[2]")
+    frame = np.eye(4)
+    frame[0, 3] = 0.01
+    again = read_krl(based, shifted, "gp7", frame=frame)["waypoints"]
+    for before, after in zip(read_krl(src, dat, "gp7")["waypoints"], again):
+        if isinstance(before, dict) and "xyz" in before:
+            np.testing.assert_allclose(after["xyz"], before["xyz"], atol=1e-9)
+    with pytest.raises(KrlReadError) as error:
+        read_krl(based, shifted, "gp7", "PICK.src")
+    assert error.value.field == "frame 2" and src.splitlines()[error.value.line - 1] == "$BASE = $ROBROOT"
