@@ -57,7 +57,7 @@ def declarations(dat: str) -> dict[str, tuple[str, dict[str, float]]]:
     for decl in tree.find_data("decl"):
         kind, name, aggregate = decl.children
         values = {str(c.children[0]).upper(): float(c.children[1].children[0]) for c in aggregate.children}
-        out[str(name)] = (str(kind).upper(), values)
+        out[str(name.children[0])] = (str(kind).upper(), values)
     return out
 
 

@@ -119,7 +119,8 @@ def with_line(src: str, old: str, new: str) -> str:
     (("CIRC XA4, XP4 C_DIS", "CIRC XA4, XP4 C_VEL"), "C_VEL"),
     (("LIN XP2", "LIN XP99"), "XP99"),
     (("$VEL_AXIS[3] = 100", "$VEL_AXIS[3] = 50"), "$VEL_AXIS"),
-    (("$BASE = $ROBROOT", "$BASE = $WORLD"), "$BASE"),
+    (("$BASE = $ROBROOT", "$BASE = BASE_DATA[2]"), "frame 2"),
+    (("$BASE = $ROBROOT", "$BASE = $AXIS_ACT"), "$BASE"),
     (("$VEL.CP = 0.500", "$VEL.CP = $VEL_MA.CP"), "$VEL.CP"),
 ])
 def test_what_is_outside_the_subset_is_refused_naming_the_line(written, change, field):
@@ -135,10 +136,10 @@ def test_syntax_errors_and_swapped_files_are_refused(written):
     src, dat = written["gp7_pick_place"]
     with pytest.raises(KrlReadError) as error:
         read_krl(with_line(src, "PTP XP1", "PTP XP1 XP2"), dat, "gp7")
-    assert error.value.field == "syntax" and error.value.line is not None
+    assert error.value.field == "PTP XP1 XP2" and error.value.line is not None and "not KRL" in error.value.problem
     with pytest.raises(KrlReadError) as error:
         read_krl(dat, src, "gp7")
-    assert error.value.field == "dat"
+    assert error.value.field == "src"                   # the .src given is a data list
 
 
 def test_a_first_e6pos_gives_the_start_its_status_and_turn_select(programs, written):

@@ -43,6 +43,24 @@ Programming Instructions for System Integrators; the chapter and section named a
 * Load: ``$LOAD.M`` [kg] and ``$LOAD.CM`` {X, Y, Z [mm], A, B, C 0} (centre of mass in the flange frame) from the
   job's ``payload`` ("$LOAD"; inertia not written: the machine data's); without a payload a PLACEHOLDER comment
   says that the controller keeps its own $LOAD and to set it.
+* Actions (``pipeline.program.actions``), each waypoint's right after its last written motion (waypoint 0's after
+  the PTP to the start), with the signals' numbers on the controller (a signal without a number is an OutputError
+  naming it; the job's names ride in the header's signals mark, ``settings_mark.signals_mark``, and each output
+  statement ends in a comment naming its signal): ``set`` -> ``$OUT[n] = TRUE`` / ``FALSE`` ("Switching functions",
+  "OUT"); ``pulse`` -> ``PULSE($OUT[n], TRUE, t)`` (the output on for t [s] while the program goes on: "PULSE");
+  ``wait`` -> ``WAIT SEC t`` (it stops the advance run, so the time runs once the robot rests at the exact-stop point
+  the job makes there: "WAIT SEC", "Advance run"); ``wait_input`` -> ``WAIT FOR $IN[n]`` / ``WAIT FOR NOT $IN[n]``
+  ("WAIT FOR"), and with a timeout, as KRL's WAIT FOR has none, this fixed pattern (``TIMER``: KRL timer 1, [ms];
+  "$TIMER", "$TIMER_STOP"; the pattern industrialmonitordirect.com's "KUKA KRL WAIT FOR Timeout" page shows):
+  ``$TIMER[1] = 0``, ``$TIMER_STOP[1] = FALSE``, ``WAIT FOR $IN[n] OR ($TIMER[1] > ms)``, ``$TIMER_STOP[1] = TRUE``,
+  ``IF NOT $IN[n] THEN`` / ``HALT`` / ``ENDIF`` (the program stops when the input has not come); ``comment`` -> a
+  ``; text`` line. Times are written to 0.001 s, a timeout in whole ms. An output statement or PULSE stops the
+  advance run (KSS: "statements that trigger an advance run stop"; the pendant's OUT and PULSE inline forms write
+  CONTINUE before it only with their CONT option), so at an approximated waypoint (a zone, no wait: the job refuses
+  a wait there) its outputs are ``TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[n] = ...`` / ``DO PULSE(...)`` before
+  the motion ("Path-related switching actions (TRIGGER)": DISTANCE=1 switches at the end point, in the middle of
+  its approximation contour), its comments after it. Manual: KUKA System Software 8.3, Operating and Programming Instructions
+  for System Integrators (studylib.net/doc/26132835), "Programming for user group Expert / KRL syntax".
 * Names: the program name is never a KRL keyword nor an XP/XA point name (``names``: ``DEF END( )`` is not
   KRL); the header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
 * E6POS ``{X, Y, Z, A, B, C, S, T, E1..E6}``: the TCP in the base frame, X, Y, Z [mm] rounded to 0.001
@@ -69,9 +87,10 @@ from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
+from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
-from .settings_mark import settings_mark
+from .settings_mark import settings_mark, signals_mark
 
 #: Controller generations (module docstring): the approximation keyword of a PTP with a zone.
 KRC2, KSS8 = "krc2", "kss8"
@@ -84,6 +103,8 @@ MM_DECIMALS, DEG_DECIMALS = 3, 4
 #: (0.002 deg: the written rounding moves the joints by a few 1e-4 deg away from singular poses).
 SELECTED_TOL = np.radians(0.002)
 _NO_EXTERNAL = ",".join(f"E{i} 0.0" for i in range(1, 7))
+#: The KRL timer ($TIMER[n], [ms]) a wait for an input with a timeout uses (module docstring).
+TIMER = 1
 
 
 def kuka_abc(R: np.ndarray) -> tuple[float, float, float]:
@@ -163,6 +184,7 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         f"{WRITTEN_BY} (pipeline.outputs.controllers.krl)",
         f"{job_mark(program.job_name or program.name)} generation={generation}",
         settings_mark(program),
+        *([signals_mark(program)] if signals_mark(program) else []),
         ptp,
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "
@@ -174,6 +196,8 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         "- LIN and CIRC keep the start's configuration and ignore a target's S and T; only PTP uses them",
         "- PTP targets whose E6POS with S and T would name more than one joint solution are written as E6AXIS",
         "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
+        "- a waypoint's outputs switch at its exact stop, or by TRIGGER WHEN DISTANCE=1 in the middle of its "
+        "approximation contour",
         "Assumed (no BAS call): no external axes; "
         + frames_words(program.robot, KUKA, "$ROBROOT", "$FLANGE", "S/T"),
         f"Axis angles: {mapping.source}",
@@ -310,6 +334,71 @@ def _ptp_lines(program, point: str, q_from: np.ndarray, q_to: np.ndarray, q_next
     return [f"$APO.CDIS = {zone_m * 1000.0:.3f}", f"$APO.CPTP = {percent}", f"PTP {point} C_PTP"]
 
 
+def _io(program, name: str, direction: str) -> str:
+    """``$OUT[n]`` / ``$IN[n]`` of the job's signal ``name``; OutputError when it has no number."""
+    number = program.signals[name].number
+    if number is None:
+        raise OutputError(f"signal {name!r} has no number: KRL addresses digital I/O by number ($OUT[n], $IN[n]); "
+                          f"give it one in the job's signals: {{{name}: {{{direction}: N}}}}")
+    return f"${'OUT' if direction == 'output' else 'IN'}[{number}]"
+
+
+def _seconds(value: float) -> str:
+    """A time [s] as written (to 0.001 s)."""
+    return f"{value:.3f}"
+
+
+def _wait_input_lines(program, action) -> list[str]:
+    """A wait for an input (module docstring): WAIT FOR, with a timeout the $TIMER pattern ending in HALT."""
+    signal = _io(program, action.signal, "input")
+    wanted = signal if action.value else f"NOT {signal}"
+    if action.timeout_s is None:
+        return [f"WAIT FOR {wanted}"]
+    ms = round(action.timeout_s * 1000.0)
+    missing = f"NOT {signal}" if action.value else signal
+    halt = f"HALT ; {action.signal}: no {'on' if action.value else 'off'} within {action.timeout_s:g} s"
+    return [f"$TIMER[{TIMER}] = 0", f"$TIMER_STOP[{TIMER}] = FALSE",
+            f"WAIT FOR {wanted} OR ($TIMER[{TIMER}] > {ms})", f"$TIMER_STOP[{TIMER}] = TRUE",
+            f"IF {missing} THEN", halt, "ENDIF"]
+
+
+def _output_statement(program, action) -> str:
+    """``$OUT[n] = TRUE`` / ``FALSE`` of a set, ``PULSE($OUT[n], TRUE, t)`` of a pulse."""
+    output = _io(program, action.signal, "output")
+    if action.kind == SET:
+        return f"{output} = {'TRUE' if action.value else 'FALSE'}"
+    return f"PULSE({output}, TRUE, {_seconds(action.time_s)})"
+
+
+def action_lines(program, k: int, zoned: bool = False) -> tuple[list[str], list[str]]:
+    """The KRL lines of waypoint k's actions (module docstring): (before its motion, after it). ``zoned``: the
+    motion to k is approximated, so its outputs switch on the path (TRIGGER WHEN DISTANCE=1: at the middle of the
+    approximation contour), written before the motion; its comments follow the motion (a job refuses waits there)."""
+    before, after = [], []
+    for action in program.actions_at(k):
+        if action.kind in (SET, PULSE):
+            statement = f"{_output_statement(program, action)} ; {action.signal}"
+            if zoned:
+                before.append(f"TRIGGER WHEN DISTANCE=1 DELAY=0 DO {statement}")
+            else:
+                after.append(statement)
+        elif action.kind == WAIT:
+            after.append(f"WAIT SEC {_seconds(action.time_s)}")
+        elif action.kind == WAIT_INPUT:
+            after += _wait_input_lines(program, action)
+        elif action.kind == COMMENT:
+            after.append(f"; {action.text}")
+    return before, after
+
+
+def _written_zone(program, move, written: WrittenProgram | None) -> float:
+    """The zone [m] written at the end of ``move`` (0: an exact stop): the certified motion's (``written``), else the
+    job's unless the program stops there."""
+    if written is not None:
+        return written.of(move.end)[-1].zone_m
+    return 0.0 if program.exact_stop_at(move) else move.zone
+
+
 def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgram | None = None) -> tuple[str, str]:
     """The program's .src and .dat texts (module docstring) as program ``name`` for the controller
     ``generation`` (``GENERATIONS``). ``lint`` runs first: a ControllerLintError names what KRL cannot hold (a
@@ -323,9 +412,12 @@ def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgra
         raise OutputError(f"KRL controller generation {generation!r}: one of {', '.join(GENERATIONS)}")
     status_turn = written_status_turn(program)
     comments = header(program, name, generation) + ([] if written is None else written.header_lines())
-    lint(program, KRL, name, comments, status_turn)
+    zones = [0.0] + [_written_zone(program, move, written) for move in program.moves]
+    actions = [action_lines(program, k, zones[k] > 0.0) for k in range(len(program.targets))]
+    lint(program, KRL, name, comments + [line[2:] for _, after in actions for line in after if line.startswith("; ")],
+         status_turn)
     angles = axis_angles(program.robot, program.targets, KUKA)
-    body, speeds = ["PTP XP0"], {"axis": BCO_PERCENT}
+    body, speeds = ["PTP XP0", *actions[0][1]], {"axis": BCO_PERCENT}
     for move in program.moves:
         body += _speed_lines(program, move, speeds)
         vertices = _vertices(move, written)
@@ -334,12 +426,10 @@ def write_krl(program, name: str, generation: str = KRC2, written: WrittenProgra
             q_next = vertices[i + 1][1] if i + 1 < len(vertices) else move.target
             body += _ptp_lines(program, point, q_from, q, q_next, zone, generation)
             q_from = q
-        if written is not None:
-            zone = written.of(move.end)[-1].zone_m
-        else:
-            zone = 0.0 if program.exact_stop_at(move) else move.zone
-        body += _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None, zone,
-                        generation)
+        motion = _motion(program, move, f"XP{move.end}", f"XA{move.end}" if move.via is not None else None,
+                         zones[move.end], generation)
+        before, after = actions[move.end]
+        body += motion[:-1] + before + motion[-1:] + after
     src = [f"DEF {name}( )"] + [f"; {line}" for line in comments] + _init(program) + body + ["END"]
     dat = [f"DEFDAT {name}", f"; the targets of {name}.src, written by {WRITTEN_BY}, "
            f"{job_mark(program.job_name or program.name)}",
