@@ -229,6 +229,25 @@ def _tool_runs(job: Job) -> list[tuple[int, int]]:
     return runs
 
 
+#: A tool move shorter than this [m] and turning less than this [rad] goes nowhere.
+STILL_MOVE = 1e-9
+
+
+def _check_tool_moves_go_somewhere(job: Job, X_start: np.ndarray, first: int, last: int) -> None:
+    """A JobFileError naming the first tool move of the run ``first`` .. ``last`` (TCP pose ``X_start`` before it) whose
+    TCP neither moves nor turns: it has no path to follow (a controller program may teach one: make it a joint move
+    or leave it out)."""
+    X_before = X_start
+    for k in range(first, last + 1):
+        X = job.waypoints[k].X_BE
+        turn = np.arccos(np.clip((np.trace(X_before[:3, :3].T @ X[:3, :3]) - 1.0) / 2.0, -1.0, 1.0))
+        if np.linalg.norm(X[:3, 3] - X_before[:3, 3]) < STILL_MOVE and turn < STILL_MOVE:
+            raise job.error(("waypoints", k, "move"), f"a {job.waypoints[k].move} move to where the TCP already is "
+                            "(the previous waypoint's pose): it has no path to follow; remove the waypoint or make it "
+                            "a joint move", job.waypoints[k].move)
+        X_before = X
+
+
 def _tool_tracks(job: Job, targets: list[np.ndarray], scene) -> list[ToolTrack]:
     """The joint path along each run of tool moves, from the joint values where the run starts (those
     of the waypoint before it, or where the previous run's IK ended); in a cell its IK samples are
@@ -239,6 +258,7 @@ def _tool_tracks(job: Job, targets: list[np.ndarray], scene) -> list[ToolTrack]:
         if tracks and tracks[-1].last == first - 1:
             q_start = tracks[-1].along.samples[-1]
         waypoints = job.waypoints[first: last + 1]
+        _check_tool_moves_go_somewhere(job, robot.fk(q_start), first, last)
         moves = [ToolMove(w.move, w.X_BE, w.via, w.zone if k < last else 0.0)
                  for k, w in enumerate(waypoints, start=first)]
         tool_path = ToolPath(robot.fk(q_start), moves, first_index=first)

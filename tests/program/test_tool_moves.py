@@ -277,3 +277,17 @@ def test_a_job_through_an_unreachable_point_names_the_waypoint_and_sample(tmp_pa
     with pytest.raises(JobFileError, match=r"waypoints\[1\]: move to waypoint 1, sample \d+ .*out of reach"):
         run_job(job, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_a_tool_move_to_where_the_tcp_already_is_is_a_job_error():
+    from pipeline.program.compile import compile_job
+
+    pose = {"xyz": [500, 0, 400], "rpy": [180, 0, 0]}
+    job = parse_job({"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "tcp_speed_max": 200,
+                     "waypoints": [pose, {**pose, "move": "linear"}, {**pose, "xyz": [500, 100, 400], "move": "linear"}]},
+                    "still.yaml", "still")
+    with pytest.raises(JobFileError, match=r"waypoints\[1\].move: a linear move to where the TCP already is"):
+        compile_job(job)
+    turned = parse_job({"robot": "gp7", "length_unit": "mm", "angle_unit": "deg", "tcp_speed_max": 200,
+                        "waypoints": [pose, {**pose, "rpy": [180, 0, 20], "move": "linear"}]}, "turn.yaml", "turn")
+    assert compile_job(turned).moves[0].track is not None          # turning in place is a move
