@@ -23,5 +23,5 @@ def read_program_text(language: str, text: str, robot, source: str, dat: str | N
     readers = {"rapid": lambda: read_rapid(text, robot), "ls": lambda: read_ls(text, robot, source=source),
                "jbi": lambda: read_jbi(text, robot, source=source),
                "krl": lambda: read_krl(text, dat, robot, source, dat_source),
-               "urscript": lambda: read_urscript(text, robot)}
+               "urscript": lambda: read_urscript(text, robot, source)}
     return with_signal_names(with_written_settings(readers[language](), text), text)
