@@ -203,6 +203,7 @@ class _Reader:
         self.tcp_accel: list[float] = []
         self.payload: dict | None = None
         self.skipped: dict[str, list] = {}
+        self.skipped_calls: dict[str, list[int]] = {}
         self.cursor = 0
         self.halted = False
 
@@ -355,7 +356,7 @@ class _Reader:
         if name in SETUP_CALLS:
             self.note("settings", name)
         elif name in SKIPPED_CALLS:
-            self.note("calls", f"{name} (line {node.meta.line})")
+            self.skipped_calls.setdefault(name, []).append(node.meta.line)
         elif name in PARAMETERS:
             self.move(name, self.arguments(name, call, node), node)
         elif name == "set_tcp":
@@ -510,6 +511,8 @@ class _Reader:
         words = {"loop": "read {}", "halt": "{}", "threads": "skipped threads that do not move the robot: {}",
                  "functions": "skipped function definitions (not called): {}",
                  "calls": "skipped calls without motion: {}", "settings": "skipped installation settings: {}"}
+        for name, lines in self.skipped_calls.items():
+            self.note("calls", f"{name} (line{'s' * (len(lines) > 1)} {', '.join(map(str, lines))})")
         parts = [words[kind].format(", ".join(entries)) for kind, entries in self.skipped.items()]
         return "URScript program read by dh-pipeline: " + "; ".join(parts) if parts else None
 
@@ -608,7 +611,8 @@ class _Reader:
         return "\n".join(line for line in lines if line and not line.startswith(("#", "$")))
 
     def construct(self, node: lark.Tree) -> str:
-        text = self.lines[node.meta.line - 1].strip()
+        """The construct an error names: the text of ``node``'s first line (a block's without its colon)."""
+        text = self.lines[node.meta.line - 1].strip().removesuffix(":")
         return text if len(text) <= CONSTRUCT_CHARS else text[:CONSTRUCT_CHARS - 3] + "..."
 
     def refuse(self, node: lark.Tree, problem: str):
