@@ -71,6 +71,9 @@ def value(node):
         return float(node.children[0])
     if kind == "list":
         return [value(child) for child in node.children if child is not None]
+    if kind in ("numbers", "pose_numbers"):                # a list or pose of number literals: one token
+        values = [float(v) for v in str(node.children[0]).lstrip("p")[1:-1].split(",")]
+        return values if kind == "numbers" else ("pose", values)
     if kind == "pose":
         return ("pose", [value(child) for child in node.children[1:]])
     if kind == "boolean":

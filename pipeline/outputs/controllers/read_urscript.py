@@ -167,7 +167,7 @@ def read_urscript(text: str, robot, source: str = "<urscript>") -> dict:
     """The job document of a URScript program ``text`` (module docstring) for ``robot`` (a preset name, robot file
     path or Robot, named in the document as given); ``source`` names the file in errors. UrscriptReadError names
     what cannot be read."""
-    tree = parse_subset("urscript", "URScript", text, UrscriptReadError, source)
+    tree = parse_subset("urscript", "URScript", without_replay_samples(text), UrscriptReadError, source)
     program = tree.children[0]
     name, body = str(program.children[0]), program.children[1]
     run = program.children[2] if len(program.children) > 2 else None
@@ -180,6 +180,23 @@ def read_urscript(text: str, robot, source: str = "<urscript>") -> dict:
     if not reader.waypoints:
         raise UrscriptReadError(source, "moves", "the program has no movej, movel, movep or movec")
     return reader.document(robot_name)
+
+
+def without_replay_samples(text: str) -> str:
+    """``text`` with the servoj lines of ``def certified_replay()`` blank (the replay is skipped: its thousands of
+    samples need no parsing); the line numbers stay."""
+    lines = text.splitlines(keepends=True)
+    start = next((i for i, line in enumerate(lines) if line.strip() == f"def {REPLAY}():"), None)
+    if start is None:
+        return text
+    indent = len(lines[start]) - len(lines[start].lstrip())
+    for i in range(start + 1, len(lines)):
+        stripped = lines[i].strip()
+        if stripped == "end" and len(lines[i]) - len(lines[i].lstrip()) == indent:
+            break
+        if stripped.startswith("servoj("):
+            lines[i] = "\n"
+    return "".join(lines)
 
 
 class _Reader:
@@ -545,13 +562,13 @@ class _Reader:
             return str(node.children[0]) == "True"
         if kind == "string":
             return str(node.children[0])[1:-1]
+        if kind in ("numbers", "pose_numbers"):
+            values = [float(v) for v in str(node.children[0]).lstrip("p")[1:-1].split(",")]
+            return values if kind == "numbers" else self.pose_of(values)
         if kind == "list":
             return [self.value(child) for child in node.children if child is not None]
         if kind == "pose":
-            values = [self.value(child) for child in node.children[1:]]
-            if len(values) != 6 or not all(isinstance(v, float) for v in values):
-                raise _NotStatic("a pose is p[x, y, z, rx, ry, rz] of six numbers")
-            return Pose(tuple(values))
+            return self.pose_of([self.value(child) for child in node.children[1:]])
         if kind == "variable":
             return self.variable(str(node.children[0]))
         if kind == "neg":
@@ -570,6 +587,11 @@ class _Reader:
         if kind == "call":
             return self.function(node)
         raise _NotStatic(f"{kind.replace('_', ' ')} is not a static value")
+
+    def pose_of(self, values: list) -> Pose:
+        if len(values) != 6 or not all(isinstance(v, float) for v in values):
+            raise _NotStatic("a pose is p[x, y, z, rx, ry, rz] of six numbers")
+        return Pose(tuple(values))
 
     def variable(self, name: str):
         if name not in self.variables:
