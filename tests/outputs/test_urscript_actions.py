@@ -73,7 +73,7 @@ def test_each_action_follows_the_last_move_into_its_waypoint(gripper):
 
 
 def test_the_servoj_replay_runs_the_actions_and_reads_the_same(gripper):
-    program, text, document = gripper
+    program, _, document = gripper
     with_replay = write_urscript(program, "gripper_pick", time_program(program))
     replay = with_replay[with_replay.index("def certified_replay():"):]
     for line in ("set_standard_digital_out(1, True)", "run dh_pulse_1()", "# release the part",

@@ -108,7 +108,7 @@ OUTPUTS["set_digital_out"] = OUTPUTS["set_standard_digital_out"]
 INPUTS = {f"get_{bank}_digital_in": (first, prefix) for first, _, bank, prefix in IO_BANKS}
 INPUTS["get_digital_in"] = INPUTS["get_standard_digital_in"]
 _NUMBER = r"-?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_IN = rf"(get_\w+_digital_in|get_digital_in)\((\d+)\)"
+_IN = r"(get_\w+_digital_in|get_digital_in)\((\d+)\)"
 #: PolyScope's Wait node for an input, and write_urscript's wait with a timeout (urscript.wait_input_lines).
 WAIT_PATTERN = re.compile(rf"while \(?not ?\({_IN} == (True|False)\)\)?:\nsync\(\)\nend")
 TIMEOUT_PATTERN = re.compile(
@@ -139,7 +139,7 @@ class Pose:
         return X
 
     @staticmethod
-    def of(X: np.ndarray) -> "Pose":
+    def of(X: np.ndarray) -> Pose:
         return Pose((*map(float, X[:3, 3]), *map(float, Rotation.from_matrix(X[:3, :3]).as_rotvec())))
 
 
