@@ -15,10 +15,13 @@ import pytest
 from pipeline.errors import OutputError
 from pipeline.outputs.controllers.read_program import read_program_text
 from pipeline.outputs.controllers.read_urscript import UrscriptReadError, read_urscript
-from pipeline.outputs.controllers.urscript import write_urscript
+from pipeline.outputs.controllers.urscript import MAX_REPLAY_LINES, write_urscript
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
 from pipeline.program.timing import time_program
+from pipeline.runner import program_texts
+
+from . import structure_checks
 
 lark = pytest.importorskip("lark", reason="lark (pip install lark) parses the URScript grammar")
 
@@ -58,6 +61,7 @@ def test_the_instructions_are_urscript_and_polyscope_own(gripper):
     wait = body.index("while (not(get_standard_digital_in(3) == True)):")
     assert body[wait - 1] == "dh_waited = 0.0" and body[wait + 1] == "if (dh_waited >= 2.0):"
     assert "dh.signal.gripper_close=out1 dh.signal.part_present=in3 dh.signal.blow_off=out2" in text
+    assert structure_checks.urscript_problems(text, MAX_REPLAY_LINES) == []
 
 
 def test_each_action_follows_the_last_move_into_its_waypoint(gripper):
@@ -84,6 +88,7 @@ def test_the_servoj_replay_runs_the_actions_and_reads_the_same(gripper):
     grip = replay.splitlines().index("    set_standard_digital_out(1, True)")
     assert servoj[0] < grip < servoj[-1]
     assert read_program_text("urscript", with_replay, ROBOT, "gripper_pick.script") == document
+    assert structure_checks.urscript_problems(with_replay, MAX_REPLAY_LINES) == []
 
 
 def on_other_outputs(program, numbers: dict[str, int]):
@@ -132,3 +137,13 @@ def test_a_timeout_pattern_that_differs_is_refused():
                                                 r"a loop on a variable or an input"):
         read_urscript(text, ROBOT)
 
+
+
+@pytest.mark.slow
+def test_the_certified_motion_program_the_runner_writes_reads_the_same_actions(gripper):
+    """runner.program_texts (what `run --lang urscript` writes: the certified motion and its replay), read back."""
+    program, _, _ = gripper
+    job = load_job(JOB)
+    text = program_texts(job, "urscript", program, time_program(program))[".script"]
+    read = read_program_text("urscript", text, ROBOT, "gripper_pick.script")
+    assert actions(compile_job(parse_job(read, source="gripper_pick.script"))) == actions(program)
