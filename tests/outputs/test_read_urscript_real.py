@@ -192,3 +192,27 @@ def test_read_program_writes_the_real_program_and_nothing_for_a_refused_one(tmp_
                  "--out", str(refused)])
     assert code != 0 and not refused.exists()
     assert "PickAndPlace_App_Final.script:83: if (1 == switch_1)" in capsys.readouterr().err
+
+
+LOOP = ("def prog():\n  global Waypoint_1_p=p[.1, -.4, .3, 0.0, 3.14, 0.0]\n  global Waypoint_2_p=p[.1, -.4, .4, 0.0, 3.14, 0.0]\n"
+        "  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n  $ 5 \"Loop 3 times\"\n  Loop_1 = 0\n  while (Loop_1 < 3):\n"
+        "    # down and up\n    movel(Waypoint_1_p, a=1.2, v=0.25)\n    movel(Waypoint_2_p, a=1.2, v=0.25)\n"
+        "    Loop_1 = Loop_1 + 1\n  end\nend\n")
+
+
+def test_polyscope_loop_n_times_is_flattened():
+    document = read_urscript(LOOP, UR5E, source="loop.script")
+    waypoints = document["waypoints"]
+    assert len(waypoints) == 7 and [w["xyz"][2] for w in waypoints[1:]] == [0.3, 0.4] * 3
+    assert [w.get("do") for w in waypoints[::2]] == [[{"comment": "down and up"}]] * 3 + [None]
+    assert "flattened the loops on fixed counters at line 7 (3 turns)" in document["description"]
+
+
+@pytest.mark.parametrize("change, construct", [
+    ("Loop_1 = Loop_1 + 0", "while (Loop_1 < 3)"),                 # a turn leaves its counter as it was
+    ("Loop_1 = get_standard_digital_in(0)", "while (Loop_1 < 3)"),  # the counter becomes an input
+])
+def test_a_loop_that_does_not_end_or_reads_an_input_is_refused(change, construct):
+    with pytest.raises(UrscriptReadError) as error:
+        read_urscript(LOOP.replace("Loop_1 = Loop_1 + 1", change), UR5E, source="loop.script")
+    assert (error.value.line, error.value.field) == (7, construct)

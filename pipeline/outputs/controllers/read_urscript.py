@@ -43,9 +43,14 @@ file, the line and the construct (the line's text). What is read (the Script Man
   fieldbus/URCap threads) and their ``run``, function definitions (a call of one is refused), assignments of
   values that are not static (``rpc_factory(...)``: refused only where a move, the tool or an action uses them),
   ``$ n "..."`` markers, ``sync()``. An endless outer loop ``while (True):`` as the program's last statement
-  (PolyScope's "Loop forever") is read as one cycle; ``halt`` ends the program. ``write_urscript``'s servoj replay
+  (PolyScope's "Loop forever") is read as one cycle; a loop on a condition the program fixes (PolyScope's "Loop n
+  times": ``Loop_1 = 0``, ``while (Loop_1 < n): ... Loop_1 = Loop_1 + 1 end``) is flattened, turn by turn (one
+  whose turn leaves its condition's variables as they were, or longer than MAX_TURNS, is refused); ``halt`` ends the
+  program. ``write_urscript``'s servoj replay
   (``def certified_replay()`` and the ``if`` choosing it) is skipped: the body of ``def native_moves()`` is read.
-* Refused, naming line and construct: ``if``/``while`` on a variable or an input (other than the wait patterns),
+* Refused, naming line and construct: ``if`` (even on a variable the program fixes: in a loop forever its
+  branches differ from cycle to cycle, e.g. a state machine), ``while`` on an input or a variable that is not
+  static (other than the wait patterns),
   a call of a function the program defines or of any other function (socket, rpc, fieldbus method calls,
   ``popup``), ``servoj``/``speedj`` and the like, threads that move the robot, ``kill``, ``return``, ``break``.
 
@@ -57,6 +62,7 @@ document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`` de
 from __future__ import annotations
 
 import math
+import operator
 import re
 from dataclasses import dataclass
 
@@ -113,12 +119,18 @@ _IN = r"(get_\w+_digital_in|get_digital_in)\((\d+)\)"
 WAIT_PATTERN = re.compile(rf"while \(?not ?\({_IN} == (True|False)\)\)?:\nsync\(\)\nend")
 TIMEOUT_PATTERN = re.compile(
     rf"while \(not\({_IN} == (True|False)\)\):\nif \({WAITED} >= ({_NUMBER})\):\npopup\(\"[^\"\n]*\", \"Timeout\", "
-    rf"error=True\)\nhalt\nend\nsleep\(({_NUMBER})\)\n{WAITED} = {WAITED} \+ ({_NUMBER})\nend")
+    rf"False, True, False\)\nhalt\nend\nsleep\(({_NUMBER})\)\n{WAITED} = {WAITED} \+ ({_NUMBER})\nend")
 #: write_urscript's pulse thread: set on, sleep, set off.
 PULSE_PATTERN = re.compile(rf"thread ({PULSE_THREAD}\d+)\(\):\n(set_\w+_digital_out|set_digital_out)\((\d+), True\)\n"
                            rf"sleep\(({_NUMBER})\)\n\2\(\3, False\)\nend")
 #: The longest construct text an error names [characters].
 CONSTRUCT_CHARS = 80
+#: The operators on numbers and the comparisons (URScript's % as C's fmod).
+ARITHMETIC = {"+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv, "%": math.fmod}
+COMPARISONS = {"==": operator.eq, "!=": operator.ne, "<": operator.lt, "<=": operator.le, ">": operator.gt,
+               ">=": operator.ge}
+#: The most turns a loop the program fixes is read for (PolyScope's "Loop n times" flattened).
+MAX_TURNS = 1000
 
 
 class UrscriptReadError(FileFormatError):
@@ -354,8 +366,8 @@ class _Reader:
         plain, timed = WAIT_PATTERN.fullmatch(text), TIMEOUT_PATTERN.fullmatch(text)
         found = plain or timed
         if found is None:
-            self.refuse(node, "a loop on a variable or an input has no static meaning (read: the wait for an input "
-                        "'while (not(get_standard_digital_in(n) == True)): sync() end', an endless outer loop)")
+            self.flatten(node)
+            return
         first, prefix = INPUTS[found.group(1)]
         signal = f"{prefix}di{found.group(2)}"
         self.use_signal(signal, "input", first + int(found.group(2)))
@@ -363,6 +375,34 @@ class _Reader:
         if timed is not None:
             action["timeout"] = float(timed.group(4))
         self.action(action)
+
+    def flatten(self, node: lark.Tree) -> None:
+        """A loop on a condition the program fixes (PolyScope's "Loop n times": ``Loop_1 = 0``, ``while (Loop_1 <
+        n): ... Loop_1 = Loop_1 + 1 end``), read turn by turn while its condition holds (at most MAX_TURNS turns)."""
+        condition, body = node.children
+        names = {str(v.children[0]) for v in condition.find_data("variable")}
+        turns = 0
+        while self.condition(condition, node):
+            before = {name: self.variables.get(name) for name in names}
+            turns += 1
+            self.cursor = node.meta.line
+            self.statements(body.children)
+            if turns > MAX_TURNS or before == {name: self.variables.get(name) for name in names}:
+                self.refuse(node, f"a loop that does not end (its condition's variables unchanged by a turn, or more "
+                            f"than {MAX_TURNS} turns; read: an endless loop as the program's last statement)")
+        self.note("loops", f"line {node.meta.line} ({turns} turn{'s' * (turns != 1)})")
+
+    def condition(self, condition: lark.Tree, node: lark.Tree) -> bool:
+        """The value of a loop's condition the program fixes, else refused."""
+        try:
+            value = self.value(condition)
+        except _NotStatic as exc:
+            self.refuse(node, f"a loop on a variable or an input has no static meaning ({exc}; read: a loop on a "
+                        "counter the program fixes, the wait for an input 'while (not(get_standard_digital_in(n) == "
+                        "True)): sync() end', an endless outer loop)")
+        if not isinstance(value, bool):
+            self.refuse(node, f"a loop's condition is {value!r}, not True or False")
+        return value
 
     # -- calls --------------------------------------------------------------------------------------------------
 
@@ -525,7 +565,7 @@ class _Reader:
 
     def description(self) -> str | None:
         """What the reader skipped, in words (None: nothing)."""
-        words = {"loop": "read {}", "halt": "{}", "threads": "skipped threads that do not move the robot: {}",
+        words = {"loop": "read {}", "loops": "flattened the loops on fixed counters at {}", "halt": "{}", "threads": "skipped threads that do not move the robot: {}",
                  "functions": "skipped function definitions (not called): {}",
                  "calls": "skipped calls without motion: {}", "settings": "skipped installation settings: {}"}
         for name, lines in self.skipped_calls.items():
@@ -581,7 +621,7 @@ class _Reader:
             return not self.value(node.children[0])
         if kind == "boolean_op":
             left, op, right = self.value(node.children[0]), str(node.children[1]), self.value(node.children[2])
-            return {"and": left and right, "or": left or right, "xor": bool(left) != bool(right)}[op]
+            return bool(left) != bool(right) if op == "xor" else (left and right if op == "and" else left or right)
         if kind == "index":
             return _element(self.value(node.children[0]), self.value(node.children[1]))
         if kind == "call":
@@ -676,15 +716,13 @@ def _arithmetic(left, op: str, right):
         raise _NotStatic(f"{op} of {left!r} and {right!r} is not read")
     if op in "/%" and right == 0.0:
         raise _NotStatic(f"{op} by zero")
-    return {"+": left + right, "-": left - right, "*": left * right, "/": left / right,
-            "%": math.fmod(left, right)}[op]
+    return ARITHMETIC[op](left, right)
 
 
 def _compare(left, op: str, right) -> bool:
     if type(left) is not type(right) or isinstance(left, (list, Pose)):
         raise _NotStatic(f"{left!r} {op} {right!r} is not read")
-    return {"==": left == right, "!=": left != right, "<": left < right, "<=": left <= right, ">": left > right,
-            ">=": left >= right}[op]
+    return COMPARISONS[op](left, right)
 
 
 def _static_function(name: str, positional: list, keywords: dict):

@@ -40,6 +40,24 @@ lists and poses; "Module motion" for the functions):
   the explicit call does not depend on it).
 * ``set_payload(m, cog)`` [kg, m in the flange frame] from the job's payload; without one a PLACEHOLDER comment
   (the controller keeps its installation's payload).
+* Actions (``pipeline.program.actions``), right after the last written move into their waypoint (waypoint 0's after
+  the approach movej; the Script Manual's "Module interfaces" for the functions): a set is
+  ``set_standard_digital_out(n, True|False)`` for the job's outputs 0-7, ``set_configurable_digital_out(n - 8, b)``
+  for 8-15 and ``set_tool_digital_out(n - 16, b)`` for 16-17 (the pin numbering of UR's ROS interface, ur_msgs
+  SetIO.srv: PIN_CONF_OUT0 = 8, PIN_TOOL_DOUT0 = 16; inputs alike with ``get_*_digital_in``); a signal without a
+  number, or past 17, is refused naming it. URScript has no pulse instruction: a pulse runs a thread
+  (``thread dh_pulse_N(): set on, sleep(t), set off end``, defined once per output and time before the moves) with
+  ``run dh_pulse_N()``, without waiting for it. A wait is ``sleep(t)``: it follows a move with r = 0 (a wait is a
+  stop of the program), and what follows a move with r = 0 runs once the robot has stopped there (UR's CB3 user
+  manual, 3.4.5, 14.6 "Command: Fixed Waypoint": after a stop point, "it is executed when the robot arm has
+  stopped at the waypoint"; with a blend it would run on entering the blend). A wait for an input is PolyScope's
+  Wait node as issue 37 quotes it, ``while (not(get_standard_digital_in(n) == True)): sync() end`` (no PolyScope
+  export with a Wait node was found to check it against); with a timeout the fixed pattern ``wait_input_lines``
+  (sleep TIMEOUT_TICK a turn, count the time in ``dh_waited`` [s], past the timeout ``popup(text, title, False,
+  True, False)``, an error popup in the positional form PolyScope's URCap code writes (warning, error, blocking:
+  pharmbio/robotlab programs/dan_delid.script @ 536ca11f), and ``halt``: the program stops with an error). A comment is ``# text``. The header names the numbered signals (``settings_mark.signals_mark``).
+  In the servoj replay the actions follow the sample where the replay arrives at their waypoint (``arrival``), each
+  after the waits before it in the list (the certified profile rests at the waypoint for them: no ``sleep``).
 * The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``); the name is never a keyword
   nor a name the program defines (``names``).
 * Arms: ``check_arm`` refuses what URScript cannot move (the one place an arm's maker is checked): an arm
@@ -332,7 +350,7 @@ def wait_input_lines(signal, action: Action) -> list[str]:
     message = (f"dh-pipeline: input {signal.name} ({signal.direction} {signal.number}) not "
                f"{'on' if action.value else 'off'} after {action.timeout_s:g} s")
     return [f"{WAITED} = 0.0", test, f"  if ({WAITED} >= {number(action.timeout_s)}):",
-            f"    popup(\"{message}\", \"Timeout\", error=True)", "    halt", "  end",
+            f"    popup(\"{message}\", \"Timeout\", False, True, False)", "    halt", "  end",
             f"  sleep({number(TIMEOUT_TICK)})", f"  {WAITED} = {WAITED} + {number(TIMEOUT_TICK)}", "end"]
 
 
