@@ -147,17 +147,18 @@ def test_a_state_machine_is_refused_at_its_branch():
                                        "variable or an input")
 
 
-START = "def prog():\n  global Waypoint_1_p=p[.1, -.4, .3, 0.0, 3.14, 0.0]\n  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n"
+START = ("def prog():\n  global Waypoint_1_p=p[.1, -.4, .3, 0.0, 3.14, 0.0]\n"
+         "  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n")
 
 
 @pytest.mark.parametrize("statement, construct, problem", [
-    ("if (get_standard_digital_in(0) == True):\n    movel(Waypoint_1_p)\n  end", "if (get_standard_digital_in(0) == True)",
-     "a branch on a variable or an input"),
+    ("if (get_standard_digital_in(0) == True):\n    movel(Waypoint_1_p)\n  end",
+     "if (get_standard_digital_in(0) == True)", "a branch on a variable or an input"),
     ("while (n < 3):\n    movel(Waypoint_1_p)\n  end", "while (n < 3)", "a loop on a variable or an input"),
     ("rq_wait_for_gripper_connected()", "rq_wait_for_gripper_connected()", "not a function read here"),
-    ("socket_open(\"127.0.0.1\", 63352, \"1\")", "socket_open(\"127.0.0.1\", 63352, \"1\")", "not a function read here"),
+    ('socket_open("127.0.0.1", 63352, "1")', 'socket_open("127.0.0.1", 63352, "1")', "not a function read here"),
     ("conn.eip_monitor.show()", "conn.eip_monitor.show()", "calls a method of an object"),
-    ("popup(\"check the part\", blocking=True)", "popup(\"check the part\", blocking=True)", "not a function read here"),
+    ('popup("check the part", blocking=True)', 'popup("check the part", blocking=True)', "not a function read here"),
     ("movel(get_actual_tcp_pose())", "movel(get_actual_tcp_pose())", "get_actual_tcp_pose() is not a static function"),
     ("thread t():\n    movel(Waypoint_1_p)\n  end", "thread t()", "a thread that moves the robot"),
     ("kill t", "kill t", "no static meaning"),
@@ -174,7 +175,8 @@ def test_a_urcap_program_node_is_refused_where_it_calls_its_functions():
     """pharmbio/robotlab's dan_delid.script (cited, not copied: SOURCES.md) calls Robotiq's URCap functions, defined in
     its installation preamble, in every gripper node: the same construct in a program of our own."""
     program = ("def delid():\n  def rq_set_pos_spd_for(pos, speed, force, gripper_socket=\"1\"):\n"
-               "    socket_set_var(\"POS\", pos, gripper_socket)\n  end\n  global pick_p=p[.2, -.5, .7, 1.57, 0.0, 0.0]\n"
+               "    socket_set_var(\"POS\", pos, gripper_socket)\n  end\n"
+               "  global pick_p=p[.2, -.5, .7, 1.57, 0.0, 0.0]\n"
                "  movel(pick_p, a=1.2, v=0.25)\n  # begin: URCap Program Node\n  rq_set_pos_spd_for(255, 0, 0, \"1\")\n"
                "  # end: URCap Program Node\nend\n")
     with pytest.raises(UrscriptReadError, match=r"delid.script:8: rq_set_pos_spd_for\(255, 0, 0, \"1\"\): calls "
@@ -194,7 +196,8 @@ def test_read_program_writes_the_real_program_and_nothing_for_a_refused_one(tmp_
     assert "PickAndPlace_App_Final.script:83: if (1 == switch_1)" in capsys.readouterr().err
 
 
-LOOP = ("def prog():\n  global Waypoint_1_p=p[.1, -.4, .3, 0.0, 3.14, 0.0]\n  global Waypoint_2_p=p[.1, -.4, .4, 0.0, 3.14, 0.0]\n"
+LOOP = ("def prog():\n  global Waypoint_1_p=p[.1, -.4, .3, 0.0, 3.14, 0.0]\n"
+        "  global Waypoint_2_p=p[.1, -.4, .4, 0.0, 3.14, 0.0]\n"
         "  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n  $ 5 \"Loop 3 times\"\n  Loop_1 = 0\n  while (Loop_1 < 3):\n"
         "    # down and up\n    movel(Waypoint_1_p, a=1.2, v=0.25)\n    movel(Waypoint_2_p, a=1.2, v=0.25)\n"
         "    Loop_1 = Loop_1 + 1\n  end\nend\n")

@@ -87,9 +87,9 @@ DEFAULTS = {"movej": {"a": 1.4, "v": 1.05, "t": 0.0, "r": 0.0}, "movel": {"a": 1
             "movep": {"a": 1.2, "v": 0.25, "r": 0.0}, "movec": {"a": 1.2, "v": 0.25, "r": 0.0, "mode": 0.0}}
 MOVE_KINDS = {"movej": "joint", "movel": "linear", "movep": "linear", "movec": "circular"}
 #: Calls that move the robot other than the moves read (refused; a thread holding one is refused).
-MOTION_CALLS = frozenset({"servoj", "servoc", "speedj", "speedl", "stopj", "stopl", "force_mode", "movej", "movel",
-                          "movep", "movec", "position_deviation_warning", "conveyor_pulse_decode", "track_conveyor_linear",
-                          "track_conveyor_circular", "freedrive_mode", "teach_mode", "path_offset_enable"})
+MOTION_CALLS = frozenset({"movej", "movel", "movep", "movec", "servoj", "servoc", "speedj", "speedl", "stopj", "stopl",
+                          "force_mode", "freedrive_mode", "teach_mode", "path_offset_enable", "track_conveyor_linear",
+                          "track_conveyor_circular"})
 #: PolyScope's installation settings at a program's start: no motion, nothing a job holds (skipped).
 SETUP_CALLS = frozenset({
     "set_gravity", "set_safety_mode_transition_hardness", "set_standard_analog_input_domain",
@@ -99,8 +99,8 @@ SETUP_CALLS = frozenset({
     "set_runstate_configurable_digital_output_to_value", "set_runstate_tool_digital_output_to_value",
     "set_tool_communication", "set_tool_output_mode", "set_tool_digital_output_mode", "set_tool_voltage",
     "motion_version_set", "tool_wrench_limit_disable", "modbus_add_signal", "modbus_set_signal_update_frequency",
-    "modbus_set_runstate_dependent_choice", "set_configurable_digital_input_action", "set_standard_digital_input_action",
-    "set_tool_digital_input_action", "set_gravity_compensation"})
+    "modbus_set_runstate_dependent_choice", "set_configurable_digital_input_action",
+    "set_standard_digital_input_action", "set_tool_digital_input_action", "set_gravity_compensation"})
 #: Calls with no motion and nothing a job holds, skipped and named: register writes (fieldbus/RTDE), log messages.
 SKIPPED_CALLS = frozenset({"write_output_integer_register", "write_output_float_register",
                            "write_output_boolean_register", "textmsg"})
@@ -114,14 +114,14 @@ OUTPUTS["set_digital_out"] = OUTPUTS["set_standard_digital_out"]
 INPUTS = {f"get_{bank}_digital_in": (first, prefix) for first, _, bank, prefix in IO_BANKS}
 INPUTS["get_digital_in"] = INPUTS["get_standard_digital_in"]
 _NUMBER = r"-?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_IN = r"(get_\w+_digital_in|get_digital_in)\((\d+)\)"
+_IN = rf"({'|'.join(INPUTS)})\((\d+)\)"
 #: PolyScope's Wait node for an input, and write_urscript's wait with a timeout (urscript.wait_input_lines).
 WAIT_PATTERN = re.compile(rf"while \(?not ?\({_IN} == (True|False)\)\)?:\nsync\(\)\nend")
 TIMEOUT_PATTERN = re.compile(
     rf"while \(not\({_IN} == (True|False)\)\):\nif \({WAITED} >= ({_NUMBER})\):\npopup\(\"[^\"\n]*\", \"Timeout\", "
     rf"False, True, False\)\nhalt\nend\nsleep\(({_NUMBER})\)\n{WAITED} = {WAITED} \+ ({_NUMBER})\nend")
 #: write_urscript's pulse thread: set on, sleep, set off.
-PULSE_PATTERN = re.compile(rf"thread ({PULSE_THREAD}\d+)\(\):\n(set_\w+_digital_out|set_digital_out)\((\d+), True\)\n"
+PULSE_PATTERN = re.compile(rf"thread ({PULSE_THREAD}\d+)\(\):\n({'|'.join(OUTPUTS)})\((\d+), True\)\n"
                            rf"sleep\(({_NUMBER})\)\n\2\(\3, False\)\nend")
 #: The longest construct text an error names [characters].
 CONSTRUCT_CHARS = 80
@@ -302,8 +302,9 @@ class _Reader:
             return
         moving = self.motion_in(node)
         if moving is not None:
-            raise UrscriptReadError(self.source, self.construct(node), f"a thread that moves the robot ({moving}, line "
-                                    f"{moving.meta.line}) runs beside the program: no static motion", line=node.meta.line)
+            raise UrscriptReadError(self.source, self.construct(node), f"a thread that moves the robot "
+                                    f"({moving.children[0]}, line {moving.meta.line}) runs beside the program: no "
+                                    "static motion", line=node.meta.line)
         self.threads.add(name)
         self.note("threads", name)
 
@@ -457,7 +458,8 @@ class _Reader:
         except _NotStatic as exc:
             self.refuse(node, f"a move's argument has no static value: {exc}")
         if out.get("t", 0.0) != 0.0:
-            raise UrscriptReadError(self.source, f"{name}(t=...)", "a move given a time has no speed to read", line=line)
+            raise UrscriptReadError(self.source, f"{name}(t=...)", "a move given a time has no speed to read",
+                                    line=line)
         if out.get("mode", 0.0) != 0.0:
             raise UrscriptReadError(self.source, f"{name}(mode=...)", "only mode 0 (orientation interpolated from the "
                                     "start to the target) is read", line=line)
@@ -497,7 +499,8 @@ class _Reader:
             pose, near = (target, None) if isinstance(target, Pose) else (target.pose, target.qnear)
             waypoint, q = self.pose_waypoint(pose.matrix(), near, node)
             waypoint["move"] = MOVE_KINDS[name]
-        elif name == "movej" and isinstance(target, list) and len(target) == self.robot.dof:
+        elif (name == "movej" and isinstance(target, list) and len(target) == self.robot.dof
+              and all(isinstance(v, float) for v in target)):
             q = np.array(target, dtype=float)
             waypoint = {"joints": [round(float(v), 10) for v in np.degrees(q)]}
         else:
@@ -565,7 +568,8 @@ class _Reader:
 
     def description(self) -> str | None:
         """What the reader skipped, in words (None: nothing)."""
-        words = {"loop": "read {}", "loops": "flattened the loops on fixed counters at {}", "halt": "{}", "threads": "skipped threads that do not move the robot: {}",
+        words = {"loop": "read {}", "loops": "flattened the loops on fixed counters at {}", "halt": "{}",
+                 "threads": "skipped threads that do not move the robot: {}",
                  "functions": "skipped function definitions (not called): {}",
                  "calls": "skipped calls without motion: {}", "settings": "skipped installation settings: {}"}
         for name, lines in self.skipped_calls.items():

@@ -55,9 +55,10 @@ lists and poses; "Module motion" for the functions):
   export with a Wait node was found to check it against); with a timeout the fixed pattern ``wait_input_lines``
   (sleep TIMEOUT_TICK a turn, count the time in ``dh_waited`` [s], past the timeout ``popup(text, title, False,
   True, False)``, an error popup in the positional form PolyScope's URCap code writes (warning, error, blocking:
-  pharmbio/robotlab programs/dan_delid.script @ 536ca11f), and ``halt``: the program stops with an error). A comment is ``# text``. The header names the numbered signals (``settings_mark.signals_mark``).
-  In the servoj replay the actions follow the sample where the replay arrives at their waypoint (``arrival``), each
-  after the waits before it in the list (the certified profile rests at the waypoint for them: no ``sleep``).
+  pharmbio/robotlab programs/dan_delid.script @ 536ca11f), and ``halt``: the program stops with an error). A
+  comment is ``# text``. The header names the numbered signals (``settings_mark.signals_mark``). In the servoj
+  replay the actions follow the sample where the replay arrives at their waypoint (``arrival``), each after the
+  waits before it in the list (the certified profile rests at the waypoint for them: no ``sleep``).
 * The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``); the name is never a keyword
   nor a name the program defines (``names``).
 * Arms: ``check_arm`` refuses what URScript cannot move (the one place an arm's maker is checked): an arm
@@ -270,8 +271,8 @@ TIMEOUT_TICK = 0.01
 WAITED, PULSE_THREAD = "dh_waited", "dh_pulse_"
 #: The header's statement of how the actions are written.
 ACTIONS_NOTE = ("Actions after the last move into their waypoint: set_*_digital_out(n, b); a pulse runs thread "
-                "dh_pulse_N (set on, sleep, set off) without waiting; sleep(t) at an exact stop (movej/movel "
-                "with r=0 return at rest); a wait for an input polls it (while ... sync()); with a timeout it "
+                "dh_pulse_N (set on, sleep, set off) without waiting; sleep(t) after a move with r=0 (the "
+                "robot stopped there); a wait for an input polls it (while ... sync()); with a timeout it "
                 f"sleeps {TIMEOUT_TICK:g} s a turn, counts {WAITED} [s] and stops the program (popup, halt) "
                 "past it; the servoj replay runs them at the sample nearest the waypoint (its rests are the "
                 "waits).")
@@ -316,14 +317,9 @@ def thread_lines(pulses: dict[tuple[int, float], str]) -> list[str]:
     return lines
 
 
-def action_lines(program: Program, k: int, pulses: dict, replay: bool = False) -> list[str]:
-    """The lines of waypoint ``k``'s actions (module docstring); ``replay``: a wait is left out (the certified
-    profile rests for it)."""
-    lines = []
-    for action in program.actions_at(k):
-        if not (replay and action.kind == WAIT):
-            lines += _action(program, action, pulses)
-    return lines
+def action_lines(program: Program, k: int, pulses: dict) -> list[str]:
+    """The lines of waypoint ``k``'s actions (module docstring)."""
+    return [line for action in program.actions_at(k) for line in _action(program, action, pulses)]
 
 
 def _action(program: Program, action: Action, pulses: dict) -> list[str]:
