@@ -219,3 +219,19 @@ def test_a_loop_that_does_not_end_or_reads_an_input_is_refused(change, construct
     with pytest.raises(UrscriptReadError) as error:
         read_urscript(LOOP.replace("Loop_1 = Loop_1 + 1", change), UR5E, source="loop.script")
     assert (error.value.line, error.value.field) == (7, construct)
+
+
+def test_poses_the_program_computes_from_constants_are_evaluated():
+    """pose_trans of a feature and an offset (PolyScope's moves relative to a plane), an element assignment and
+    rpy2rotvec (as rparak's pick and place computes its points)."""
+    program = ("def prog():\n  global Plane_1=p[.1, -.5, .2, 0.0, 0.0, 1.5707963267948966]\n"
+               "  global Point_p=p[.1, -.4, .3, 0.0, 3.14, 0.0]\n  Point_p[2]=0.415+0.2\n"
+               "  global rot=rpy2rotvec([3.14159, 0.0, d2r(90)])\n  Point_p[3]=rot[0]\n  Point_p[4]=rot[1]\n"
+               "  Point_p[5]=rot[2]\n  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n"
+               "  movel(pose_trans(Plane_1, p[0.1, 0.0, 0.05, 3.14159, 0.0, 0.0]))\n  movel(Point_p)\nend\n")
+    first, second = read_urscript(program, UR5E, source="prog.script")["waypoints"][1:]
+    plane = Rotation.from_rotvec([0, 0, np.pi / 2])
+    assert np.allclose(first["xyz"], np.array([.1, -.5, .2]) + plane.apply([0.1, 0.0, 0.05]), atol=ROUND_OFF)
+    assert same_rotation(rotvec(first), (plane * Rotation.from_rotvec([3.14159, 0, 0])).as_rotvec())
+    assert np.allclose(second["xyz"], [.1, -.4, 0.615], atol=ROUND_OFF)
+    assert same_rotation(rotvec(second), Rotation.from_euler("xyz", [3.14159, 0.0, np.pi / 2]).as_rotvec())
