@@ -147,3 +147,11 @@ def test_the_certified_motion_program_the_runner_writes_reads_the_same_actions(g
     text = program_texts(job, "urscript", program, time_program(program))[".script"]
     read = read_program_text("urscript", text, ROBOT, "gripper_pick.script")
     assert actions(compile_job(parse_job(read, source="gripper_pick.script"))) == actions(program)
+
+
+def test_a_polyscope_comment_node_reads_as_a_comment_a_job_holds():
+    text = ("def p():\n  # header: not an action\n  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n"
+            "  $ 3 \"'the part's edge first'\"\n  # 'the part's edge first'\n  # " + "x" * 130 + "\nend\n")
+    document = read_urscript(text, ROBOT)
+    assert document["waypoints"][0]["do"] == [{"comment": "the parts edge first"}, {"comment": "x" * 120}]
+    parse_job(document, source="p.script")

@@ -36,7 +36,8 @@ file, the line and the construct (the line's text). What is read (the Script Man
   (set on, sleep t, set off) -> a pulse of t [s]; PolyScope's Wait node ``while (not(get_standard_digital_in(n) ==
   True)): sync() end`` (also configurable and tool inputs: ``di<n>``, ``conf_di<n>``, ``tool_di<n>``) -> a wait for
   the input without a timeout, and exactly the writer's timeout pattern (``urscript.wait_input_lines``) -> with its
-  timeout [s]; a full-line ``# text`` after the first move -> a comment. The ``signals`` table numbers each signal.
+  timeout [s]; a full-line ``# text`` after the first move -> a comment (``comment_text``: PolyScope's quotes
+  ``# 'text'`` and other quotes dropped, at most MAX_COMMENT_CHARS characters, as a job's comment holds). The ``signals`` table numbers each signal.
 * Skipped (named in the job's ``description``): PolyScope's installation settings (``SETUP_CALLS``: gravity,
   safety transition, I/O domains, tool communication, ...), register writes and log messages (``SKIPPED_CALLS``:
   no motion, nothing a job holds), threads that do not move the robot (PolyScope's ``step_count`` thread,
@@ -76,6 +77,7 @@ from ...model.ik import solve_ik_batch
 from ...model.ik.branches import configuration_labels
 from ...model.ik.result import limit_variants
 from ...model.robot import Robot, robot_with_tool
+from ...program.actions import MAX_COMMENT_CHARS
 from .read_ls import as_robot, parse_subset
 from .urscript import IO_BANKS, PULSE_THREAD, WAITED
 
@@ -284,8 +286,9 @@ class _Reader:
         """Full-line comments between the last statement read and line ``before``: comment actions after the first
         move (before it: the program's header)."""
         for line in range(self.cursor + 1, before):
-            if line in self.comments and self.waypoints and self.comments[line]:
-                self.action({"comment": self.comments[line]})
+            text = comment_text(self.comments.get(line, ""))
+            if text and self.waypoints:
+                self.action({"comment": text})
 
     def define(self, node: lark.Tree) -> None:
         name = str(node.children[0])
@@ -690,6 +693,15 @@ class _Reader:
             if str(call.children[0]) in MOTION_CALLS:
                 return call
         return None
+
+
+def comment_text(text: str) -> str:
+    """A comment's text as a job's comment action holds it: PolyScope's Comment node quotes (``# 'text'``) and any
+    other quote or unprintable character dropped, at most MAX_COMMENT_CHARS characters."""
+    if len(text) > 1 and text[0] == text[-1] == "'":
+        text = text[1:-1]
+    text = "".join(c for c in text if c.isprintable() and c not in "\"'").strip()
+    return text[:MAX_COMMENT_CHARS].rstrip()
 
 
 def _is_index(value) -> bool:
