@@ -151,7 +151,8 @@ def test_the_certified_motion_program_the_runner_writes_reads_the_same_actions(g
 
 def test_a_polyscope_comment_node_reads_as_a_comment_a_job_holds():
     text = ("def p():\n  # header: not an action\n  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n"
-            "  $ 3 \"'the part's edge first'\"\n  # 'the part's edge first'\n  # " + "x" * 130 + "\nend\n")
+            "  $ 3 \"'the part's edge first'\"\n  # 'the part's edge first'\n  # " + "x" * 130 + "\n"
+            "  movej([0.1, -1.5, 1.5, -1.5, -1.5, 0.0])\nend\n")
     document = read_urscript(text, ROBOT)
     assert document["waypoints"][0]["do"] == [{"comment": "the parts edge first"}, {"comment": "x" * 120}]
     parse_job(document, source="p.script")

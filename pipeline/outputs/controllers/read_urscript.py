@@ -37,7 +37,8 @@ file, the line and the construct (the line's text). What is read (the Script Man
   True)): sync() end`` (also configurable and tool inputs: ``di<n>``, ``conf_di<n>``, ``tool_di<n>``) -> a wait for
   the input without a timeout, and exactly the writer's timeout pattern (``urscript.wait_input_lines``) -> with its
   timeout [s]; a full-line ``# text`` after the first move -> a comment (``comment_text``: PolyScope's quotes
-  ``# 'text'`` and other quotes dropped, at most MAX_COMMENT_CHARS characters, as a job's comment holds). The ``signals`` table numbers each signal.
+  ``# 'text'`` and other quotes dropped, at most MAX_COMMENT_CHARS characters, as a job's comment holds). The
+  ``signals`` table numbers each signal.
 * Skipped (named in the job's ``description``): PolyScope's installation settings (``SETUP_CALLS``: gravity,
   safety transition, I/O domains, tool communication, ...), register writes and log messages (``SKIPPED_CALLS``:
   no motion, nothing a job holds), threads that do not move the robot (PolyScope's ``step_count`` thread,
@@ -190,7 +191,7 @@ def read_urscript(text: str, robot, source: str = "<urscript>") -> dict:
                                 "read", line=run.meta.line)
     robot_model, robot_name = as_robot(robot)
     reader = _Reader(robot_model, text, source)
-    reader.program(body)
+    reader.program(body, program.meta.end_line)
     if not reader.waypoints:
         raise UrscriptReadError(source, "moves", "the program has no movej, movel, movep or movec")
     return reader.document(robot_name)
@@ -240,25 +241,29 @@ class _Reader:
 
     # -- statements ---------------------------------------------------------------------------------------------
 
-    def program(self, body: lark.Tree) -> None:
-        """Read the program's body; an endless ``while (True):`` as its last statement is read as one cycle."""
+    def program(self, body: lark.Tree, last_line: int) -> None:
+        """Read the program's body (its ``end`` at or before ``last_line``); an endless ``while (True):`` as its last
+        statement is read as one cycle."""
+        end = max(i for i in range(1, min(last_line, len(self.lines)) + 1) if self.lines[i - 1].strip() == "end")
         statements = body.children
         last = statements[-1] if statements else None
         if last is not None and last.data == "while_block" and self.is_true(last.children[0]):
-            self.statements(statements[:-1])
+            self.statements(statements[:-1], last.meta.line)
             self.note("loop", f"one cycle of the endless loop 'while (True):' at line {last.meta.line}")
             self.cursor = last.meta.line
-            self.statements(last.children[1].children)
+            self.statements(last.children[1].children, last.meta.end_line)
         else:
-            self.statements(statements)
+            self.statements(statements, end)
 
-    def statements(self, statements: list) -> None:
+    def statements(self, statements: list, end: int) -> None:
+        """Read ``statements`` in order, then the comments before line ``end`` (their block's ``end``)."""
         for node in statements:
             if self.halted:
                 return
             self.take_comments(node.meta.line)
             self.statement(node)
             self.cursor = max(self.cursor, node.meta.end_line)
+        self.take_comments(end)
 
     def statement(self, node: lark.Tree) -> None:
         kind = node.data
@@ -361,7 +366,7 @@ class _Reader:
                 and NATIVE in self.functions):
             native = self.functions[NATIVE]
             self.cursor = native.meta.line
-            self.statements(native.children[-1].children)
+            self.statements(native.children[-1].children, native.meta.end_line)
             return
         self.refuse(node, "a branch on a variable or an input has no static meaning")
 
@@ -390,7 +395,7 @@ class _Reader:
             before = {name: self.variables.get(name) for name in names}
             turns += 1
             self.cursor = node.meta.line
-            self.statements(body.children)
+            self.statements(body.children, node.meta.end_line)
             if turns > MAX_TURNS or before == {name: self.variables.get(name) for name in names}:
                 self.refuse(node, f"a loop that does not end (its condition's variables unchanged by a turn, or more "
                             f"than {MAX_TURNS} turns; read: an endless loop as the program's last statement)")
