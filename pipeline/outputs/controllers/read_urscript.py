@@ -244,7 +244,8 @@ class _Reader:
     def program(self, body: lark.Tree, last_line: int) -> None:
         """Read the program's body (its ``end`` at or before ``last_line``); an endless ``while (True):`` as its last
         statement is read as one cycle."""
-        end = max(i for i in range(1, min(last_line, len(self.lines)) + 1) if self.lines[i - 1].strip() == "end")
+        end = max((i for i in range(1, min(last_line, len(self.lines)) + 1) if self.lines[i - 1].strip() == "end"),
+                  default=last_line)
         statements = body.children
         last = statements[-1] if statements else None
         if last is not None and last.data == "while_block" and self.is_true(last.children[0]):
@@ -396,6 +397,8 @@ class _Reader:
             turns += 1
             self.cursor = node.meta.line
             self.statements(body.children, node.meta.end_line)
+            if self.halted:
+                break
             if turns > MAX_TURNS or before == {name: self.variables.get(name) for name in names}:
                 self.refuse(node, f"a loop that does not end (its condition's variables unchanged by a turn, or more "
                             f"than {MAX_TURNS} turns; read: an endless loop as the program's last statement)")
@@ -426,13 +429,13 @@ class _Reader:
         elif name in PARAMETERS:
             self.move(name, self.arguments(name, call, node), node)
         elif name == "set_tcp":
-            self.set_tcp(self.static(call, node)[0], node)
+            self.set_tcp(self.first(call, node), node)
         elif name in ("set_payload", "set_target_payload"):
             self.set_payload(self.static(call, node), node)
         elif name in OUTPUTS:
             self.output(name, self.static(call, node), node)
         elif name == "sleep":
-            self.action({"wait": self.number(self.static(call, node)[0], node)})
+            self.action({"wait": self.number(self.first(call, node), node)})
         elif name in self.functions:
             self.refuse(node, f"calls {name}, a function the program defines: its body is not read as static motion")
         else:
@@ -447,6 +450,13 @@ class _Reader:
         except _NotStatic as exc:
             self.refuse(node, f"an argument has no static value: {exc}")
 
+    def first(self, call: lark.Tree, node: lark.Tree):
+        """A call's first argument value (static, else refused)."""
+        values = self.static(call, node)
+        if not values:
+            self.refuse(node, "needs an argument")
+        return values[0]
+
     def arguments(self, name: str, call: lark.Tree, node: lark.Tree) -> dict:
         """The move's arguments by parameter name (the manual's defaults for those left out)."""
         line = node.meta.line
@@ -457,7 +467,7 @@ class _Reader:
             raise UrscriptReadError(self.source, name, f"takes at most {len(PARAMETERS[name])} arguments", line=line)
         try:
             out.update(zip(PARAMETERS[name], (self.value(a) for a in positional)))
-            for keyword in arguments[len(positional):]:
+            for keyword in (a for a in arguments if isinstance(a, lark.Tree) and a.data == "keyword"):
                 key = str(keyword.children[0])
                 if key not in PARAMETERS[name]:
                     raise UrscriptReadError(self.source, f"{name}({key}=...)", f"{name} has no parameter {key}",
@@ -487,7 +497,7 @@ class _Reader:
     def set_payload(self, values: list, node: lark.Tree) -> None:
         mass = self.number(values[0], node) if values else None
         com = values[1] if len(values) > 1 else [0.0, 0.0, 0.0]
-        if mass is None or not (isinstance(com, list) and len(com) == 3):
+        if mass is None or not _vector3(com):
             self.refuse(node, "needs a mass [kg] and a centre of mass [x, y, z] [m]")
         self.payload = {"mass": mass, "com": [float(v) for v in com]} if mass > 0.0 else None
 
