@@ -144,16 +144,22 @@ def _with_tool(robot, tool: list[float] | None):
     if tool is None:
         return robot, "the flange (no --tool)"
     words = f"--tool xyz [{_numbers(tool[:3])}] mm, rpy [{_numbers(tool[3:])}] deg"
-    return robot_with_tool(robot, _tool_pose(tool)), words
+    return robot_with_tool(robot, _pose_option(tool, "--tool")), words
 
 
-def _tool_pose(tool: list[float] | None) -> np.ndarray | None:
-    """``--tool X Y Z R P Y`` [mm, deg] -> X_FT (4, 4) [m] (None without --tool)."""
+def _selected(args) -> dict:
+    """``--tool`` and ``--frame`` of read-program and check-program: the tool X_FT and the user frame X_BU (4, 4)
+    [m] a program selects by number without their data."""
+    return {"tool": _pose_option(args.tool, "--tool"), "frame": _pose_option(args.frame, "--frame")}
+
+
+def _pose_option(values: list[float] | None, option: str) -> np.ndarray | None:
+    """``--tool`` or ``--frame X Y Z R P Y`` [mm, deg] -> its pose (4, 4) [m] (None without it)."""
     from .files.poses import check_pose, rpy_position_to_pose
 
-    if tool is None:
+    if values is None:
         return None
-    return check_pose(rpy_position_to_pose(np.radians(tool[3:]), np.array(tool[:3]) * 1e-3), "--tool")
+    return check_pose(rpy_position_to_pose(np.radians(values[3:]), np.array(values[:3]) * 1e-3), option)
 
 
 def _numbers(values, decimals: int = 3) -> str:
@@ -337,7 +343,7 @@ def cmd_read_program(args) -> int:
     load_robot(args.robot)                  # the robot file's own errors name that file, not the program
     from .outputs.controllers.read_units import in_program_units, units_line
 
-    document = in_program_units(_read_program(language, path, args.robot, _tool_pose(args.tool)), language)
+    document = in_program_units(_read_program(language, path, args.robot, _selected(args)), language)
     document["robot"] = _robot_reference(args.robot, out)
     job = parse_job(document, source=str(path), name=(out or path).stem, base_dir=out.parent if out else ".")
     header = (f"# {job.name}: the {LANGUAGE_TITLES[language]} program {path} read back by dh-pipeline read-program\n"
@@ -370,7 +376,7 @@ def cmd_check_program(args) -> int:
     if out is not None:
         prepare_file_target(out, args.force)
     load_robot(args.robot)
-    document = _read_program(language, path, args.robot, _tool_pose(args.tool))
+    document = _read_program(language, path, args.robot, _selected(args))
     document.update(robot=args.robot, allow_branch_change=True)     # the program's own configurations, as written
     if args.cell:
         document["cell"] = args.cell
@@ -416,16 +422,17 @@ def _read_text(path: Path) -> str:
     return decode_text(read_file_bytes(path, fail, MAX_PROGRAM_BYTES), fail)
 
 
-def _read_program(language: str, path: Path, robot: str, tool: np.ndarray | None = None) -> dict:
+def _read_program(language: str, path: Path, robot: str, selected: dict | None = None) -> dict:
     """The job document of the program at ``path`` in ``language``, with the timing settings its header marks
-    (``settings_mark.with_written_settings``); ``tool``: X_FT (4, 4) [m] of the tool the program selects by number
-    (``--tool``); every reader error names ``path``."""
+    (``settings_mark.with_written_settings``); ``selected``: the ``tool`` and ``frame`` (4, 4) [m] the program selects
+    by number without their data (``--tool``, ``--frame``); every reader error names ``path``."""
     from .outputs.controllers.read_program import read_program_text
 
     text = _read_text(path)
     dat = _dat_file(path) if language == "krl" else None
     try:
-        return read_program_text(language, text, robot, str(path), dat and _read_text(dat), str(dat), tool)
+        return read_program_text(language, text, robot, str(path), dat and _read_text(dat), str(dat),
+                                 **(selected or {}))
     except FileFormatError as exc:
         if exc.source in (str(path), str(dat)):
             raise
@@ -622,6 +629,18 @@ def _add_tool_option(parser) -> None:
                              "flange)")
 
 
+def _add_selected_options(parser) -> None:
+    """--tool and --frame: what a program selects by number (UTOOL_NUM, ///TOOL n, TOOL_DATA[n]; UFRAME_NUM,
+    ///FRAME USER n, BASE_DATA[n]) when the file does not hold its data."""
+    names = tuple(name.upper() for name in POSE_NAMES)
+    parser.add_argument("--tool", nargs=6, type=float, metavar=names,
+                        help="the tool the program selects by number: the TCP in the flange frame, position [mm], "
+                             "roll, pitch, yaw [deg] (tool 0 is the flange)")
+    parser.add_argument("--frame", nargs=6, type=float, metavar=names,
+                        help="the user frame (base) the program selects by number, in the robot's base frame: "
+                             "position [mm], roll, pitch, yaw [deg] (frame 0 is the robot's base)")
+
+
 def _add_dask_options(parser) -> None:
     """--workers N | --scheduler ADDRESS, checked together by ``scale.dask_client``."""
     parser.add_argument("--workers", type=POSITIVE, metavar="N",
@@ -735,7 +754,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     read.add_argument("file", help="the program: .mod (RAPID), .ls (FANUC), .jbi (Yaskawa), .src (KRL), .script (UR)")
     read.add_argument("--robot", required=True, help="preset name or robot file path of the arm the program runs on")
     read.add_argument("--out", metavar="JOB.yaml", help="the job file to write (default: print it)")
-    _add_tool_option(read)
+    _add_selected_options(read)
     _add_force_option(read)
     read.set_defaults(func=cmd_read_program)
 
@@ -753,7 +772,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     checked.add_argument("--robot", required=True, help="preset name or robot file path of the arm it runs on")
     checked.add_argument("--cell", help="cell name or cell file to check it in (default: none, no clearance)")
     checked.add_argument("--out", metavar="REPORT.json", help="also write the check as JSON")
-    _add_tool_option(checked)
+    _add_selected_options(checked)
     _add_force_option(checked)
     checked.set_defaults(func=cmd_check_program)
 

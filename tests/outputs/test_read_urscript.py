@@ -106,16 +106,18 @@ def test_a_pose_takes_the_branch_nearest_the_previous_target():
 
 
 @pytest.mark.parametrize("statement, field", [
-    ("sleep(1.0)", "sleep"),
-    ("movel(p1, a=1.2, v=0.25)", "movel"),
+    ("movel(p1, a=1.2, v=0.25)", "movel(p1, a=1.2, v=0.25)"),
     ("movel(p[0.4, 0.1, 0.4, 0.0, 3.14, 0.0], t=2.0)", "movel(t=...)"),
     ("movel(p[0.4, 0.1, 0.4, 0.0, 3.14, 0.0], a=1.2, v=0.25, s=1)", "movel(s=...)"),
-    ("movej([0.0, 1.0])", "movej"),
-    ("set_tcp(p[0.0, 0.0, 0.1, 0.0, 0.0, 0.0])", "set_tcp"),
+    ("movel(p[0.4, 0.1, 0.4], a=1.2, v=0.25)", "movel(p[0.4, 0.1, 0.4], a=1.2, v=0.25)"),
+    ("movej([0.0, 1.0])", "movej([0.0, 1.0])"),
+    ("set_tcp(p[0.0, 0.0, 0.1, 0.0, 0.0, 0.0])", "set_tcp(p[0.0, 0.0, 0.1, 0.0, 0.0, 0.0])"),
+    ("servoj([0.0, -1.5, 1.5, -1.5, -1.5, 0.0], t=0.002)", "servoj([0.0, -1.5, 1.5, -1.5, -1.5, 0.0], t=0.002)"),
     ("movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0]", "syntax"),
 ])
 def test_what_is_not_read_is_named(statement, field):
     text = f"def p():\n  movej([0.0, -1.5, 1.5, -1.5, -1.5, 0.0])\n  {statement}\nend\n"
     with pytest.raises(UrscriptReadError) as error:
-        read_urscript(text, ROBOT)
+        read_urscript(text, ROBOT, source="p.script")
     assert error.value.field == field
+    assert error.value.line == 3 and error.value.source == "p.script"

