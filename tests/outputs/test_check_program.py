@@ -78,3 +78,27 @@ def test_a_tool_option_is_six_numbers(written, capsys):
         main(["check-program", str(path), "--robot", "gp7", "--tool", "0", "0", "120"])
     assert exit_.value.code == 2
     assert "--tool: expected 6 arguments" in capsys.readouterr().err
+
+
+FANUC = Path(__file__).resolve().parents[1] / "data" / "programs" / "fanuc"
+
+
+def test_a_frame_and_tool_selected_by_number_come_from_the_options(tmp_path, capsys):
+    """TMPA.LS (a real program, Apache-2.0) selects user frame 1 and tool 1 without their data: refused naming the
+    line, read with --frame and --tool (its source's README puts UF 1 670 mm below the base)."""
+    robot = str(FANUC / "r2000ic165f_test.yaml")
+    program = str(FANUC / "TMPA.LS")
+    assert main(["read-program", program, "--robot", robot]) == 2
+    assert "TMPA.LS" in capsys.readouterr().err
+    out = tmp_path / "tmpa.yaml"
+    assert main(["read-program", program, "--robot", robot, "--tool", "0", "0", "0", "0", "0", "0",
+                 "--frame", "0", "0", "-670", "0", "0", "0", "--out", str(out)]) == 0
+    assert yaml.safe_load(out.read_text())["waypoints"]
+
+
+def test_a_frame_option_for_a_language_that_selects_none_is_refused(written, capsys):
+    path, _ = written
+    rapid = path.with_name("check.mod")
+    rapid.write_text("MODULE m\nENDMODULE\n")
+    assert main(["check-program", str(rapid), "--robot", "gp7", "--frame", "0", "0", "0", "0", "0", "0"]) == 2
+    assert "--frame: a rapid program does not select a frame by number" in capsys.readouterr().err
