@@ -4,9 +4,10 @@
   check, comments) reads back with equal actions and signal names, and the same targets.
 * Real jobs of others (tests/data/programs/yaskawa, SOURCES.md): each is refused naming the file, the line and the
   construct (none of the permissively licensed real jobs found has static motion alone: calls, branches, skills,
-  station groups, waits on outputs); the tool-changer job with its CALL line removed (the issue's "with the I/O lines
-  removed it reads") is refused at ``///TOOL 1`` instead of taking the flange, and with its tool given at its pulse
-  data, which need the robot's pulse ratios.
+  station groups, waits on outputs, a tool set at run time, a pause); the tool-changer job with its CALL line removed
+  (the issue's "with the I/O lines removed it reads") is refused at ``///TOOL 1`` instead of taking the flange, and
+  with its tool given at its pulse data, which need the robot's pulse ratios; RoboDK's sample job is refused construct
+  by construct (SETE/SETTOOL, MSG, PAUSE, CALL), then at its ``///TOOL 9`` and its pulse data.
 * A job in the style of those real jobs (no ///COMM, //ARGINFO, ////FRAME, ///LVARS, tab indentation, CR LF, pulse
   data, BASE data, position variables, a user frame, a variable assignment, actions before the first move), GP7
   sized: its targets read as the file gives them, and re-written by our writer it reads the same again.
@@ -15,6 +16,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import re
 from pathlib import Path
 
 import numpy as np
@@ -116,6 +118,7 @@ def test_a_time_beyond_inform_is_refused():
     ("ags_HOME_TOOLCHANGER.JBI", 11, r"PULSE OT#\(212\): a pulse without T="),
     ("ags_FORMCUT.JBI", 20, 'SKILLSND SL5 "barcodeScan": sends a command to another program'),
     ("ags_TC_FULL_CHANGE.JBI", 42, "IFTHENEXP B009<1: a branch on a condition known only when the job runs"),
+    ("robodk_PROGRAM.JBI", 32, r"SETE P00095 \(1\) -30000: sets P00095, a position or system variable"),
 ])
 def test_real_jobs_are_refused_naming_line_and_construct(name, line, construct):
     with pytest.raises(ControllerProgramError, match=rf"^{name}:{line}: {construct}"):
@@ -131,6 +134,33 @@ def test_a_real_job_without_its_call_is_refused_at_its_tool_then_at_its_pulses()
     with pytest.raises(ControllerProgramError, match=r"^SAMPLE_TC:8: C00000: pulse data need the robot's pulses per "
                                                      "degree"):
         read_jbi(text, "gp7", tool=TOOL_1, source="SAMPLE_TC")
+
+
+#: RoboDK's sample job: (a construct it holds, why it is refused, the lines removed to read on past it), in file order.
+ROBODK_REFUSALS = [
+    ("SETE P00095 (1) -30000", "sets P00095, a position or system variable", r"(SETE|SETTOOL) [^\n]*\n"),
+    ('MSG "Stop the robot until the "', "an instruction this reader does not read", r'MSG "[^\n]*\n'),
+    ("PAUSE", "the job stops until an operator restarts it", r"PAUSE\n"),
+    ("CALL JOB:Subprog", "calls another job", r"CALL [^\n]*\n"),
+]
+
+
+def test_the_robodk_job_is_refused_construct_by_construct():
+    """RoboDK's sample job (MIT): each construct without static meaning is refused in turn, naming its line; with all
+    of them removed, its ``///TOOL 9`` (the tool file its SETTOOL line writes from P00095 when the job runs, P00095's
+    other elements and type being on the controller) and its pulse data are what the file does not hold."""
+    text = (REAL / "robodk_PROGRAM.JBI").read_text()
+    for construct, why, removed in ROBODK_REFUSALS:
+        line = text[:text.index(construct)].count("\n") + 1
+        with pytest.raises(ControllerProgramError, match=rf"^PROGRAM:{line}: {re.escape(construct)}: {why}"):
+            read_jbi(text, "gp7", source="PROGRAM")
+        text = re.sub(removed, "", text)
+    with pytest.raises(ControllerProgramError, match=r"^PROGRAM:\d+: ///TOOL 9: tool file 9's data is on the "
+                                                     r"controller, not in the file"):
+        read_jbi(text, "gp7", source="PROGRAM")
+    with pytest.raises(ControllerProgramError, match=r"^PROGRAM:8: C00000: pulse data need the robot's pulses per "
+                                                     "degree"):
+        read_jbi(text, "gp7", tool=TOOL_1, source="PROGRAM")
 
 
 def test_a_job_without_motion_is_refused():
