@@ -147,6 +147,23 @@ def _with_tool(robot, tool: list[float] | None):
     return robot_with_tool(robot, _pose_option(tool, "--tool")), words
 
 
+def _program_arguments(args) -> tuple[Path, str, Path | None]:
+    """(the program file, its language by suffix, the --out file checked) of read-program and check-program, the
+    robot loaded first (its file's own errors name that file, not the program)."""
+    from .outputs.controllers.read_program import READ_SUFFIXES
+
+    path = Path(args.file)
+    language = READ_SUFFIXES.get(path.suffix.lower())
+    if language is None:
+        raise _program_error(path, f"unknown program file type {path.suffix!r}: the readers take "
+                             f"{', '.join(READ_SUFFIXES)} (KRL: the .src, with its .dat beside it)")
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        prepare_file_target(out, args.force)
+    load_robot(args.robot)
+    return path, language, out
+
+
 def _selected(args) -> dict:
     """``--tool`` and ``--frame`` of read-program and check-program: the tool X_FT and the user frame X_BU (4, 4)
     [m] a program selects by number without their data."""
@@ -328,20 +345,11 @@ def cmd_read_program(args) -> int:
     program's own units, check it as a job, and write it as YAML to --out (atomically) or print it."""
     import yaml
 
-    from .outputs.controllers.read_program import READ_SUFFIXES
+    from .outputs.controllers.read_units import in_program_units, units_line
     from .program.job import parse_job
     from .runner import LANGUAGE_TITLES
 
-    path = Path(args.file)
-    language = READ_SUFFIXES.get(path.suffix.lower())
-    if language is None:
-        raise _program_error(path, f"unknown program file type {path.suffix!r}: the readers take "
-                             f"{', '.join(READ_SUFFIXES)} (KRL: the .src, with its .dat beside it)")
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        prepare_file_target(out, args.force)
-    load_robot(args.robot)                  # the robot file's own errors name that file, not the program
-    from .outputs.controllers.read_units import in_program_units, units_line
+    path, language, out = _program_arguments(args)
 
     document = in_program_units(_read_program(language, path, args.robot, _selected(args)), language)
     document["robot"] = _robot_reference(args.robot, out)
@@ -362,20 +370,11 @@ def cmd_check_program(args) -> int:
     solve its targets with its configuration data, time it as written, certify limits and clearance; print the
     cycle time per move and what fails (exit 1), and write the report as JSON to --out when given."""
     from .outputs.controllers.check_program import check_program
-    from .outputs.controllers.read_program import READ_SUFFIXES
     from .program.compile import compile_job
     from .program.job import parse_job
     from .runner import collision_model
 
-    path = Path(args.file)
-    language = READ_SUFFIXES.get(path.suffix.lower())
-    if language is None:
-        raise _program_error(path, f"unknown program file type {path.suffix!r}: the readers take "
-                             f"{', '.join(READ_SUFFIXES)} (KRL: the .src, with its .dat beside it)")
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        prepare_file_target(out, args.force)
-    load_robot(args.robot)
+    path, language, out = _program_arguments(args)
     document = _read_program(language, path, args.robot, _selected(args))
     document.update(robot=args.robot, allow_branch_change=True)     # the program's own configurations, as written
     if args.cell:
