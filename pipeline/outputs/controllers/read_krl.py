@@ -7,6 +7,8 @@ Instructions for System Integrators, "Programming for user group Expert / KRL sy
 forms and the basis package: keywords and names are not case-sensitive, ``;`` comments and ``;FOLD`` lines, free
 spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and the KRL facts it follows:
 
+* A .src may come without a .dat (RoboDK's KUKA posts write the .src alone, every target an aggregate in it): no
+  declarations but the .src's own.
 * The .dat's (and the .src's) ``DECL E6POS``/``POS``/``E6AXIS``/``AXIS``/``FRAME`` points and ``FDAT``/``PDAT``/``LDAT``
   records by name (not case-sensitive), ``SIGNAL name $OUT[n]`` / ``$IN[n]`` names; other declarations (INT, REAL,
   BOOL, the pendant's LAST_BASIS ...), ``EXT`` declarations (``EXT BAS (...)``) and the ``EXTERNAL DECLARATIONS`` and
@@ -220,15 +222,16 @@ def _parser() -> lark.Lark:
     return _PARSER[0]
 
 
-def read_krl(src: str, dat: str, robot, src_name: str = "<src>", dat_name: str = "<dat>",
+def read_krl(src: str, dat: str | None, robot, src_name: str = "<src>", dat_name: str = "<dat>",
              tool: np.ndarray | None = None, frame: np.ndarray | None = None) -> dict:
-    """The job document (module docstring) of the .src text ``src`` and .dat text ``dat`` for ``robot`` (a preset
-    name or robot file path, written into the document as given); ``src_name``, ``dat_name`` name the files in
-    errors; ``tool``: X_FT (4, 4) [m] of the tool the program selects by a number other than 0; ``frame``: the user
-    frame (4, 4) [m] in the robot's base frame that a base number other than 0 selects. KrlReadError names what cannot
-    be read."""
+    """The job document (module docstring) of the .src text ``src`` and .dat text ``dat`` (None or blank: a .src
+    without a .dat, as RoboDK's KUKA posts write it) for ``robot`` (a preset name or robot file path, written into the
+    document as given); ``src_name``, ``dat_name`` name the files in errors; ``tool``: X_FT (4, 4) [m] of the tool the
+    program selects by a number other than 0; ``frame``: the user frame (4, 4) [m] in the robot's base frame that a
+    base number other than 0 selects. KrlReadError names what cannot be read."""
     tree = parse_krl(src, "src", src_name)
-    program = _Program(tree, src, _Data.of(parse_krl(dat, "dat", dat_name)), src_name)
+    data = _Data() if dat is None or not dat.strip() else _Data.of(parse_krl(dat, "dat", dat_name))
+    program = _Program(tree, src, data, src_name)
     program.run()
     if not program.motions:
         raise KrlReadError(src_name, "DEF", "the program has no motion (PTP, LIN, CIRC)")
