@@ -337,6 +337,25 @@ def test_what_has_no_static_meaning_is_refused_naming_file_line_and_construct(bo
     assert (error.value.source, error.value.field, error.value.line) == ("small.src", field, line)
 
 
+def test_a_ptp_to_the_live_axis_angles_before_every_motion_is_read_past():
+    """RoboDK's "Quickly skip BCO": PTP $AXIS_ACT moves nothing; the next motion is the first waypoint."""
+    speeds = "FOR I = 2 TO 6\n$VEL_AXIS[I] = 20\nENDFOR\n"
+    plain = read_krl(small(speeds + "PTP XA\nPTP XB"), SMALL_DAT, "gp7")
+    skipped = read_krl(small(speeds + "PTP $AXIS_ACT\nPTP XA\nPTP XB"), SMALL_DAT, "gp7")
+    assert skipped["waypoints"] == plain["waypoints"]
+
+
+@pytest.mark.parametrize("body, field, line", [
+    ("PTP XA\nPTP $AXIS_ACT", "PTP $AXIS_ACT", 5),
+    ("PTP $AXIS_ACT C_PTP\nPTP XA", "PTP $AXIS_ACT C_PTP", 4),
+    ("LIN $POS_ACT\nPTP XA", "LIN $POS_ACT", 4),
+])
+def test_a_motion_to_a_live_position_elsewhere_is_refused_naming_its_line(body, field, line):
+    with pytest.raises(KrlReadError, match="live position") as error:
+        read_krl(small(body), SMALL_DAT, "gp7", "small.src")
+    assert (error.value.field, error.value.line) == (field, line)
+
+
 def test_a_lin_without_a_speed_in_the_file_is_refused_naming_its_line():
     src = "DEF small( )\nBAS (#INITMOV,0 )\n$VEL_AXIS[1] = 20\nPTP XA\nLIN XB\nEND\n"
     with pytest.raises(KrlReadError, match="controller's default") as error:
@@ -347,10 +366,11 @@ def test_a_lin_without_a_speed_in_the_file_is_refused_naming_its_line():
 @pytest.mark.parametrize("name, field, line, construct", [
     ("kuka_eki_hw_interface", "elements_read = eki_hw_iface_get(joint_pos_tgt)", 72, "EKI_"),
     ("ros_rsi", 'ret = RSI_CREATE("ros_rsi.rsi",CONTID,TRUE)', 72, "RSI_"),
-    ("robodk_Program", "PTP $AXIS_ACT", 36, "live position"),
+    ("robodk_Program", "Wait for StrClear($LOOP_MSG[])", 56, "StrClear"),
 ])
 def test_the_real_driver_and_generated_programs_are_refused_naming_line_and_construct(name, field, line, construct):
-    """tests/data/programs/kuka (SOURCES.md): ROS-Industrial's EKI and RSI driver programs and RoboDK's example."""
+    """tests/data/programs/kuka (SOURCES.md): ROS-Industrial's EKI and RSI driver programs and RoboDK's example (its
+    ``PTP $AXIS_ACT`` on line 36 read past; refused at its first message line)."""
     src = (REAL / f"{name}.src").read_text()
     dat = (REAL / f"{name}.dat").read_text() if (REAL / f"{name}.dat").exists() else ""
     with pytest.raises(KrlReadError) as error:
