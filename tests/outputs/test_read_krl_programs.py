@@ -6,6 +6,8 @@
   LDAT / FDAT records, BAS parameters, OUT / WAIT / WAIT FOR / PULSE / comment folds) on a KR 6 R700 sixx: targets,
   speeds, zones, tool and actions as the file gives them;
 * FOR over constants flattened, an outer LOOP as one cycle, calls of the file's routines read in place;
+* a real RoboDK program (a .src without a .dat) read on a KR 16-2 test robot: targets, tool and speeds as the file gives
+  them, and the same again after our writer writes it;
 * what has no static meaning refused naming file, line and construct, among them the permissive real programs of
   tests/data/programs/kuka (SOURCES.md)."""
 
@@ -335,6 +337,25 @@ def test_what_has_no_static_meaning_is_refused_naming_file_line_and_construct(bo
     assert (error.value.source, error.value.field, error.value.line) == ("small.src", field, line)
 
 
+def test_a_ptp_to_the_live_axis_angles_before_every_motion_is_read_past():
+    """RoboDK's "Quickly skip BCO": PTP $AXIS_ACT moves nothing; the next motion is the first waypoint."""
+    speeds = "FOR I = 2 TO 6\n$VEL_AXIS[I] = 20\nENDFOR\n"
+    plain = read_krl(small(speeds + "PTP XA\nPTP XB"), SMALL_DAT, "gp7")
+    skipped = read_krl(small(speeds + "PTP $AXIS_ACT\nPTP XA\nPTP XB"), SMALL_DAT, "gp7")
+    assert skipped["waypoints"] == plain["waypoints"]
+
+
+@pytest.mark.parametrize("body, field, line", [
+    ("PTP XA\nPTP $AXIS_ACT", "PTP $AXIS_ACT", 5),
+    ("PTP $AXIS_ACT C_PTP\nPTP XA", "PTP $AXIS_ACT C_PTP", 4),
+    ("LIN $POS_ACT\nPTP XA", "LIN $POS_ACT", 4),
+])
+def test_a_motion_to_a_live_position_elsewhere_is_refused_naming_its_line(body, field, line):
+    with pytest.raises(KrlReadError, match="live position") as error:
+        read_krl(small(body), SMALL_DAT, "gp7", "small.src")
+    assert (error.value.field, error.value.line) == (field, line)
+
+
 def test_a_lin_without_a_speed_in_the_file_is_refused_naming_its_line():
     src = "DEF small( )\nBAS (#INITMOV,0 )\n$VEL_AXIS[1] = 20\nPTP XA\nLIN XB\nEND\n"
     with pytest.raises(KrlReadError, match="controller's default") as error:
@@ -345,16 +366,84 @@ def test_a_lin_without_a_speed_in_the_file_is_refused_naming_its_line():
 @pytest.mark.parametrize("name, field, line, construct", [
     ("kuka_eki_hw_interface", "elements_read = eki_hw_iface_get(joint_pos_tgt)", 72, "EKI_"),
     ("ros_rsi", 'ret = RSI_CREATE("ros_rsi.rsi",CONTID,TRUE)', 72, "RSI_"),
-    ("robodk_Program", "PTP $AXIS_ACT", 36, "live position"),
+    ("robodk_Program", "Wait for StrClear($LOOP_MSG[])", 56, "StrClear"),
 ])
 def test_the_real_driver_and_generated_programs_are_refused_naming_line_and_construct(name, field, line, construct):
-    """tests/data/programs/kuka (SOURCES.md): ROS-Industrial's EKI and RSI driver programs and RoboDK's example."""
+    """tests/data/programs/kuka (SOURCES.md): ROS-Industrial's EKI and RSI driver programs and RoboDK's example (its
+    ``PTP $AXIS_ACT`` on line 36 read past; refused at its first message line)."""
     src = (REAL / f"{name}.src").read_text()
     dat = (REAL / f"{name}.dat").read_text() if (REAL / f"{name}.dat").exists() else ""
     with pytest.raises(KrlReadError) as error:
         read_krl(src, dat, "gp7", f"{name}.src", f"{name}.dat")
     assert (error.value.source, error.value.field, error.value.line) == (f"{name}.src", field, line)
     assert construct in str(error.value)
+
+
+# ---- a real RoboDK program (RoboDK-API's Import_KUKA_SRC_Program.py, MIT / Apache-2.0): a .src without a .dat,
+# $BASE and $TOOL frames, a PTP to axis values, then LIN aggregates with $VEL.CP, on a KR 16-2 test robot
+MILLING = REAL / "robodk_api_Milling.src"
+_AGGREGATE = re.compile(r"^(PTP|LIN|\$BASE|\$TOOL) =? ?\{(?:FRAME: )?([^}]*)\}", re.MULTILINE)
+
+
+@pytest.fixture(scope="module")
+def kr16(tmp_path_factory) -> str:
+    """The KR 16-2 test robot (tests/data/programs/kuka/kuka_kr16_2.urdf) with a kuka controller section."""
+    imported = import_urdf(REAL / "kuka_kr16_2.urdf", time_to_full_speed=0.3, controller="kuka")
+    return str(imported.write(tmp_path_factory.mktemp("kr16") / "kr16.yaml"))
+
+
+@pytest.fixture(scope="module")
+def milling(kr16):
+    doc = read_krl(MILLING.read_text(), None, kr16, MILLING.name)
+    return doc, compile_job(parse_job(doc))
+
+
+def milling_aggregates() -> list[tuple[str, dict]]:
+    """(keyword, {component: value}) of the file's PTP, LIN, $BASE and $TOOL aggregates, in file order."""
+    return [(m[1], {k: float(v) for k, v in (part.split() for part in m[2].split(","))})
+            for m in _AGGREGATE.finditer(MILLING.read_text())]
+
+
+def kuka_frame(values: dict) -> np.ndarray:
+    """The pose (4, 4) [m] of X, Y, Z [mm], A, B, C [deg] (KRL's frame: R = Rz(A) Ry(B) Rx(C))."""
+    X = np.eye(4)
+    X[:3, :3] = abc_rotation(values["A"], values["B"], values["C"])
+    X[:3, 3] = np.array([values["X"], values["Y"], values["Z"]]) / 1000.0
+    return X
+
+
+def test_a_robodk_program_without_a_dat_reads_its_targets_tool_and_speeds(milling):
+    """Every target equals the file's: the PTP's axis values, the LINs' frames in $BASE with the tool $TOOL (the
+    file's 0.001 mm and 0.001 deg), and $VEL.CP before each LIN."""
+    doc, program = milling
+    found = milling_aggregates()
+    base, tool = (next(v for k, v in found if k == name) for name in ("$BASE", "$TOOL"))
+    motions = [(k, v) for k, v in found if k in ("PTP", "LIN")]
+    robot = program.robot
+    np.testing.assert_allclose(np.degrees(program.targets[0]), [motions[0][1][f"A{i}"] for i in range(1, 7)],
+                               atol=1e-9)
+    X_base, X_flange = controller_frames(robot, "kuka")
+    np.testing.assert_allclose(program.tool.X_FT, X_flange @ kuka_frame(tool), atol=1e-12)
+    for k, (_, values) in enumerate(motions[1:], start=1):
+        expected = X_base @ kuka_frame(base) @ kuka_frame(values)
+        X = robot.fk(program.targets[k])
+        assert np.linalg.norm(X[:3, 3] - expected[:3, 3]) < 1e-6
+        assert rotation_angle(X[:3, :3].T @ expected[:3, :3]) < np.radians(1e-3)
+    assert isinstance(doc["waypoints"][0], list) and [w["move"] for w in doc["waypoints"][1:]] == ["linear"] * 6
+    assert [w["speed"] for w in doc["waypoints"][1:]] == [1.0, 0.02117, 0.02117, 0.02117, 0.02117, 1.0]
+
+
+def test_a_robodk_program_rewritten_by_our_writer_reads_the_same(milling, kr16):
+    """Our .src and .dat of the read job read back to the same targets, tool and speeds ($VEL.CP as our writer
+    rounds it: 0.001 m/s)."""
+    _, program = milling
+    src, dat = write_krl(program, "MILLING")
+    assert krl_report({".src": src, ".dat": dat}) == []
+    again = compile_job(parse_job(read_program_text("krl", src, kr16, "MILLING.src", dat, "MILLING.dat")))
+    assert np.degrees(np.abs(again.targets - program.targets)).max() < TARGET_TOL_DEG
+    assert np.abs(again.tool.X_FT - program.tool.X_FT).max() < 1e-6
+    assert [m.speed for m in again.moves] == pytest.approx([m.speed for m in program.moves], abs=5e-4)
+    assert [m.kind for m in again.moves] == [m.kind for m in program.moves]
 
 
 def test_read_program_writes_nothing_for_a_refused_program(tmp_path, capsys):

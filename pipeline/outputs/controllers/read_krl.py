@@ -7,6 +7,8 @@ Instructions for System Integrators, "Programming for user group Expert / KRL sy
 forms and the basis package: keywords and names are not case-sensitive, ``;`` comments and ``;FOLD`` lines, free
 spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and the KRL facts it follows:
 
+* A .src may come without a .dat (RoboDK's KUKA posts write the .src alone, every target an aggregate in it): no
+  declarations but the .src's own.
 * The .dat's (and the .src's) ``DECL E6POS``/``POS``/``E6AXIS``/``AXIS``/``FRAME`` points and ``FDAT``/``PDAT``/``LDAT``
   records by name (not case-sensitive), ``SIGNAL name $OUT[n]`` / ``$IN[n]`` names; other declarations (INT, REAL,
   BOOL, the pendant's LAST_BASIS ...), ``EXT`` declarations (``EXT BAS (...)``) and the ``EXTERNAL DECLARATIONS`` and
@@ -14,7 +16,9 @@ spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and 
   ``$config.dat``, {A1 0, A2 -90, A3 90, A4 0, A5 0, A6 0} (``HOME``; a cell's own home may differ).
 * The main routine (the first DEF) in order: each ``PTP``/``LIN``/``CIRC`` to a point name or an aggregate
   (``PTP {A1 0, A2 -90, ...}``) is one waypoint; the first motion (the BCO run to the start) is the job's first
-  waypoint, without a move, speed or zone. Calls of parameterless routines of the same file are read in place; a FOR
+  waypoint, without a move, speed or zone. A ``PTP $AXIS_ACT`` before every other motion (RoboDK's "Quickly skip
+  BCO" fold: a PTP to the axis angles the robot has, $AXIS_ACT, which moves nothing and completes the BCO run
+  ("Block coincidence (BCO)", "$AXIS_ACT") is read past: the next motion is still the first waypoint. Calls of parameterless routines of the same file are read in place; a FOR
   over constants is flattened (its variable may index system variables: ``$VEL_AXIS[I]``); the KSS 8 motion inline
   forms' ``SET_CD_PARAMS``/``USE_CD_PARAMS`` (collision detection data sets) are read past; an outermost endless
   ``LOOP ... ENDLOOP`` that ends the main routine reads as one cycle (the job's description says so).
@@ -64,7 +68,8 @@ What has no static meaning is a ``KrlReadError`` naming the file, the line and t
 (WHILE, REPEAT) or a LOOP other than the outermost one, IF (but the timeout pattern), SWITCH, GOTO, an INTERRUPT other
 than the INI fold's stop handler (``... DO IR_STOPM ( )``), HALT, EKI_ (Ethernet KRL) and RSI_ (RobotSensorInterface)
 calls, a TRIGGER other than the one above, a call of a routine not in the file or with parameters, an assignment
-to a program variable, a motion to a live position ($POS_ACT, $AXIS_ACT ...), as is anything else outside the
+to a program variable, a motion to a live position ($POS_ACT, $AXIS_ACT ...) but the one above, a WAIT FOR on a
+function's result (RoboDK's message lines ``WAIT FOR StrClear($LOOP_MSG[])``), as is anything else outside the
 grammar, a missing point or a speed that is not a number.
 
 The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`` deg, ``tool``, ``start``,
@@ -101,6 +106,8 @@ HOME = {"A1": 0.0, "A2": -90.0, "A3": 90.0, "A4": 0.0, "A5": 0.0, "A6": 0.0}
 HOME_NAMES = ("HOME", "XHOME")
 #: Base frames that are the robot's base (KSS's default $WORLD = $ROBROOT; $NULLFRAME: no offset).
 ROBOT_BASES = ("$ROBROOT", "$WORLD", "$NULLFRAME")
+#: System variables holding where the robot is when the statement runs (a live position).
+LIVE_POSITIONS = ("$POS_ACT", "$AXIS_ACT", "$POS_ACT_MES", "$AXIS_ACT_MEAS")
 #: The INI fold's interrupt routine for the stop message: read past (it has no motion meaning).
 STOP_HANDLER = "IR_STOPM"
 #: Basis-package commands read past: they set what the file does not hold (machine data defaults, accelerations).
@@ -186,7 +193,10 @@ def _refusal(text: str) -> str:
     for word in words[:3]:
         if word in REFUSED_WORDS:
             return REFUSED_WORDS[word]
-    if any(w in ("$POS_ACT", "$AXIS_ACT", "$POS_ACT_MES", "$AXIS_ACT_MEAS") for w in words):
+    if "$LOOP_MSG" in words:
+        return ("a WAIT FOR on a function's result (RoboDK's message lines: StrClear($LOOP_MSG[])): known only when "
+                "the robot runs")
+    if any(w in LIVE_POSITIONS for w in words):
         return "a live position ($POS_ACT, $AXIS_ACT) is known only when the robot runs"
     return "not KRL of the subset read here (statements, points and folds of the module docstring)"
 
@@ -220,15 +230,16 @@ def _parser() -> lark.Lark:
     return _PARSER[0]
 
 
-def read_krl(src: str, dat: str, robot, src_name: str = "<src>", dat_name: str = "<dat>",
+def read_krl(src: str, dat: str | None, robot, src_name: str = "<src>", dat_name: str = "<dat>",
              tool: np.ndarray | None = None, frame: np.ndarray | None = None) -> dict:
-    """The job document (module docstring) of the .src text ``src`` and .dat text ``dat`` for ``robot`` (a preset
-    name or robot file path, written into the document as given); ``src_name``, ``dat_name`` name the files in
-    errors; ``tool``: X_FT (4, 4) [m] of the tool the program selects by a number other than 0; ``frame``: the user
-    frame (4, 4) [m] in the robot's base frame that a base number other than 0 selects. KrlReadError names what cannot
-    be read."""
+    """The job document (module docstring) of the .src text ``src`` and .dat text ``dat`` (None or blank: a .src
+    without a .dat, as RoboDK's KUKA posts write it) for ``robot`` (a preset name or robot file path, written into the
+    document as given); ``src_name``, ``dat_name`` name the files in errors; ``tool``: X_FT (4, 4) [m] of the tool the
+    program selects by a number other than 0; ``frame``: the user frame (4, 4) [m] in the robot's base frame that a
+    base number other than 0 selects. KrlReadError names what cannot be read."""
     tree = parse_krl(src, "src", src_name)
-    program = _Program(tree, src, _Data.of(parse_krl(dat, "dat", dat_name)), src_name)
+    data = _Data() if dat is None or not dat.strip() else _Data.of(parse_krl(dat, "dat", dat_name))
+    program = _Program(tree, src, data, src_name)
     program.run()
     if not program.motions:
         raise KrlReadError(src_name, "DEF", "the program has no motion (PTP, LIN, CIRC)")
@@ -561,6 +572,9 @@ class _Program:
         points = [c for c in motion.children if not (isinstance(c, lark.Tree) and c.data == "approx")]
         approx = tuple(str(t).upper() for c in motion.children if isinstance(c, lark.Tree) and c.data == "approx"
                        for t in c.children)
+        if any(isinstance(p, lark.Token) and p.type == "SYSNAME" for p in points):
+            self.live_motion(node, motion, approx)
+            return
         target, target_name = self.point(points[-1], node)
         aux, aux_name = self.point(points[0], node) if len(points) == 2 else (None, None)
         self.motions.append(_Motion(motion.data, target, target_name, aux, aux_name, approx, _line(node),
@@ -568,6 +582,16 @@ class _Program:
         if self.pending:
             self.actions.setdefault(len(self.motions) - 1, []).extend(self.pending)
             self.pending = []
+
+    def live_motion(self, node, motion: lark.Tree, approx: tuple) -> None:
+        """``PTP $AXIS_ACT`` before every other motion, exact: read past (module docstring); any other motion to a
+        system variable is refused."""
+        text = self.line_text(node)
+        first = not self.motions and motion.data == "ptp" and not approx
+        if first and str(motion.children[0]).upper() == "$AXIS_ACT":
+            return
+        self.fail(node, text, _refusal(text) if any(w in text.upper() for w in LIVE_POSITIONS) else
+                  "a motion to a system variable is read only as PTP $AXIS_ACT before every other motion")
 
     def point(self, node, statement) -> tuple[_Point, str]:
         """A motion's point and its name (an aggregate's text)."""
