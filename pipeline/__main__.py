@@ -440,13 +440,13 @@ def _read_program(language: str, path: Path, robot: str, selected: dict | None =
         raise _program_error(path, str(exc)) from exc
 
 
-def _dat_file(src: Path) -> Path:
-    """The .dat beside a KRL .src (.dat or .DAT), or the one-line error saying it is missing."""
+def _dat_file(src: Path) -> Path | None:
+    """The .dat beside a KRL .src (.dat or .DAT), or None: a .src alone (as offline tools write it: a name it uses
+    without declaring is then the reader's error)."""
     for suffix in (".dat", ".DAT"):
         if src.with_suffix(suffix).is_file():
             return src.with_suffix(suffix)
-    raise _program_error(src.with_suffix(".dat"), f"missing: a KRL program's targets are in the .dat beside its "
-                         f"{src.name}")
+    return None
 
 
 def cmd_batch(args) -> int:

@@ -239,7 +239,7 @@ def read_krl(src: str, dat: str | None, robot, src_name: str = "<src>", dat_name
     base number other than 0 selects. KrlReadError names what cannot be read."""
     tree = parse_krl(src, "src", src_name)
     data = _Data() if dat is None or not dat.strip() else _Data.of(parse_krl(dat, "dat", dat_name))
-    program = _Program(tree, src, data, src_name)
+    program = _Program(tree, src, data, src_name, has_dat=dat is not None and bool(dat.strip()))
     program.run()
     if not program.motions:
         raise KrlReadError(src_name, "DEF", "the program has no motion (PTP, LIN, CIRC)")
@@ -396,6 +396,7 @@ class _Program:
     triggered: list | None = None
     pending: list = field(default_factory=list)
     calls: tuple = ()
+    has_dat: bool = True
 
     def fail(self, node, field_name: str, problem: str, value=None):
         raise KrlReadError(self.source, field_name, problem, value=value, line=_line(node) if node is not None else None)
@@ -602,8 +603,8 @@ class _Program:
         if point is None and name in HOME_NAMES:
             point = _Point("E6AXIS", dict(HOME), _line(statement))
         if point is None:
-            self.fail(statement, name, "is not declared in the .dat (nor the .src) as E6POS, POS, E6AXIS, AXIS or "
-                      "FRAME")
+            where = "in the .dat (nor the .src)" if self.has_dat else "in the .src, and no .dat is beside it"
+            self.fail(statement, name, f"is not declared as E6POS, POS, E6AXIS, AXIS or FRAME {where}")
         return point, name
 
     def on_bas_call(self, node, env: dict) -> None:
