@@ -25,10 +25,17 @@ JOB = {"robot": "gp7", "cell": str(CELLS / "gp7_wall_cell.yaml"), "length_unit":
 
 
 @pytest.fixture(scope="module")
-def written(tmp_path_factory):
-    """(the JBI program's path, the certified duration [s]) of JOB."""
+def timed():
+    """(job, program, certified profile) of JOB."""
     job = parse_job(JOB, "<check>", "check_pick")
     program, profile, _ = reported_program(job)
+    return job, program, profile
+
+
+@pytest.fixture(scope="module")
+def written(timed, tmp_path_factory):
+    """(the JBI program's path, the certified duration [s]) of JOB."""
+    job, program, profile = timed
     texts = program_texts(job, "jbi", program, profile)
     folder = tmp_path_factory.mktemp("check")
     path = folder / "CHECK_PICK.JBI"
@@ -104,11 +111,10 @@ def test_a_frame_option_for_a_language_that_selects_none_is_refused(written, cap
     assert "--frame: a rapid program does not select a frame by number" in capsys.readouterr().err
 
 
-def test_a_krl_src_alone_reads_until_it_names_what_only_a_dat_declares(written, tmp_path, capsys):
+def test_a_krl_src_alone_reads_until_it_names_what_only_a_dat_declares(timed, tmp_path, capsys):
     """An offline tool's .src comes without a .dat (RoboDK's posts): read; ours names its points in the .dat, so the
     first one is an error naming the line and the point."""
-    job = parse_job(JOB, "<check>", "check_pick")
-    program, profile, _ = reported_program(job)
+    job, program, profile = timed
     src = tmp_path / "check_pick.src"
     src.write_text(program_texts(job, "krl", program, profile)[".src"])
     assert main(["read-program", str(src), "--robot", "gp7"]) == 2
