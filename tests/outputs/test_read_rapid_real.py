@@ -194,11 +194,48 @@ def refused(text: str, source: str = "cell.mod", **keywords) -> RapidReadError:
     ("rosi_ROS_motion.mod", 45, "CONNECT"),                       # ROS-Industrial driver: interrupts, then more
     ("rparak_sorting_irb1200_T_ROB1_Module1.mod", 57, "TEST"),    # a state machine
     ("flo_abb_PickPlace.mod", 50, "PROC"),                        # targets computed from parameters (Offs)
+    ("robodk_vscode_Program.mod", 26, "TPWrite"),                 # RoboDK: pendant text, STOP, a routine elsewhere
 ])
 def test_real_driver_and_state_machine_modules_are_refused(file, line, field):
     error = refused(file_text(DATA / file), source=file)
     assert (error.source, error.line, error.field) == (file, line, field)
     assert str(error).startswith(f"{file}:{line}: {field}: ")
+
+
+def test_a_generated_module_whose_confdata_names_no_solution_is_refused():
+    """rparak_vinros_DP.mod (a generated path on an IRB 120 controller): its file header and LOCAL PERS data read,
+    its first MoveJ's inline robtarget has confdata [0,0,0,0] where axis 1 stands at -90 deg (quadrant -1): the
+    controller would stop there (ConfJ on), so the reader names that move and the configurations it has."""
+    file = "rparak_vinros_DP.mod"
+    text = file_text(DATA / file)
+    assert text.startswith("%%%\nVERSION: 1\nLANGUAGE:ENGLISH%%%\n")
+    with pytest.raises(RapidReadError) as caught:
+        read_rapid(text, ROBOT, source=file)
+    error = caught.value
+    assert (error.source, error.line, error.field) == (file, 10, "MoveJ target")
+    assert "abb configuration [0,0,0,0]: no in-limit IK solution has it" in error.problem
+    assert "[-1,0,-1,0]" in error.problem
+
+
+HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n"
+
+
+def test_a_file_header_reads_as_nothing_and_keeps_line_numbers():
+    """The %%% VERSION LANGUAGE %%% header ABB's system modules and RoboDK write before MODULE reads as nothing;
+    errors after it name the file's own lines."""
+    with_header, without = read_rapid(HEADER + PENDANT, "irb1600"), read_rapid(PENDANT, "irb1600")
+    assert {k: v for k, v in with_header.items() if k != "description"} == {
+        k: v for k, v in without.items() if k != "description"}
+    assert "WHILE TRUE loop of main (<rapid>:19)" in with_header["description"]           # line 15 after 4 lines
+    error = refused(HEADER + PENDANT.replace("\t\tReset doGrip;", "\t\tStopMove;"))
+    assert error.line == 4 + PENDANT.split("\r\n").index("\t\tReset doGrip;") + 1
+
+
+@pytest.mark.parametrize("header", ["%%%\r\n  VERSION:1\r\n%%%\r\n", "%%%\r\n  VERSION:one\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n",
+                                    "\r\n%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n"])
+def test_a_file_header_of_another_form_is_named(header):
+    error = refused(header + PENDANT)
+    assert (error.line, error.field) == (header.count("\r\n", 0, header.index("%%%")) + 1, "%%%")
 
 
 PICK_BODY = "\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;"
