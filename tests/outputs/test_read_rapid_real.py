@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 
 from pipeline.__main__ import main
-from pipeline.files.poses import quaternion_position_to_pose
+from pipeline.files.poses import pose_to_quaternion_position, quaternion_position_to_pose
+from pipeline.model.robot import load_robot
+from pipeline.model.vendors.selection import pose_solutions
 from pipeline.outputs.controllers.rapid import write_rapid
 from pipeline.outputs.controllers.read_rapid import RapidReadError, read_rapid
 from pipeline.program.compile import compile_job
@@ -118,6 +120,82 @@ def test_the_tutorial_rewritten_reads_the_same(tutorial, rewritten):
     assert np.abs(compiled.targets - program.targets).max() <= 1e-4
     assert again["signals"] == tutorial["signals"] and compiled.actions == program.actions
     np.testing.assert_allclose(again["tool"]["xyz"], tutorial["tool"]["xyz"], atol=WRITTEN_M)
+
+
+ROBOTS = DATA / "visose_robots_TestProgram_T_ROB1.mod"
+#: The joint values [deg] the Robots plugin's own simulation ends the sample program at (its test, ProgramTests.cs
+#: "ABB sample program": [-0.7200..., 1.5806..., -0.0756..., -1.4961..., 0.7225..., 3.0421...] rad in its joint
+#: convention, axes 2 and 5 counted from other zeros and axis 5 the other way), as ABB axis angles: the
+#: configuration the linear move reaches with ConfL \Off.
+ROBOTS_END_DEG = [-41.257, -0.5638, 4.3298, -85.7179, -41.3979, 174.2998]
+
+
+@pytest.fixture(scope="module")
+def robots_sample() -> dict:
+    return read_rapid(file_text(ROBOTS), ROBOT, source=ROBOTS.name)
+
+
+def test_the_robots_plugin_module_reads_with_every_target_the_files(robots_sample):
+    """The Robots plugin's ABB output (VAR extjoint/confdata named inside inline targets, ConfL \\Off, TASK PERS
+    speeddata): its MoveAbsJ joint values and its MoveL pose are the file's; the MoveL's configuration is the one
+    the linear path reaches from the joint values before (ConfL \\Off: the written [0,0,0,0] is not monitored)."""
+    text = file_text(ROBOTS)
+    assert "ConfL \\Off;" in text and "conf,extj]" in text and not text.endswith("\n")
+    first, second = robots_sample["waypoints"]
+    assert first == {"joints": [41.257, -0.5638, 4.3298, 85.7179, -41.3979, 5.7002]}
+    assert second["move"] == "linear" and second["speed"] == pytest.approx(0.3) and "zone" not in second
+    np.testing.assert_allclose(second["xyz"], [0.3, -0.2, 0.61], atol=1e-12)
+    np.testing.assert_allclose(second["quaternion"], [0.5, 0.5, 0.5, 0.5], atol=1e-12)
+    assert second["controller_config"] == {"abb": "[-1,-1,1,1]"} and "tool" not in robots_sample
+    program = compile_job(parse_job(robots_sample, source=ROBOTS.name))
+    end = np.degrees(program.targets[-1])
+    np.testing.assert_allclose(end, ROBOTS_END_DEG, atol=2e-3)       # the plugin's own simulation, its rounding
+
+
+def test_the_robots_plugin_module_rewritten_reads_the_same(robots_sample):
+    program = compile_job(parse_job(robots_sample, source=ROBOTS.name))
+    again = read_rapid(write_rapid(program, "robots"), ROBOT, source="robots.mod")
+    assert [w.get("move") for w in again["waypoints"]] == [w.get("move") for w in robots_sample["waypoints"]]
+    np.testing.assert_allclose(again["waypoints"][0]["joints"], robots_sample["waypoints"][0]["joints"],
+                               atol=0.5e-4 + 1e-9)
+    read, first = again["waypoints"][1], robots_sample["waypoints"][1]
+    np.testing.assert_allclose(read["xyz"], first["xyz"], atol=WRITTEN_M)
+    np.testing.assert_allclose(read["quaternion"], first["quaternion"], atol=WRITTEN_Q)
+    assert read["controller_config"] == first["controller_config"] and read["speed"] == first["speed"]
+    assert np.abs(compile_job(parse_job(again, source="robots.mod")).targets - program.targets).max() <= 1e-4
+
+
+def test_conf_off_through_a_wrist_singularity_is_refused():
+    """A MoveL (ConfL \\Off) along a line that passes within round-off of the wrist singularity (axis 5 at 1e-6
+    rad on it): axes 4 and 6 would turn half a turn in less than FOLLOW_MIN_STEP_M of path, so which wrist the
+    controller continues with has no static meaning. The same move through the pose with axis 5 at 5 deg reads."""
+    robot = load_robot(ROBOT)
+
+    def module(a5_deg: float) -> str:
+        q_mid = np.radians([0.0, -16.0, 18.0, 0.0, a5_deg, 90.0])
+        X_mid = robot.fk(q_mid)
+        X_start, X_end = X_mid.copy(), X_mid.copy()
+        X_start[1, 3] += 0.1
+        X_end[1, 3] -= 0.1
+        q_start = min(pose_solutions(robot, X_start[None])[0], key=lambda q: np.abs(q - q_mid).max())
+        quaternion, position = pose_to_quaternion_position(X_end)
+        pose = f"[[{','.join(f'{v:.6f}' for v in position * 1e3)}],[{','.join(f'{v:.9f}' for v in quaternion)}]"
+        joints = ",".join(f"{v:.9f}" for v in np.degrees(q_start))
+        return (f"MODULE M\nPROC main()\nConfL \\Off;\nMoveAbsJ [[{joints}],[9E9,9E9,9E9,9E9,9E9,9E9]],v100,fine,"
+                f"tool0;\nMoveL {pose},[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]],v100,fine,tool0;\nENDPROC\nENDMODULE")
+
+    read_rapid(module(5.0), ROBOT)
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(module(np.degrees(1e-6)), ROBOT, source="m.mod")
+    assert (error.value.line, error.value.field) == (5, "MoveL target")
+    assert "passes a singularity" in error.value.problem
+
+
+def test_an_aggregate_naming_undeclared_data_is_refused():
+    text = file_text(ROBOTS).replace("VAR confdata conf := [0,0,0,0];", "VAR confdata conf;")
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(text, ROBOT, source=ROBOTS.name)
+    assert (error.value.line, error.value.field) == (11, "MoveL") and "conf in an aggregate" in error.value.problem
 
 
 #: A module as a pendant or RobotStudio keeps it (written for these tests): tabs, CR LF, no newline at the end, a
