@@ -123,11 +123,12 @@ def test_the_tutorial_rewritten_reads_the_same(tutorial, rewritten):
 
 
 ROBOTS = DATA / "visose_robots_TestProgram_T_ROB1.mod"
-#: The joint values [deg] the Robots plugin's own simulation ends the sample program at (its test, ProgramTests.cs
-#: "ABB sample program": [-0.7200..., 1.5806..., -0.0756..., -1.4961..., 0.7225..., 3.0421...] rad in its joint
-#: convention, axes 2 and 5 counted from other zeros and axis 5 the other way), as ABB axis angles: the
-#: configuration the linear move reaches with ConfL \Off.
-ROBOTS_END_DEG = [-41.257, -0.5638, 4.3298, -85.7179, -41.3979, 174.2998]
+#: Where the Robots plugin's own simulation ends its sample program (tests/Robots.Tests/ProgramTests.cs, "ABB sample
+#: program") [rad], in its joint convention; as ABB axis angles [deg]: axis 2 = 90 deg - its axis 2, axes 3 and 5
+#: the other way: the configuration the linear move reaches with ConfL \\Off.
+ROBOTS_END_RAD = [-0.72007069377409672, 1.5806369662963811, -0.075569321979534809, -1.4960590345094886,
+                  0.72252891341688164, 3.042104596978858]
+ROBOTS_END_DEG = np.degrees(ROBOTS_END_RAD) * [1, -1, -1, 1, -1, 1] + [0, 90, 0, 0, 0, 0]
 
 
 @pytest.fixture(scope="module")
@@ -189,6 +190,40 @@ def test_conf_off_through_a_wrist_singularity_is_refused():
         read_rapid(module(np.degrees(1e-6)), ROBOT, source="m.mod")
     assert (error.value.line, error.value.field) == (5, "MoveL target")
     assert "passes a singularity" in error.value.problem
+
+
+def test_a_circular_move_with_conf_off_follows_its_arc(robots_sample):
+    """The Robots module's MoveL as a MoveC through (330, 0, 610) mm: the arc leads to the same configuration; one
+    through (300, 0, 700) mm passes the wrist singularity on the way and is refused."""
+    text = file_text(ROBOTS)
+
+    def arc(via: str) -> str:
+        return text.replace("MoveL [[300,-200,610]", f"MoveC [[{via}],[0.5,0.5,0.5,0.5],conf,extj],[[300,-200,610]")
+
+    document = read_rapid(arc("330,0,610"), ROBOT, source=ROBOTS.name)
+    assert document["waypoints"][1]["move"] == "circular"
+    np.testing.assert_allclose(document["waypoints"][1]["via"]["xyz"], [0.33, 0.0, 0.61], atol=1e-12)
+    assert document["waypoints"][1]["controller_config"] == robots_sample["waypoints"][1]["controller_config"]
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(arc("300,0,700"), ROBOT, source=ROBOTS.name)
+    assert (error.value.line, error.value.field) == (11, "MoveC target") and "singularity" in error.value.problem
+
+
+@pytest.mark.parametrize("target, confdata", [("[300,180,610]", "[0,0,0,1]"), ("[300,-200,610]", None)])
+def test_a_joint_move_with_conf_off_takes_the_nearest_configuration(target, confdata):
+    """ConfJ \\Off: a MoveJ near the start reaches the configuration nearest the joint values before, not the
+    [1,1,1,1] it names; where two are about as near (axis 1 swings 82 deg, the wrists differ by half a turn) the
+    reader refuses."""
+    text = file_text(ROBOTS).replace("ConfL \\Off;", "ConfJ \\Off;").replace(
+        "MoveL [[300,-200,610],[0.5,0.5,0.5,0.5],conf", f"MoveJ [{target},[0.5,0.5,0.5,0.5],[1,1,1,1]")
+    if confdata is None:
+        with pytest.raises(RapidReadError) as error:
+            read_rapid(text, ROBOT, source=ROBOTS.name)
+        assert (error.value.line, error.value.field) == (11, "MoveJ target")
+        assert "about as near" in error.value.problem
+        return
+    second = read_rapid(text, ROBOT, source=ROBOTS.name)["waypoints"][1]
+    assert second["move"] == "joint" and second["controller_config"] == {"abb": confdata}
 
 
 def test_an_aggregate_naming_undeclared_data_is_refused():
