@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from pipeline.__main__ import main
 from pipeline.files.poses import pose_to_quaternion_position, quaternion_position_to_pose
@@ -192,6 +193,16 @@ def test_conf_off_through_a_wrist_singularity_is_refused():
     assert "passes a singularity" in error.value.problem
 
 
+def test_read_program_writes_the_robots_plugin_module_as_a_job(tmp_path):
+    program = tmp_path / ROBOTS.name
+    program.write_bytes(ROBOTS.read_bytes())
+    out = tmp_path / "job.yaml"
+    assert main(["read-program", str(program), "--robot", ROBOT, "--out", str(out)]) == 0
+    document = yaml.safe_load(out.read_text())
+    assert [w.get("move", "joints") for w in document["waypoints"]] == ["joints", "linear"]
+    assert document["waypoints"][0]["joints"] == [41.257, -0.5638, 4.3298, 85.7179, -41.3979, 5.7002]
+
+
 def test_a_circular_move_with_conf_off_follows_its_arc(robots_sample):
     """The Robots module's MoveL as a MoveC through (330, 0, 610) mm: the arc leads to the same configuration; one
     through (300, 0, 700) mm passes the wrist singularity on the way and is refused."""
@@ -308,6 +319,7 @@ def refused(text: str, source: str = "cell.mod", **keywords) -> RapidReadError:
     ("rparak_sorting_irb1200_T_ROB1_Module1.mod", 57, "TEST"),    # a state machine
     ("flo_abb_PickPlace.mod", 50, "PROC"),                        # targets computed from parameters (Offs)
     ("robodk_vscode_Program.mod", 26, "TPWrite"),                 # RoboDK: pendant text, STOP, a routine elsewhere
+    ("sgffoen_test_movel_T_ROB1.mod", 18, "SetAO"),               # Robots plugin, milling: spindle speed (analog)
 ])
 def test_real_driver_and_state_machine_modules_are_refused(file, line, field):
     error = refused(file_text(DATA / file), source=file)

@@ -149,6 +149,8 @@ REFUSED_INSTRUCTIONS = {
     ("stop", "exit", "exitcycle", "break", "systemstopaction"): "it stops the program where it stands",
     ("tpwrite", "tperase", "tpreadfk", "tpreadnum", "tpshow", "errwrite"):
         "FlexPendant I/O, which a job has no word for",
+    ("setao", "setgo", "waitai", "waitao", "waitgi", "waitgo"):
+        "an analog or group signal, which a job's actions (digital signals on or off) have no word for",
 }
 #: Statements refused before parsing (first word of a line in lower case, outside comments and strings): why.
 REFUSED_KEYWORDS = {
