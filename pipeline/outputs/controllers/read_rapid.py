@@ -731,9 +731,10 @@ class _Reader:
 
     def robtarget(self, value, call: _Call) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
         """(TCP pose (4, 4) [m], joint values (6,) [rad], their confdata): the solution the robtarget's confdata
-        selects; with the configuration not monitored (ConfL \\Off for MoveL/MoveC, ConfJ \\Off for MoveJ) after a
-        first move, the solution nearest the joint values before (ABB, RAPID Instructions, ConfL/ConfJ: the robot
-        moves to the programmed position and orientation with the closest possible axis configuration)."""
+        selects; with the configuration not monitored after a first move (ABB, RAPID Instructions, ConfL/ConfJ: the
+        robot moves to the programmed position and orientation with the closest possible axis configuration), for
+        MoveL/MoveC after ConfL \\Off the solution the path leads to (``followed``), for MoveJ after ConfJ \\Off the
+        one nearest the joint values before (``nearest``)."""
         target = self.data.get(value, "robtarget", call.name, call.line)
         X = self.pose(target, call)
         where = str(value) if isinstance(value, _Name) else f"{call.name} target"     # a name, or inline
