@@ -13,9 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from pipeline.__main__ import main
-from pipeline.files.poses import quaternion_position_to_pose
+from pipeline.files.poses import pose_to_quaternion_position, quaternion_position_to_pose
+from pipeline.model.robot import load_robot
+from pipeline.model.vendors.selection import pose_solutions
 from pipeline.outputs.controllers.rapid import write_rapid
 from pipeline.outputs.controllers.read_rapid import RapidReadError, read_rapid
 from pipeline.program.compile import compile_job
@@ -120,6 +123,127 @@ def test_the_tutorial_rewritten_reads_the_same(tutorial, rewritten):
     np.testing.assert_allclose(again["tool"]["xyz"], tutorial["tool"]["xyz"], atol=WRITTEN_M)
 
 
+ROBOTS = DATA / "visose_robots_TestProgram_T_ROB1.mod"
+#: Where the Robots plugin's own simulation ends its sample program (tests/Robots.Tests/ProgramTests.cs, "ABB sample
+#: program") [rad], in its joint convention; as ABB axis angles [deg]: axis 2 = 90 deg - its axis 2, axes 3 and 5
+#: the other way: the configuration the linear move reaches with ConfL \\Off.
+ROBOTS_END_RAD = [-0.72007069377409672, 1.5806369662963811, -0.075569321979534809, -1.4960590345094886,
+                  0.72252891341688164, 3.042104596978858]
+ROBOTS_END_DEG = np.degrees(ROBOTS_END_RAD) * [1, -1, -1, 1, -1, 1] + [0, 90, 0, 0, 0, 0]
+
+
+@pytest.fixture(scope="module")
+def robots_sample() -> dict:
+    return read_rapid(file_text(ROBOTS), ROBOT, source=ROBOTS.name)
+
+
+def test_the_robots_plugin_module_reads_with_every_target_the_files(robots_sample):
+    """The Robots plugin's ABB output (VAR extjoint/confdata named inside inline targets, ConfL \\Off, TASK PERS
+    speeddata): its MoveAbsJ joint values and its MoveL pose are the file's; the MoveL's configuration is the one
+    the linear path reaches from the joint values before (ConfL \\Off: the written [0,0,0,0] is not monitored)."""
+    text = file_text(ROBOTS)
+    assert "ConfL \\Off;" in text and "conf,extj]" in text and not text.endswith("\n")
+    first, second = robots_sample["waypoints"]
+    assert first == {"joints": [41.257, -0.5638, 4.3298, 85.7179, -41.3979, 5.7002]}
+    assert second["move"] == "linear" and second["speed"] == pytest.approx(0.3) and "zone" not in second
+    np.testing.assert_allclose(second["xyz"], [0.3, -0.2, 0.61], atol=1e-12)
+    np.testing.assert_allclose(second["quaternion"], [0.5, 0.5, 0.5, 0.5], atol=1e-12)
+    assert second["controller_config"] == {"abb": "[-1,-1,1,1]"} and "tool" not in robots_sample
+    program = compile_job(parse_job(robots_sample, source=ROBOTS.name))
+    end = np.degrees(program.targets[-1])
+    np.testing.assert_allclose(end, ROBOTS_END_DEG, atol=2e-3)       # the plugin's own simulation, its rounding
+
+
+def test_the_robots_plugin_module_rewritten_reads_the_same(robots_sample):
+    program = compile_job(parse_job(robots_sample, source=ROBOTS.name))
+    again = read_rapid(write_rapid(program, "robots"), ROBOT, source="robots.mod")
+    assert [w.get("move") for w in again["waypoints"]] == [w.get("move") for w in robots_sample["waypoints"]]
+    np.testing.assert_allclose(again["waypoints"][0]["joints"], robots_sample["waypoints"][0]["joints"],
+                               atol=0.5e-4 + 1e-9)
+    read, first = again["waypoints"][1], robots_sample["waypoints"][1]
+    np.testing.assert_allclose(read["xyz"], first["xyz"], atol=WRITTEN_M)
+    np.testing.assert_allclose(read["quaternion"], first["quaternion"], atol=WRITTEN_Q)
+    assert read["controller_config"] == first["controller_config"] and read["speed"] == first["speed"]
+    assert np.abs(compile_job(parse_job(again, source="robots.mod")).targets - program.targets).max() <= 1e-4
+
+
+def test_conf_off_through_a_wrist_singularity_is_refused():
+    """A MoveL (ConfL \\Off) along a line that passes within round-off of the wrist singularity (axis 5 at 1e-6
+    rad on it): axes 4 and 6 would turn half a turn in less than FOLLOW_MIN_STEP_M of path, so which wrist the
+    controller continues with has no static meaning. The same move through the pose with axis 5 at 5 deg reads."""
+    robot = load_robot(ROBOT)
+
+    def module(a5_deg: float) -> str:
+        q_mid = np.radians([0.0, -16.0, 18.0, 0.0, a5_deg, 90.0])
+        X_mid = robot.fk(q_mid)
+        X_start, X_end = X_mid.copy(), X_mid.copy()
+        X_start[1, 3] += 0.1
+        X_end[1, 3] -= 0.1
+        q_start = min(pose_solutions(robot, X_start[None])[0], key=lambda q: np.abs(q - q_mid).max())
+        quaternion, position = pose_to_quaternion_position(X_end)
+        pose = f"[[{','.join(f'{v:.6f}' for v in position * 1e3)}],[{','.join(f'{v:.9f}' for v in quaternion)}]"
+        joints = ",".join(f"{v:.9f}" for v in np.degrees(q_start))
+        return (f"MODULE M\nPROC main()\nConfL \\Off;\nMoveAbsJ [[{joints}],[9E9,9E9,9E9,9E9,9E9,9E9]],v100,fine,"
+                f"tool0;\nMoveL {pose},[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]],v100,fine,tool0;\nENDPROC\nENDMODULE")
+
+    read_rapid(module(5.0), ROBOT)
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(module(np.degrees(1e-6)), ROBOT, source="m.mod")
+    assert (error.value.line, error.value.field) == (5, "MoveL target")
+    assert "passes a singularity" in error.value.problem
+
+
+def test_read_program_writes_the_robots_plugin_module_as_a_job(tmp_path):
+    program = tmp_path / ROBOTS.name
+    program.write_bytes(ROBOTS.read_bytes())
+    out = tmp_path / "job.yaml"
+    assert main(["read-program", str(program), "--robot", ROBOT, "--out", str(out)]) == 0
+    document = yaml.safe_load(out.read_text())
+    assert [w.get("move", "joints") for w in document["waypoints"]] == ["joints", "linear"]
+    assert document["waypoints"][0]["joints"] == [41.257, -0.5638, 4.3298, 85.7179, -41.3979, 5.7002]
+
+
+def test_a_circular_move_with_conf_off_follows_its_arc(robots_sample):
+    """The Robots module's MoveL as a MoveC through (330, 0, 610) mm: the arc leads to the same configuration; one
+    through (300, 0, 700) mm passes the wrist singularity on the way and is refused."""
+    text = file_text(ROBOTS)
+
+    def arc(via: str) -> str:
+        return text.replace("MoveL [[300,-200,610]", f"MoveC [[{via}],[0.5,0.5,0.5,0.5],conf,extj],[[300,-200,610]")
+
+    document = read_rapid(arc("330,0,610"), ROBOT, source=ROBOTS.name)
+    assert document["waypoints"][1]["move"] == "circular"
+    np.testing.assert_allclose(document["waypoints"][1]["via"]["xyz"], [0.33, 0.0, 0.61], atol=1e-12)
+    assert document["waypoints"][1]["controller_config"] == robots_sample["waypoints"][1]["controller_config"]
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(arc("300,0,700"), ROBOT, source=ROBOTS.name)
+    assert (error.value.line, error.value.field) == (11, "MoveC target") and "singularity" in error.value.problem
+
+
+@pytest.mark.parametrize("target, confdata", [("[300,180,610]", "[0,0,0,1]"), ("[300,-200,610]", None)])
+def test_a_joint_move_with_conf_off_takes_the_nearest_configuration(target, confdata):
+    """ConfJ \\Off: a MoveJ near the start reaches the configuration nearest the joint values before, not the
+    [1,1,1,1] it names; where two are about as near (axis 1 swings 82 deg, the wrists differ by half a turn) the
+    reader refuses."""
+    text = file_text(ROBOTS).replace("ConfL \\Off;", "ConfJ \\Off;").replace(
+        "MoveL [[300,-200,610],[0.5,0.5,0.5,0.5],conf", f"MoveJ [{target},[0.5,0.5,0.5,0.5],[1,1,1,1]")
+    if confdata is None:
+        with pytest.raises(RapidReadError) as error:
+            read_rapid(text, ROBOT, source=ROBOTS.name)
+        assert (error.value.line, error.value.field) == (11, "MoveJ target")
+        assert "about as near" in error.value.problem
+        return
+    second = read_rapid(text, ROBOT, source=ROBOTS.name)["waypoints"][1]
+    assert second["move"] == "joint" and second["controller_config"] == {"abb": confdata}
+
+
+def test_an_aggregate_naming_undeclared_data_is_refused():
+    text = file_text(ROBOTS).replace("VAR confdata conf := [0,0,0,0];", "VAR confdata conf;")
+    with pytest.raises(RapidReadError) as error:
+        read_rapid(text, ROBOT, source=ROBOTS.name)
+    assert (error.value.line, error.value.field) == (11, "MoveL") and "conf in an aggregate" in error.value.problem
+
+
 #: A module as a pendant or RobotStudio keeps it (written for these tests): tabs, CR LF, no newline at the end, a
 #: RECORD, data of every storage class, a tool and a work object declared in the module, main calling procedures,
 #: comments, an ending WHILE TRUE, a FOR over numbers, WaitDI with \MaxTime, Set/Reset, SetDO, WaitTime \InPos, 0.
@@ -194,11 +318,49 @@ def refused(text: str, source: str = "cell.mod", **keywords) -> RapidReadError:
     ("rosi_ROS_motion.mod", 45, "CONNECT"),                       # ROS-Industrial driver: interrupts, then more
     ("rparak_sorting_irb1200_T_ROB1_Module1.mod", 57, "TEST"),    # a state machine
     ("flo_abb_PickPlace.mod", 50, "PROC"),                        # targets computed from parameters (Offs)
+    ("robodk_vscode_Program.mod", 26, "TPWrite"),                 # RoboDK: pendant text, STOP, a routine elsewhere
+    ("sgffoen_test_movel_T_ROB1.mod", 18, "SetAO"),               # Robots plugin, milling: spindle speed (analog)
 ])
 def test_real_driver_and_state_machine_modules_are_refused(file, line, field):
     error = refused(file_text(DATA / file), source=file)
     assert (error.source, error.line, error.field) == (file, line, field)
     assert str(error).startswith(f"{file}:{line}: {field}: ")
+
+
+def test_a_generated_module_whose_confdata_names_no_solution_is_refused():
+    """rparak_vinros_DP.mod (a generated path on an IRB 120 controller): its file header and LOCAL PERS data read,
+    its first MoveJ's inline robtarget has confdata [0,0,0,0] where axis 1 stands at -90 deg (quadrant -1): the
+    controller would stop there (ConfJ on), so the reader names that move and the configurations it has."""
+    file = "rparak_vinros_DP.mod"
+    text = file_text(DATA / file)
+    assert text.startswith("%%%\nVERSION: 1\nLANGUAGE:ENGLISH%%%\n")
+    with pytest.raises(RapidReadError) as caught:
+        read_rapid(text, ROBOT, source=file)
+    error = caught.value
+    assert (error.source, error.line, error.field) == (file, 10, "MoveJ target")
+    assert "abb configuration [0,0,0,0]: no in-limit IK solution has it" in error.problem
+    assert "[-1,0,-1,0]" in error.problem
+
+
+HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n"
+
+
+def test_a_file_header_reads_as_nothing_and_keeps_line_numbers():
+    """The %%% VERSION LANGUAGE %%% header ABB's system modules and RoboDK write before MODULE reads as nothing;
+    errors after it name the file's own lines."""
+    with_header, without = read_rapid(HEADER + PENDANT, "irb1600"), read_rapid(PENDANT, "irb1600")
+    assert {k: v for k, v in with_header.items() if k != "description"} == {
+        k: v for k, v in without.items() if k != "description"}
+    assert "WHILE TRUE loop of main (<rapid>:19)" in with_header["description"]           # line 15 after 4 lines
+    error = refused(HEADER + PENDANT.replace("\t\tReset doGrip;", "\t\tStopMove;"))
+    assert error.line == 4 + PENDANT.split("\r\n").index("\t\tReset doGrip;") + 1
+
+
+@pytest.mark.parametrize("header", ["%%%\r\n  VERSION:1\r\n%%%\r\n", "%%%\r\n  VERSION:one\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n",
+                                    "\r\n%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n"])
+def test_a_file_header_of_another_form_is_named(header):
+    error = refused(header + PENDANT)
+    assert (error.line, error.field) == (header.count("\r\n", 0, header.index("%%%")) + 1, "%%%")
 
 
 PICK_BODY = "\t\tMoveL pPick,v200,z10,tGripper\\WObj:=wTable;"

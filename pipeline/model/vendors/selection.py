@@ -56,6 +56,15 @@ def select_solutions(robot, X_targets, configs, vendor: str) -> np.ndarray:
     return out
 
 
+def pose_solutions(robot, X_targets) -> list[np.ndarray]:
+    """Every distinct in-limit IK solution of each pose X_targets (N, 4, 4) [m], 2 pi variants included: per
+    pose, joint values (K, 6) [rad] (K = 0 where the pose is out of reach)."""
+    X = check_targets(X_targets)
+    candidates, owner = _candidates(robot, X)
+    bounds = np.searchsorted(owner, np.arange(len(X) + 1))          # owner is sorted: pose n's rows
+    return [_distinct(candidates[bounds[n]:bounds[n + 1]]) for n in range(len(X))]
+
+
 def written_configuration(robot, X_written: np.ndarray, q: np.ndarray, vendor: str, tolerance: float,
                           what: str = "the target") -> np.ndarray:
     """The vendor configuration (fields) to write with a target whose file holds the pose X_written (4, 4)

@@ -8,6 +8,8 @@ identifiers compared without case), so a program a pendant or RobotStudio wrote 
 is read, and the RAPID facts it follows (ABB, "Technical reference manual - RAPID Instructions, Functions and Data
 types", the entries named; "Technical reference manual - RAPID kernel" for the statements):
 
+* A file header before MODULE (``%%% VERSION:1 LANGUAGE:ENGLISH %%%``, ``FILE_HEADER``: ABB's RobotWare system
+  modules, RobotWare Machining FC and RoboDK write it) is nothing; a file starting ``%%%`` otherwise is refused.
 * The procedure ``main`` (or the module's only procedure). A call of another parameterless procedure of the module
   (``Path_10;``) is that procedure's body in its place (RobotStudio's ``main`` calling ``Path_10``); a ``FOR i FROM
   a TO b [STEP s] DO ... ENDFOR`` over numbers is its body that many times (refused when the body uses ``i``); a
@@ -15,7 +17,7 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   job's ``description`` says; a ``RETURN`` that ends a procedure, and a ``Stop`` or ``EXIT`` that ends the program,
   are nothing (elsewhere they are refused). Data declared in a procedure is read as
   the module's; a ``RECORD`` (a data type) declares nothing read.
-* Instructions: ``ConfJ``/``ConfL`` (\\On or \\Off: the confdata is read either way, it names the branch),
+* Instructions: ``ConfJ``/``ConfL`` ``\\On`` (the default) or ``\\Off`` (below),
   ``MoveAbsJ``, ``MoveJ``, ``MoveL``, ``MoveC`` (\\NoEOffs and \\WObj read, \\ID and the like ignored), and the
   actions below. Each move is one waypoint, the first move's target the job's first waypoint (no move into it;
   ``write_rapid``'s approach ``MoveAbsJ j0``); a move to where the robot already is (the same joint values, as when
@@ -40,6 +42,17 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   (confdata [cf1, cf4, cf6, cfx]) selects the one closed-form solution it names
   (``pipeline.model.vendors.selection``, the robot with the module's tool), whose branch label
   (``pipeline.model.ik.branches.configuration_labels``) is written as the waypoint's ``config``. extax is ignored.
+  With the configuration not monitored (ABB, "Technical reference manual - RAPID Instructions, Functions and Data
+  types", ConfL and ConfJ: with \\Off the robot moves to the programmed position and orientation with the closest
+  possible axis configuration, the written confdata not being kept) after the first move: a ``MoveL``/``MoveC``
+  after ``ConfL \\Off`` reaches the solution its path leads to from the joint values before (followed along the
+  TCP's path, ``_Reader.followed``; refused where the path passes a singularity so closely that which wrist follows
+  has no static meaning), a ``MoveJ`` after ``ConfJ \\Off`` the solution nearest the joint values before (refused
+  when two are about as near); the waypoint's ``controller_config`` is then that solution's confdata. The first
+  move's confdata names the job's start either way.
+* Aggregates may hold declared data by name (``[[300,-200,610],[0.5,0.5,0.5,0.5],conf,extj]`` with ``VAR confdata
+  conf := [0,0,0,0]``, as the Robots plugin writes): the names are replaced by their values (an assignment, which
+  could change them, is refused); a name without a declared value is refused.
 * Move kinds: ``MoveAbsJ``/``MoveJ`` joint, ``MoveL`` linear, ``MoveC`` circular with the CirPoint's position as
   ``via`` (its orientation and confdata are not the job's: RAPID uses them only for the way of reorientation).
 * Speeds: a tool move's ``speeddata`` v_tcp [mm/s] (a declared one, or the predefined vN = N mm/s) -> ``speed``
@@ -67,10 +80,10 @@ What has no static meaning is a ``RapidReadError`` naming the file (``source``),
 before parsing so that the first one in the file is named: ``IF``, ``TEST``, ``GOTO`` and labels, ``WHILE`` on a
 condition, ``FOR`` over bounds that are not numbers, an assignment, ``WaitUntil``, ``RETURN`` before the end of a
 procedure, ``TRAP`` routines and ``CONNECT`` (interrupts), ``FUNC``, procedures with parameters, error
-handlers (``ERROR``, ``BACKWARD``, ``UNDO``); after parsing: a ``WHILE TRUE`` that is not the end of ``main``, a call of
-a routine the module does not hold, and the known instructions that act at run time (``REFUSED_INSTRUCTIONS``:
-interrupts, path control such as ``StopMove``/``ClearPath``, sockets, multi-move synchronisation, externally guided
-motion, ``Stop``, pendant I/O).
+handlers (``ERROR``, ``BACKWARD``, ``UNDO``); after parsing, before any target is solved: a ``WHILE TRUE`` that is not
+the end of ``main``, a call of a routine the module does not hold, and the known instructions that act at run time
+(``REFUSED_INSTRUCTIONS``: interrupts, path control such as ``StopMove``/``ClearPath``, sockets, multi-move
+synchronisation, externally guided motion, ``Stop``, pendant I/O); then targets whose confdata names no solution.
 
 The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`` deg, ``tool``, ``waypoints`` (with
 ``do`` lists), ``signals``, and ``description`` for a loop read as one cycle.
@@ -92,10 +105,11 @@ from ...files.poses import pose_to_quaternion_position, quaternion_position_to_p
 from ...model.ik.branches import configuration_labels
 from ...model.robot import Robot, robot_with_tool
 from ...model.vendors.axes import ABB, joint_values
-from ...model.vendors.configuration import format_configuration
+from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames
-from ...model.vendors.selection import select_solution
+from ...model.vendors.selection import pose_solutions, select_solution
 from ...program.actions import COMMENT, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, SET, WAIT, WAIT_INPUT
+from ...program.tool_path import ToolMove, ToolPath
 from .read_ls import as_robot, parse_subset
 from .settings_mark import SIGNAL_MARK
 
@@ -113,6 +127,11 @@ DEFAULT_PULSE_S = 0.2
 #: A move this close to where the robot is goes nowhere: joint values [rad]; a MoveL's TCP [m], [rad] (below the
 #: 0.001 mm and 1e-6 quaternion rounding of written modules).
 SAME_JOINTS_RAD, SAME_POSE_M, SAME_POSE_RAD = 1e-9, 1e-7, 1e-7
+#: A linear move with the configuration unmonitored (ConfL \Off) is followed in steps of at most FOLLOW_STEP_M [m]
+#: of path, a step whose joints jump more than FOLLOW_JUMP_RAD [rad] halved down to FOLLOW_MIN_STEP_M [m] (then
+#: refused: a singularity). A joint move's nearest solution (ConfJ \Off) is refused when another lies within
+#: NEAREST_MARGIN times its joint distance.
+FOLLOW_STEP_M, FOLLOW_JUMP_RAD, FOLLOW_MIN_STEP_M, NEAREST_MARGIN = 1e-3, 0.05, 1e-6, 3.0
 #: A FOR loop is flattened up to this many turns (a larger count is refused, not unrolled).
 MAX_FOR_TURNS = 1000
 #: The source named in errors when the caller names none (the reader gets text, not a file).
@@ -130,6 +149,8 @@ REFUSED_INSTRUCTIONS = {
     ("stop", "exit", "exitcycle", "break", "systemstopaction"): "it stops the program where it stands",
     ("tpwrite", "tperase", "tpreadfk", "tpreadnum", "tpshow", "errwrite"):
         "FlexPendant I/O, which a job has no word for",
+    ("setao", "setgo", "waitai", "waitao", "waitgi", "waitgo"):
+        "an analog or group signal, which a job's actions (digital signals on or off) have no word for",
 }
 #: Statements refused before parsing (first word of a line in lower case, outside comments and strings): why.
 REFUSED_KEYWORDS = {
@@ -146,6 +167,16 @@ REFUSED_KEYWORDS = {
     "raise": "an error raised at run time has no static meaning",
     "waituntil": "it waits on an expression, which is not read (WaitDI signal, value is)",
 }
+#: The file header before MODULE: ``%%%``, ``VERSION:n``, ``LANGUAGE:name``, ``%%%`` (its fields on lines of their own
+#: or not: spaces and line breaks are free). ABB's own RobotWare system modules begin so (CAL_AX, MOTCOM, CALPEND as a
+#: RobotStudio virtual controller holds them, e.g. in rparak/ABB-RobotStudio-Tutorial-Simple
+#: STEP_4/Solution_1_Pick_obj_1.rspag, INTERNAL/RAPID/PRG1), as do RobotWare Machining FC's exported modules
+#: ("generated by RobotWare Machining FC V3.000", rparak/VInRoS_ABB_RS BACKUP/120-101618_BACKUP_2024-06-25/HOME/
+#: MachiningFC) and RoboDK's ABB post processor (RoboDK/Industrial-Robots-VSCode examples/Program.mod); a RAPID
+#: summary names it the file header, giving the file format's version and the language of the texts
+#: (https://student-notes.net/rapid-programming-language-essentials, "Header File"). It says nothing the program
+#: does: read as nothing.
+FILE_HEADER = re.compile(r"\A\s*%%%\s*VERSION\s*:\s*\d+\s*LANGUAGE\s*:\s*[A-Za-z][A-Za-z_-]*\s*%%%[ \t]*(?=\r?\n|\Z)")
 #: A line's first statement word; a label (``name:``); an assignment (``x :=``, ``p.trans.z :=``, ``a{i} :=``).
 _FIRST_WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 _LABEL = re.compile(r"[A-Za-z][A-Za-z0-9_]*\s*:(?!=)")
@@ -182,7 +213,21 @@ class _Data:
             if known is None or known[0] != datatype or known[1] is None:
                 raise RapidReadError(self.source, where, f"no {datatype} named {value} is declared with a value in "
                                      "the module", value, line=line)
-            return known[1]
+            return self.resolved(known[1], where, line)
+        return self.resolved(value, where, line)
+
+    def resolved(self, value, where: str, line: int | None):
+        """``value`` with the names of declared data within an aggregate replaced by their values (a component may
+        be data: ``[[300,-200,610],[0.5,0.5,0.5,0.5],conf,extj]`` with ``VAR confdata conf := [0,0,0,0]``; an
+        assignment, the only way such a value changes, is refused)."""
+        if isinstance(value, list):
+            return [self.resolved(v, where, line) for v in value]
+        if isinstance(value, _Name):
+            known = self.values.get(value.lower())
+            if known is None or known[1] is None:
+                raise RapidReadError(self.source, where, f"{value} in an aggregate: no data of that name is "
+                                     "declared with a value in the module", value, line=line)
+            return self.resolved(known[1], where, line)
         return value
 
 
@@ -230,6 +275,7 @@ def read_rapid(text: str, robot, base_in_world: np.ndarray | None = None, *, sou
     controller's world frame (None: the world is the robot file's abb controller section's base frame, our base
     frame without one); ``source`` names the file in errors; ``tool`` (4, 4) [m]: the tframe, on the controller's
     tool0, of a tool the module uses but does not declare. RapidReadError names what cannot be read."""
+    text = _without_file_header(text, source)
     _refuse_statements(text, source)
     tree = _Values().transform(parse_subset("rapid", "RAPID", text, RapidReadError, source))
     module = tree.children[0]
@@ -243,6 +289,8 @@ def read_rapid(text: str, robot, base_in_world: np.ndarray | None = None, *, sou
                      else np.asarray(base_in_world))
     reader = _Reader(robot_model, data, base_in_world, source, tool)
     for k, step in enumerate(steps):
+        _refuse_call(step, source, last=k == len(steps) - 1)
+    for k, step in enumerate(steps):
         reader.step(step, last=k == len(steps) - 1)
     document = reader.document(reference, _marked_numbers(text))
     calls = [step for step in steps if isinstance(step, _Call)]
@@ -254,6 +302,36 @@ def read_rapid(text: str, robot, base_in_world: np.ndarray | None = None, *, sou
         document["description"] = (f"one cycle of the endless WHILE TRUE loop of {routine} ({source}:{line}), "
                                    "read from the RAPID module")
     return document
+
+
+def _without_file_header(text: str, source: str) -> str:
+    """``text`` with its file header (``FILE_HEADER``: ``%%%``, ``VERSION:n``, ``LANGUAGE:name``, ``%%%``) blanked,
+    line breaks kept so that lines keep their numbers; RapidReadError naming the line of the first ``%%%`` when the
+    file starts with ``%%%`` but not with such a header."""
+    if not text.lstrip().startswith("%%%"):
+        return text
+    header = FILE_HEADER.match(text)
+    if header is None:
+        line = text[:text.index("%%%")].count("\n") + 1
+        raise RapidReadError(source, "%%%", "a file header is %%%, VERSION:n, LANGUAGE:name, %%% before MODULE",
+                             line=line)
+    return re.sub(r"[^\r\n]", "", header.group(0)) + text[header.end():]
+
+
+def _refuse_call(step, source: str, last: bool) -> None:
+    """RapidReadError for an instruction that is neither a move, a setting, an action nor (``last``: the program's
+    last step) ``Stop`` or ``EXIT``: checked for every step before any target is solved, so that the first such
+    instruction is named whatever the targets are."""
+    if not isinstance(step, _Call):
+        return
+    name = step.name.lower()
+    if name in MOVES or name in ACTION_INSTRUCTIONS or name in CONFIG_INSTRUCTIONS or (
+            last and name in ENDING_INSTRUCTIONS):
+        return
+    reason = _refusal(step.name) or ("a call of a routine the module does not hold has no static meaning (read "
+                                     "here: MoveAbsJ, MoveJ, MoveL, MoveC, ConfJ, ConfL, PathAccLim, SetDO, "
+                                     "Set, Reset, PulseDO, WaitTime, WaitDI and the module's procedures)")
+    raise RapidReadError(source, step.name, reason, line=step.line)
 
 
 def _code_lines(text: str) -> list[str]:
@@ -464,6 +542,7 @@ class _Reader:
         self.before_first: list[dict] = []                    # actions before the first move: waypoint 0's
         self.stops: set[int] = set()                          # waypoints where a WaitTime \InPos, 0 stops
         self.signals: dict[str, tuple[str, str]] = {}         # lower-case name -> (name as first written, direction)
+        self.monitored = {"confj": True, "confl": True}       # ConfJ/ConfL \On, the controller's default
 
     def step(self, step, last: bool = False) -> None:
         """Read one instruction or comment (module docstring); ``last``: the program's last step, where ``Stop`` or
@@ -479,17 +558,16 @@ class _Reader:
             waypoint = self.waypoint(step)
             if waypoint is not None:
                 self.waypoints.append(waypoint)
+        elif name in ("confj", "confl"):
+            self.monitored[name] = self.switch(step)
         elif name in ACTION_INSTRUCTIONS:
             action = self.action(step)
             if action is not None:
                 self.add_action(action)
             elif self.waypoints:
                 self.stops.add(len(self.waypoints) - 1)
-        elif name not in CONFIG_INSTRUCTIONS:
-            reason = _refusal(step.name) or ("a call of a routine the module does not hold has no static meaning (read "
-                                             "here: MoveAbsJ, MoveJ, MoveL, MoveC, ConfJ, ConfL, PathAccLim, SetDO, "
-                                             "Set, Reset, PulseDO, WaitTime, WaitDI and the module's procedures)")
-            raise RapidReadError(self.source, step.name, reason, line=step.line)
+        else:
+            _refuse_call(step, self.source, last)
 
     def add_action(self, action: dict) -> None:
         (self.waypoints[-1].setdefault("do", []) if self.waypoints else self.before_first).append(action)
@@ -569,8 +647,8 @@ class _Reader:
             q = self.joint_target(targets[0], call)
             waypoint = {"joints": [round(float(v), 10) for v in np.degrees(q)]}
         else:
-            X, q = self.robtarget(targets[-1], call)
-            waypoint = self.pose_waypoint(X, q, self.data.get(targets[-1], "robtarget", call.name, call.line)[2])
+            X, q, confdata = self.robtarget(targets[-1], call)
+            waypoint = self.pose_waypoint(X, q, confdata)
             waypoint["move"] = {"movej": "joint", "movel": "linear", "movec": "circular"}[kind]
             if kind == "movec":
                 X_via = self.pose(self.data.get(targets[0], "robtarget", call.name, call.line), call)
@@ -645,24 +723,96 @@ class _Reader:
                                  line=call.line)
         return _frame(uframe, self.source) @ _frame(oframe, self.source)
 
-    def robtarget(self, value, call: _Call) -> tuple[np.ndarray, np.ndarray]:
-        """(TCP pose (4, 4) [m], joint values (6,) [rad] its confdata selects)."""
+    def switch(self, call: _Call) -> bool:
+        """ConfJ/ConfL ``\\On`` (True: the configuration is monitored) or ``\\Off`` (False)."""
+        if call.required or sorted(call.optional) not in (["on"], ["off"]) or any(call.optional.values()):
+            raise RapidReadError(self.source, call.name, "takes \\On or \\Off", line=call.line)
+        return "on" in call.optional
+
+    def robtarget(self, value, call: _Call) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+        """(TCP pose (4, 4) [m], joint values (6,) [rad], their confdata): the solution the robtarget's confdata
+        selects; with the configuration not monitored after a first move (ABB, RAPID Instructions, ConfL/ConfJ: the
+        robot moves to the programmed position and orientation with the closest possible axis configuration), for
+        MoveL/MoveC after ConfL \\Off the solution the path leads to (``followed``), for MoveJ after ConfJ \\Off the
+        one nearest the joint values before (``nearest``)."""
         target = self.data.get(value, "robtarget", call.name, call.line)
         X = self.pose(target, call)
+        where = str(value) if isinstance(value, _Name) else f"{call.name} target"     # a name, or inline
+        kind = call.name.lower()
+        if not self.monitored["confj" if kind == "movej" else "confl"] and self.q_previous is not None:
+            q = (self.nearest(pose_solutions(self.robot_tool, X[None])[0], self.q_previous, where, call)
+                 if kind == "movej"
+                 else self.followed(X, self.via(call), where, call))
+            return X, q, tuple(int(c) for c in configurations(self.robot_tool, q, ABB))
+        confdata = tuple(int(c) for c in target[2])
         try:
-            return X, select_solution(self.robot_tool, X, [int(c) for c in target[2]], ABB)
+            return X, select_solution(self.robot_tool, X, confdata, ABB), confdata
         except ConfigurationNotFoundError as exc:
-            raise RapidReadError(self.source, str(value), str(exc), line=call.line) from None
+            raise RapidReadError(self.source, where, str(exc), line=call.line) from None
+
+    def via(self, call: _Call) -> np.ndarray | None:
+        """A MoveC's CirPoint position (3,) [m] in the base frame; None for other moves."""
+        if call.name.lower() != "movec":
+            return None
+        return self.pose(self.data.get(call.required[0], "robtarget", call.name, call.line), call)[:3, 3]
+
+    def followed(self, X: np.ndarray, via: np.ndarray | None, where: str, call: _Call) -> np.ndarray:
+        """The joint values (6,) [rad] a linear (or, through ``via``, circular) move to the TCP pose X (4, 4) [m]
+        reaches from the joint values before, the configuration unmonitored: the in-limit solution followed
+        continuously along the TCP's path (``pipeline.program.tool_path``) in steps of at most FOLLOW_STEP_M,
+        each the solution nearest the one before, a step whose joints jump more than FOLLOW_JUMP_RAD halved
+        until they do not (``step_along``)."""
+        q = self.q_previous
+        X_start = self.robot_tool.fk(q)
+        if np.allclose(X_start, X, rtol=0.0, atol=SAME_POSE_M) and via is None:
+            return q
+        path = ToolPath(X_start, [ToolMove("circular" if via is not None else "linear", X, via)])
+        sigmas = np.linspace(0.0, path.length, max(1, math.ceil(path.length / FOLLOW_STEP_M)) + 1)
+        for k, solutions in enumerate(pose_solutions(self.robot_tool, path.poses(sigmas[1:]))):
+            q = self.step_along(path, sigmas[k], sigmas[k + 1], q, solutions, where, call)
+        return q
+
+    def step_along(self, path: ToolPath, sigma_a: float, sigma_b: float, q_a: np.ndarray, solutions: np.ndarray,
+                   where: str, call: _Call) -> np.ndarray:
+        """The solution at path length sigma_b [m] (of ``solutions`` (K, 6) [rad] there) that continues q_a (6,)
+        [rad] at sigma_a: the nearest, where it lies within FOLLOW_JUMP_RAD; else the step is halved. RapidReadError
+        where a step of FOLLOW_MIN_STEP_M still jumps (the path passes a singularity so near that axes 4 and 6
+        would turn half a turn on it, or leaves the reach): which configuration follows has no static meaning."""
+        gaps = np.abs(solutions - q_a).max(axis=1) if len(solutions) else np.array([np.inf])
+        if gaps.min() <= FOLLOW_JUMP_RAD:
+            return solutions[int(np.argmin(gaps))]
+        if sigma_b - sigma_a <= FOLLOW_MIN_STEP_M:
+            raise RapidReadError(self.source, where, "with the configuration not monitored (ConfL \\Off) the path to "
+                                 "this target passes a singularity (or leaves the reach) at "
+                                 f"{1e3 * sigma_a:.3f} mm along it: which configuration the controller continues "
+                                 "with has no static meaning", line=call.line)
+        middle = (sigma_a + sigma_b) / 2.0
+        q_m = self.step_along(path, sigma_a, middle, q_a, pose_solutions(self.robot_tool, path.poses([middle]))[0],
+                              where, call)
+        return self.step_along(path, middle, sigma_b, q_m, solutions, where, call)
+
+    def nearest(self, solutions: np.ndarray, q_near: np.ndarray, where: str, call: _Call) -> np.ndarray:
+        """Of a pose's in-limit solutions (K, 6) [rad] the one nearest q_near (6,) [rad] (smallest largest joint
+        difference), as ConfJ \\Off leaves a MoveJ. RapidReadError when there is none, or when another is nearly as
+        near (within NEAREST_MARGIN times as far): which one the controller takes then has no static meaning."""
+        gaps = np.sort(np.abs(solutions - q_near).max(axis=1)) if len(solutions) else np.array([])
+        if not len(gaps) or (len(gaps) > 1 and gaps[1] <= NEAREST_MARGIN * gaps[0]):
+            reason = ("no in-limit IK solution reaches the pose" if not len(gaps) else
+                      "two configurations are about as near the joint values before")
+            raise RapidReadError(self.source, where, f"with the configuration not monitored ({call.name} after "
+                                 f"ConfJ/ConfL \\Off): {reason}, so which one the controller takes has no static "
+                                 "meaning", line=call.line)
+        return solutions[int(np.argmin(np.abs(solutions - q_near).max(axis=1)))]
 
     def pose_waypoint(self, X: np.ndarray, q: np.ndarray, confdata) -> dict:
-        """The pose waypoint of X (4, 4) [m]: its branch (of q (6,) [rad]) and ``controller_config`` the
-        robtarget's confdata (the job solves it as the controller does, the quadrants of axes 4 and 6 too)."""
+        """The pose waypoint of X (4, 4) [m]: its branch (of q (6,) [rad]) and ``controller_config`` the confdata
+        of q (the job solves it as the controller does, the quadrants of axes 4 and 6 too)."""
         quaternion, position = pose_to_quaternion_position(X)
         label = configuration_labels(self.robot_tool, q[None])[0]
         waypoint = {"xyz": position.tolist(), "quaternion": quaternion.tolist()}
         if label:
             waypoint["config"] = label_parts(label)
-        waypoint["controller_config"] = {ABB: format_configuration(ABB, tuple(int(c) for c in confdata))}
+        waypoint["controller_config"] = {ABB: format_configuration(ABB, confdata)}
         return waypoint
 
     def add_speed(self, waypoint: dict, kind: str, speed, call: _Call, q: np.ndarray) -> None:
