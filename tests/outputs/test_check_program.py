@@ -110,13 +110,3 @@ def test_a_frame_option_for_a_language_that_selects_none_is_refused(written, cap
     assert main(["check-program", str(rapid), "--robot", "gp7", "--frame", "0", "0", "0", "0", "0", "0"]) == 2
     assert "--frame: a rapid program does not select a frame by number" in capsys.readouterr().err
 
-
-def test_a_krl_src_alone_reads_until_it_names_what_only_a_dat_declares(timed, tmp_path, capsys):
-    """An offline tool's .src comes without a .dat (RoboDK's posts): read; ours names its points in the .dat, so the
-    first one is an error naming the line and the point."""
-    job, program, profile = timed
-    src = tmp_path / "check_pick.src"
-    src.write_text(program_texts(job, "krl", program, profile)[".src"])
-    assert main(["read-program", str(src), "--robot", "gp7"]) == 2
-    assert "is not declared as E6POS, POS, E6AXIS, AXIS or FRAME in the .src, and no .dat is beside it" in \
-        capsys.readouterr().err

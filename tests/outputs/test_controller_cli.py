@@ -151,10 +151,13 @@ def test_urscript_for_an_arm_that_is_not_a_ur_one_is_refused_before_any_work(tmp
     assert list(tmp_path.iterdir()) == []
 
 
-def test_a_krl_src_without_its_dat_is_one_error_line(written, tmp_path, capsys):
+def test_a_krl_src_without_its_dat_reads_until_it_names_what_only_a_dat_declares(written, tmp_path, capsys):
+    """An offline tool's .src comes without a .dat (RoboDK's posts) and is read; ours declares its points in the .dat,
+    so the first one is one error line naming the line and the point."""
     (tmp_path / "lonely.src").write_text((written / "gp7_pick_place.src").read_text())
     code, _, err = cli(capsys, "read-program", tmp_path / "lonely.src", "--robot", "gp7")
-    assert code == 2 and err.count("\n") == 1 and "lonely.dat: file: missing" in err
+    assert code == 2 and err.count("\n") == 1 and err.startswith(f"error: {tmp_path / 'lonely.src'}:")
+    assert "is not declared as E6POS, POS, E6AXIS, AXIS or FRAME in the .src, and no .dat is beside it" in err
 
 
 def test_a_job_listing_rapid_writes_program_mod(tmp_path):
