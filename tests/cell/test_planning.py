@@ -49,6 +49,7 @@ def test_ompl_gives_the_same_path_in_a_fresh_process(shelf):
     assert bytes.fromhex(there) == here.tobytes()
 
 
+@pytest.mark.slow
 def test_the_roadmap_answers_alike_cold_and_warm(shelf):
     """A query answered by a fresh roadmap and by one that earlier queries have checked edges of."""
     model, queries = shelf

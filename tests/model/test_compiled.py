@@ -58,7 +58,7 @@ def random_robot(rng: np.random.Generator, convention: str) -> Robot:
     return Robot(parse_robot_spec(doc))
 
 
-@pytest.mark.parametrize("convention", ["standard", "modified"])
+@pytest.mark.parametrize("convention", ["standard", pytest.param("modified", marks=pytest.mark.slow)])
 def test_random_dh_tables_agree_with_the_numpy_oracle(convention):
     rng = np.random.default_rng(11 if convention == "standard" else 12)
     for _ in range(40):

@@ -264,8 +264,8 @@ def test_bad_seed_method_and_kind_are_typed_errors():
         robot.ik_batch(np.zeros((3, 4)))
 
 
-@pytest.mark.parametrize("name", [pytest.param(name, marks=[pytest.mark.slow] if name != "gp7" else [])
-                                  for name in SIX_DOF])
+@pytest.mark.slow           # Drake's IK round trips in the quick run: tests/model/test_drake_ik.py
+@pytest.mark.parametrize("name", SIX_DOF)
 def test_drake_round_trip(name):
     """500 targets from random seeds: every reported success is strict, and >= 99 % succeed."""
     robot, _, X, results = round_trip(name, 13, "drake", rng=np.random.default_rng(0))

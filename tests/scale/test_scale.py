@@ -368,6 +368,7 @@ def test_cli_bad_input_exits_2_with_one_line_naming_it_and_writes_nothing(args, 
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_cli_reach_writes_the_map_files(tmp_path, capsys):
     out = tmp_path / "map"
     assert main(["reach", "irb1600", "--out", str(out), "--step", "250", "--orientations", "2",
