@@ -198,10 +198,13 @@ class PageProgram:
         """A page program from a job file: its waypoints solved to joint values as the runner solves them
         (IK, branch rule, the cell's collisions), a circular move's via point by IK of its position with
         the orientation halfway between the move's ends. Refused with a JobFileError naming the field:
-        pose targets other than the full pose, and ``controller_config`` (the page names branches with
-        ``config``)."""
+        pose targets other than the full pose, ``controller_config`` (the page names branches with
+        ``config``) and actions (``do``: the page does not hold them, and would drop them on saving)."""
         job = load_job(path)
         for k, waypoint in enumerate(job.waypoints):
+            if waypoint.actions:
+                raise job.error(("waypoints", k, "do"), "the page holds motion only: it cannot show or save a "
+                                "waypoint's actions (edit them in the job file)", str(waypoint.actions[0]))
             if isinstance(waypoint, JointWaypoint):
                 continue
             if waypoint.target != "pose":

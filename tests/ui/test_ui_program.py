@@ -118,6 +118,12 @@ def test_job_file_with_targets_the_page_cannot_hold_is_refused():
     assert refused.value.field == "waypoints[0].target"
 
 
+def test_job_file_with_actions_is_refused_rather_than_saved_without_them():
+    with pytest.raises(JobFileError, match="cannot show or save a waypoint's actions") as refused:
+        PageProgram.from_job_file(ROOT / "tests" / "data" / "gp7_gripper_pick_place.yaml")
+    assert refused.value.field == "waypoints[0].do"
+
+
 def test_reorder_delete_and_edit_change_the_document():
     program = build(PageProgram("gp7", tool=TOOL), OPEN_POSES)
     q = [w.q for w in program.waypoints]
