@@ -34,6 +34,11 @@ def report():
     return run_timing_benchmark(robots=("gp7",), paths=1, seed=0)
 
 
+#: The tests of a whole (tiny) benchmark run: 4.5 s, in the slow run like the other benchmarks' reports.
+on_a_run = pytest.mark.slow
+
+
+@on_a_run
 def test_report_structure(report):
     assert report.paths == 1 and report.waypoints == WAYPOINTS and report.samples == SAMPLES
     (robot,) = report.robots
@@ -53,6 +58,7 @@ def test_report_structure(report):
     assert [goal.passed for goal in report.goals][:2] == [True, True]
 
 
+@on_a_run
 def test_our_row_is_within_the_limits_and_near_the_optimum(report):
     ours = report.robots[0].rows[0]
     assert ours.failures == 0 and ours.violations == 0
@@ -65,6 +71,7 @@ def test_our_row_is_within_the_limits_and_near_the_optimum(report):
     assert report.robots[0].our_time_stretch >= 1.0
 
 
+@on_a_run
 def test_raw_toppra_is_coarser_than_the_reference(report):
     rows = {row.name: row for row in report.robots[0].rows}
     coarse, fine = rows["toppra, 100 grid points"], rows[TOPPRA_1000]
@@ -72,6 +79,7 @@ def test_raw_toppra_is_coarser_than_the_reference(report):
     assert coarse.gap_max_pct > fine.gap_max_pct > 0.0
 
 
+@on_a_run
 def test_json_and_table(report):
     data = json.loads(json.dumps(report.to_dict(), allow_nan=False))
     assert data["robots"][0]["rows"][0]["name"] == OURS
