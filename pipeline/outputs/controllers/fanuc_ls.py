@@ -101,7 +101,7 @@ from ...model.vendors.selection import select_solution, written_configuration
 from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from .lint import FANUC_LS, lint
-from .settings_mark import settings_mark, signals_mark
+from .settings_mark import check_signal_numbers, settings_mark, signals_mark
 
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
@@ -319,7 +319,7 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
     check_name(name, NAME_PATTERN, "FANUC program")
     check_six_joints(program)
     X_B_base, frame = controller_frame(program.robot, FANUC)
-    check_signal_numbers(program)
+    check_signal_numbers(program, "FANUC TP", "DO[n], DI[n]")
     comments = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
                 *comment_lines(signals_mark(program)),
                 *comment_lines(_header_text(program, frame)),
@@ -357,18 +357,6 @@ TIMEOUT_LABEL, TIMEOUT_ALARM = 999, 1
 TIMEOUT_COMMENT = "input timeout"
 #: $WAITTMOUT counts hundredths of a second; WAIT t(sec) takes 0.01 s steps; a pulse's width 0.1 s steps [s].
 WAITTMOUT_S, WAIT_STEP_S, PULSE_STEP_S = 0.01, 0.01, 0.1
-
-
-def check_signal_numbers(program: Program) -> None:
-    """ConfigurationError naming the first signal an action uses that has no number: TP addresses I/O by
-    number (``DO[n]``, ``DI[n]``)."""
-    for k in range(len(program.waypoints)):
-        for action in program.actions_at(k):
-            signal = program.signals.get(action.signal) if action.signal is not None else None
-            if signal is not None and signal.number is None:
-                raise ConfigurationError(f"waypoint {k}: {action}: signal {signal.name!r} has no number; a FANUC TP "
-                                         f"program addresses I/O by number (give it one: signals: {{{signal.name}: "
-                                         f"{{{signal.direction}: N}}}})")
 
 
 def action_lines(program: Program, action: Action) -> list[str]:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import re
 
+from ...errors import ConfigurationError
 from ...program.actions import INPUT, OUTPUT, PULSE, SET, WAIT_INPUT
 from ...program.model import Program
 
@@ -48,6 +49,19 @@ def signals_mark(program: Program) -> str:
     """The header comment naming ``program``'s numbered signals (module docstring; empty without any)."""
     return " ".join(f"{PREFIX}signal.{s.name}={'out' if s.direction == OUTPUT else 'in'}{s.number}"
                     for s in program.signals.values() if s.number is not None)
+
+
+def check_signal_numbers(program: Program, language: str, addressing: str) -> None:
+    """ConfigurationError naming the first signal ``program``'s actions use without a number, for a ``language`` that
+    addresses its I/O by number (``addressing``, e.g. ``DO[n], DI[n]``)."""
+    for k in range(len(program.waypoints)):
+        for action in program.actions_at(k):
+            signal = program.signals.get(action.signal) if action.signal is not None else None
+            if action.signal is not None and (signal is None or signal.number is None):
+                direction = OUTPUT if signal is None else signal.direction
+                raise ConfigurationError(f"waypoint {k}: {action}: signal {action.signal!r} has no number; {language} "
+                                         f"addresses I/O by number ({addressing}): give it one in the job's signals: "
+                                         f"{{{action.signal}: {{{direction}: N}}}}")
 
 
 #: One signal of the mark: (name, out or in, number).

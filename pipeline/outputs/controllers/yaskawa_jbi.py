@@ -88,7 +88,7 @@ from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
                        payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
-from .settings_mark import settings_mark, signals_mark
+from .settings_mark import check_signal_numbers, settings_mark, signals_mark
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
@@ -152,7 +152,7 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     zones (PL the closest level, ``pl_differences``), its certificate in the header."""
     check_name(name, NAME_PATTERN, "Yaskawa job")
     check_six_joints(program)
-    check_signal_numbers(program)
+    check_signal_numbers(program, "INFORM", "OT#(n), IN#(n)")
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     X_B_base, frame = controller_frame(program.robot, YASKAWA)
@@ -279,17 +279,6 @@ def _instructions(program: Program, motion: Motion, labels: list[str], following
     if tail:
         lines.insert(0, f"'zone {motion.zone * MM:.1f}mm PL{level(motion.zone, pl_mm)}")
     return lines
-
-
-def check_signal_numbers(program: Program) -> None:
-    """ConfigurationError naming the first signal the program's actions use without a number (INFORM addresses its
-    I/O as OT#(n) and IN#(n))."""
-    for k in range(len(program.waypoints)):
-        for action in program.actions_at(k):
-            signal = program.signals.get(action.signal) if action.signal is not None else None
-            if action.signal is not None and (signal is None or signal.number is None):
-                raise ConfigurationError(f"waypoint {k}: {action}: signal {action.signal!r} has no number; INFORM "
-                                         "addresses I/O by number (OT#(n), IN#(n)): give it one in the job's signals")
 
 
 def signal_mark_lines(program: Program) -> list[str]:
