@@ -106,7 +106,7 @@ def lower_bound(program: Program) -> LowerBound:
         times = _joint_times(targets[_passed_exactly(program, first, last)], qd_max * fastest, qdd_max)
         tcp = sum(_tool_part_time(program, k, first, last, accel, scale) for k in range(first, last))
         stretches.append(StretchBound(first, last, float(times.max()), float(tcp), int(np.argmax(times))))
-    return LowerBound(tuple(stretches), float(sum(program.rest_at(k) for k in range(len(targets)))))
+    return LowerBound(tuple(stretches), float(sum(program.rests)))
 
 
 def _passed_exactly(program: Program, first: int, last: int) -> list[int]:

@@ -440,8 +440,9 @@ class _JobReader(Reader):
                       self.get((*path, "xyz")))
         return X
 
-    def waypoints(self, robot: Robot) -> tuple[tuple[JointWaypoint | PoseWaypoint, ...], np.ndarray | None]:
-        """(waypoints, start) in SI units."""
+    def waypoints(self, robot: Robot, signals: dict[str, Signal]) -> tuple[tuple[JointWaypoint | PoseWaypoint, ...],
+                                                                           np.ndarray | None]:
+        """(waypoints, start) in SI units, their actions using the job's ``signals``."""
         angle_scale, length_scale = self.units(robot)
         revolute = np.array([j.is_revolute for j in robot.spec.joints])
         scales = np.where(revolute, angle_scale or 1.0, length_scale or 1.0)
@@ -451,7 +452,6 @@ class _JobReader(Reader):
             self.pose_waypoint(("waypoints", k), robot, length_scale, angle_scale, reach)
             if _is_pose(w) else self.joint_waypoint(("waypoints", k), robot, scales, length_scale)
             for k, w in enumerate(raw))
-        signals = self.signals()
         waypoints = tuple(replace(w, actions=self.actions(("waypoints", k), signals)) if isinstance(raw[k], dict) else w
                           for k, w in enumerate(waypoints))
         self.check_moves(waypoints)
@@ -476,8 +476,8 @@ class _JobReader(Reader):
                 self.fail(("waypoints", k, "zone"), reason, self.get(("waypoints", k, "zone")))
         for k, waypoint in enumerate(waypoints):
             if waypoint.zone > 0.0 and waits(waypoint.actions):
-                self.fail(("waypoints", k, "zone"), "the waypoint's actions wait there, so the motion stops: remove the "
-                          "zone (or move the wait to a waypoint without one)", self.get(("waypoints", k, "zone")))
+                self.fail(("waypoints", k, "zone"), "the waypoint's actions wait there, so the motion stops: remove "
+                          "the zone (or move the wait to a waypoint without one)", self.get(("waypoints", k, "zone")))
 
     def signals(self) -> dict[str, Signal]:
         """``signals: {name: {output: N} or {input: N}}`` (N the controller's number, or null where not known)."""
@@ -691,7 +691,8 @@ class _JobReader(Reader):
         tool = self.tool(robot, length_scale, angle_scale)
         if tool is not None:
             robot = robot_with_tool(robot, tool)
-        waypoints, start = self.waypoints(robot)
+        signals = self.signals()
+        waypoints, start = self.waypoints(robot, signals)
         timing = self.choice(("timing",), TIMING_METHODS + tuple(TIMING_ALIASES), "toppra")
         timing = TIMING_ALIASES.get(timing, timing)
         self.check_rpy_unit()
@@ -726,7 +727,7 @@ class _JobReader(Reader):
             cell=self.cell,
             document=self.document,
             payload=self.payload(length_scale),
-            signals=self.signals(),
+            signals=signals,
             **self.planning(angle_scale),
         )
 

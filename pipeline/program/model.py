@@ -161,6 +161,11 @@ class Program:
         return rest_s(self.actions_at(k))
 
     @property
+    def rests(self) -> tuple[float, ...]:
+        """Per waypoint, how long the motion stands still there for its actions, as timed [s]."""
+        return tuple(self.rest_at(k) for k in range(len(self.moves) + 1))
+
+    @property
     def has_tcp_limits(self) -> bool:
         """Whether the TCP is limited somewhere: tool moves, or a safety TCP speed limit (the profile then
         carries the TCP's samples)."""

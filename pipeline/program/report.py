@@ -43,7 +43,7 @@ def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = 
     total) [s]."""
     bound = lower_bound(program) if bound is None else bound
     passages = list(profile.details.passages_s)
-    rests = list(profile.details.rests_s) or [0.0] * len(passages)
+    rests = program.rests
     labels = binding_labels(profile)
     narrowed = {s["last"]: s["blends_narrowed"] for s in profile.details.stretches}
     # Each move's samples (t0 <= t <= t1) and the last waypoint of its stretch, found by bisection.

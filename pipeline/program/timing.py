@@ -122,8 +122,7 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
         pieces.append(profile)
         if program.rest_at(last) > 0.0:
             pieces.append(rest_profile(profile, -1, program.rest_at(last), program.dt))
-    rests = tuple(program.rest_at(k) for k in range(len(program.moves) + 1))
-    joined = join_profiles(pieces, ProgramDetails(tuple(stretches), (0.0, *passages), rests))
+    joined = join_profiles(pieces, ProgramDetails(tuple(stretches), (0.0, *passages), program.rests))
     schedule = stopped_schedules(pieces)
     return joined if schedule is None else dataclasses.replace(joined, schedule=schedule)
 

@@ -72,11 +72,10 @@ class ProgramCheck:
         return out
 
     def to_dict(self) -> dict:
-        clearance = self.certificate.limits.clearance
         return {"passed": self.passed, "problems": self.problems(), "cycle_s": self.timing.duration_s,
-                "rests_s": float(sum(self.program.rest_at(k) for k in range(len(self.program.moves) + 1))),
+                "rests_s": float(sum(self.program.rests)),
                 "moves": self.move_times(), "limits": self.certificate.limits.to_dict(),
-                "min_clearance_m": None if clearance is None else self.certificate.min_clearance_m,
+                "min_clearance_m": self.certificate.min_clearance_m,
                 "stops": [m.move.source for m in self.path.moves if m.stops]}
 
     def lines(self) -> list[str]:
