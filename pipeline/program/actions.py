@@ -8,9 +8,13 @@ A waypoint's actions run in order once the robot reaches it (waypoint 0's before
 * ``wait_input``: the program waits until a digital input has a value (``{wait_input: part_present, value: on,
   timeout: 2.0}``); how long is not known before the robot runs: it is timed as 0 s, at most ``timeout`` [s] (after
   which the controller stops the program with an error; None: it waits for ever);
-* ``comment``: a line of text in the program (``{comment: close the gripper}``).
+* ``comment``: a line of text in the program (``{comment: close the gripper}``);
+* ``grip``: from here on the robot carries the part (``{grip: box}``, a part of the job's ``parts`` table:
+  ``pipeline.program.payload``); ``release``: it no longer does (``{release: box}``). The controller's load data
+  changes there (RAPID ``GripLoad``, KRL ``$LOAD``, FANUC ``PAYLOAD[n]``, URScript ``set_target_payload``).
 
-A wait of either kind stops the motion at its waypoint (the profile rests there for the wait's time). Signals are
+A wait of either kind, a grip and a release stop the motion at their waypoint (the profile rests there for the
+wait's time; the load changes at rest). Signals are
 named in the job (``signals: {gripper_close: {output: 1}, part_present: {input: 3}}``): each name maps to a digital
 output or input and its number on the controller (None where the program names it without a number: a RAPID
 module's signals are names configured on the controller, and a numbered language cannot write them).
@@ -22,7 +26,8 @@ import re
 from dataclasses import dataclass
 
 SET, PULSE, WAIT, WAIT_INPUT, COMMENT = "set", "pulse", "wait", "wait_input", "comment"
-ACTION_KINDS = (SET, PULSE, WAIT, WAIT_INPUT, COMMENT)
+GRIP, RELEASE = "grip", "release"
+ACTION_KINDS = (SET, PULSE, WAIT, WAIT_INPUT, COMMENT, GRIP, RELEASE)
 OUTPUT, INPUT = "output", "input"
 #: A signal's name: a letter, then letters, digits or underscores (a RAPID, KRL and URScript identifier).
 SIGNAL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}\Z")
@@ -50,7 +55,7 @@ class Signal:
 class Action:
     """One action (module docstring): ``kind``; ``signal`` (set, pulse, wait_input: the signal's name); ``value``
     (set, wait_input: on is True); ``time_s`` (pulse: its length, wait: its time) [s]; ``timeout_s`` (wait_input,
-    None: none) [s]; ``text`` (comment)."""
+    None: none) [s]; ``text`` (comment); ``part`` (grip, release: the part's name in the job's ``parts``)."""
 
     kind: str
     signal: str | None = None
@@ -58,11 +63,12 @@ class Action:
     time_s: float | None = None
     timeout_s: float | None = None
     text: str | None = None
+    part: str | None = None
 
     @property
-    def is_wait(self) -> bool:
-        """Whether the motion stands still for it."""
-        return self.kind in (WAIT, WAIT_INPUT)
+    def stops_motion(self) -> bool:
+        """Whether the motion stops at its waypoint for it (a wait, or a change of the load)."""
+        return self.kind in (WAIT, WAIT_INPUT, GRIP, RELEASE)
 
     @property
     def rest_s(self) -> float:
@@ -81,6 +87,8 @@ class Action:
         if self.kind == WAIT_INPUT:
             timeout = {} if self.timeout_s is None else {"timeout": self.timeout_s}
             return {WAIT_INPUT: self.signal, "value": _on_off(self.value), **timeout}
+        if self.kind in (GRIP, RELEASE):
+            return {self.kind: self.part}
         return {COMMENT: self.text}
 
     def __str__(self) -> str:
@@ -93,6 +101,8 @@ class Action:
         if self.kind == WAIT_INPUT:
             timeout = "" if self.timeout_s is None else f" (timeout {self.timeout_s:g} s)"
             return f"wait for {self.signal} {_on_off(self.value)}{timeout}"
+        if self.kind in (GRIP, RELEASE):
+            return f"{self.kind} {self.part}"
         return f"comment {self.text!r}"
 
 
@@ -101,9 +111,22 @@ def rest_s(actions: tuple[Action, ...]) -> float:
     return float(sum(a.rest_s for a in actions))
 
 
-def waits(actions: tuple[Action, ...]) -> bool:
+def stops_motion(actions: tuple[Action, ...]) -> bool:
     """Whether a waypoint's ``actions`` stop the motion there."""
-    return any(a.is_wait for a in actions)
+    return any(a.stops_motion for a in actions)
+
+
+def held_after(actions_per_waypoint, k: int) -> tuple[str, ...]:
+    """The parts held once waypoint ``k``'s actions have run (in the order gripped), from no part at waypoint 0's
+    start."""
+    held: list[str] = []
+    for actions in actions_per_waypoint[: k + 1]:
+        for action in actions:
+            if action.kind == GRIP:
+                held.append(action.part)
+            elif action.kind == RELEASE and action.part in held:
+                held.remove(action.part)
+    return tuple(held)
 
 
 def actions_document(actions: tuple[Action, ...]) -> list[dict]:

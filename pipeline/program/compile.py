@@ -30,7 +30,7 @@ from ..model.ik.branches import BranchChoice, branch_change_reason, choose_solut
 from ..model.ik.result import MATCHED_COMPONENTS, make_target, pose_errors
 from ..model.vendors.configuration import format_configuration
 from ..model.vendors.selection import select_solution
-from .actions import waits
+from .actions import stops_motion
 from .job import Job, JointWaypoint
 from .model import JOINT, Move, Program, ToolTrack, WaypointSolution
 from .tool_moves import ToolMoveError, joint_path_along
@@ -68,7 +68,7 @@ def compile_job(job: Job, scene=None) -> Program:
     return Program(job.name, job.robot, Tool.of_job(job), job.cell, limits, job.tcp_accel_max, job.speed_scale, job.timing,
                    job.path, job.dt, tuple(solved), tuple(moves), _stops(job, moves), job.plan, tilt,
                    payload=job.payload, job_name=job.name, actions=tuple(w.actions for w in job.waypoints),
-                   signals=dict(job.signals))
+                   signals=dict(job.signals), parts=dict(job.parts))
 
 
 def with_capped_zones(job: Job, targets: list[np.ndarray]) -> Job:
@@ -98,13 +98,14 @@ def move_speed(job: Job, waypoint) -> float:
 
 
 def _stops(job: Job, moves: list[Move]) -> tuple[int, ...]:
-    """The waypoints where the motion rests: the first, the last, every one whose actions wait, and every one
-    without a zone except between two joint moves that are not planned (a joint path passes through those)."""
+    """The waypoints where the motion rests: the first, the last, every one whose actions wait or change the load,
+    and every one without a zone except between two joint moves that are not planned (a joint path passes through
+    those)."""
     stops = [0]
     for k in range(1, len(moves)):
         before, after = moves[k - 1], moves[k]
         passed = before.kind == JOINT and after.kind == JOINT and job.plan != "collision_free"
-        if (before.zone <= 0.0 and not passed) or waits(job.waypoints[k].actions):
+        if (before.zone <= 0.0 and not passed) or stops_motion(job.waypoints[k].actions):
             stops.append(k)
     return (*stops, len(moves))
 

@@ -37,8 +37,9 @@ from ..files.robot_spec import missing_limit_error, preset_names, resolve_robot_
 from ..files.schema import Document, Reader, document_from_data, field_name, load_document
 from ..files.units import ANGLE_UNITS, LENGTH_UNITS
 from ..model.robot import Robot, load_robot, robot_with_tool
-from .actions import (ACTION_KINDS, COMMENT, INPUT, MAX_ACTION_TIME_S, MAX_COMMENT_CHARS, MAX_SIGNAL_NUMBER, OUTPUT,
-                      PULSE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, waits)
+from .actions import (ACTION_KINDS, COMMENT, GRIP, INPUT, MAX_ACTION_TIME_S, MAX_COMMENT_CHARS, MAX_SIGNAL_NUMBER,
+                      OUTPUT, PULSE, RELEASE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, stops_motion)
+from .payload import MAX_INERTIA_KG_M2, MAX_PAYLOAD_KG, Payload, inertia_matrix, physical_inertia_problem
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png", "rapid", "ls",
            "jbi", "krl", "urscript")
@@ -58,7 +59,7 @@ REACH_SAMPLES = 4096
 _REQUIRED = ("waypoints",)
 _OPTIONAL = ("robot", "description", "angle_unit", "length_unit", "start", "ik", "timing", "path", "speed_scale",
              "dt", "outputs", "allow_branch_change", "tool", "tcp_speed_max", "tcp_accel_max", "singularity", "cell",
-             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit", "payload", "signals")
+             "plan", "planner", "plan_time_budget", "plan_tilt_max", "tcp_speed_limit", "payload", "parts", "signals")
 #: The keys of a pose waypoint besides its pose: what IK must match, the configuration it must have (ours,
 #: a controller's, or both), and how the TCP gets there (move, via point, zone, speed).
 _POSE_EXTRA = ("target", "config", "controller_config", "move", "via", "zone", "speed", "do")
@@ -137,19 +138,6 @@ class PoseWaypoint:
         return self.move != "joint"
 
 
-#: The heaviest payload a job may name [kg] (a guard against a unit slip: the largest industrial arms carry ~2.3 t).
-MAX_PAYLOAD_KG = 5000.0
-
-
-@dataclass(frozen=True, eq=False)
-class Payload:
-    """What the robot carries (tool and part), for the controllers' load data: ``mass`` [kg] and ``com`` (3,) [m]
-    its centre of mass in the flange frame F."""
-
-    mass: float
-    com: np.ndarray
-
-
 @dataclass(frozen=True, eq=False)
 class Job:
     """A validated job in SI units.
@@ -167,8 +155,9 @@ class Job:
     ``robot`` is the robot as its file gives it; with a tool, ``robot``'s end frame is the TCP and every
     pose is a TCP pose); ``tcp_speed_max`` [m/s]: the default speed of tool moves, ``tcp_accel_max``
     [m/s^2]: the TCP's acceleration limit on tool moves, or None (neither limits joint moves);
-    ``payload``: the Payload (mass, centre of mass in the flange frame) or None: not given (controller programs
-    then carry a marked placeholder); ``signals``: the named digital signals the waypoints' actions use (name ->
+    ``payload``: the tool's load (``pipeline.program.payload.Payload``: mass, centre of mass and inertia in the flange
+    frame, source) or None: not given (controller programs then carry a marked placeholder); ``parts``: the parts the
+    waypoints' ``grip`` and ``release`` actions name (name -> Payload); ``signals``: the named digital signals the waypoints' actions use (name ->
     ``pipeline.program.actions.Signal``);
     ``tcp_speed_limit`` [m/s] or None: a TCP speed limit that holds everywhere (a safety-rated reduced
     speed), certified on the whole profile; ``singularity``:
@@ -212,6 +201,7 @@ class Job:
     tcp_speed_limit: float | None = None
     payload: Payload | None = None
     signals: dict = field(default_factory=dict)
+    parts: dict = field(default_factory=dict)
 
     def location(self, path: tuple) -> str:
         """``file:line: field`` of the field at ``path`` (``file: field`` where the line is unknown)."""
@@ -440,9 +430,9 @@ class _JobReader(Reader):
                       self.get((*path, "xyz")))
         return X
 
-    def waypoints(self, robot: Robot, signals: dict[str, Signal]) -> tuple[tuple[JointWaypoint | PoseWaypoint, ...],
-                                                                           np.ndarray | None]:
-        """(waypoints, start) in SI units, their actions using the job's ``signals``."""
+    def waypoints(self, robot: Robot, signals: dict[str, Signal], parts: dict[str, Payload]
+                  ) -> tuple[tuple[JointWaypoint | PoseWaypoint, ...], np.ndarray | None]:
+        """(waypoints, start) in SI units, their actions using the job's ``signals`` and ``parts``."""
         angle_scale, length_scale = self.units(robot)
         revolute = np.array([j.is_revolute for j in robot.spec.joints])
         scales = np.where(revolute, angle_scale or 1.0, length_scale or 1.0)
@@ -452,9 +442,10 @@ class _JobReader(Reader):
             self.pose_waypoint(("waypoints", k), robot, length_scale, angle_scale, reach)
             if _is_pose(w) else self.joint_waypoint(("waypoints", k), robot, scales, length_scale)
             for k, w in enumerate(raw))
-        waypoints = tuple(replace(w, actions=self.actions(("waypoints", k), signals)) if isinstance(raw[k], dict) else w
-                          for k, w in enumerate(waypoints))
+        waypoints = tuple(replace(w, actions=self.actions(("waypoints", k), signals, parts))
+                          if isinstance(raw[k], dict) else w for k, w in enumerate(waypoints))
         self.check_moves(waypoints)
+        self.check_grips(waypoints)
         start = self.joint_values(("start",), robot, scales) if self.has(("start",)) else None
         return waypoints, start
 
@@ -475,9 +466,27 @@ class _JobReader(Reader):
             if waypoints[k].zone > 0.0:
                 self.fail(("waypoints", k, "zone"), reason, self.get(("waypoints", k, "zone")))
         for k, waypoint in enumerate(waypoints):
-            if waypoint.zone > 0.0 and waits(waypoint.actions):
-                self.fail(("waypoints", k, "zone"), "the waypoint's actions wait there, so the motion stops: remove "
-                          "the zone (or move the wait to a waypoint without one)", self.get(("waypoints", k, "zone")))
+            if waypoint.zone > 0.0 and stops_motion(waypoint.actions):
+                self.fail(("waypoints", k, "zone"), "the waypoint's actions wait or change the load there, so the "
+                          "motion stops: remove the zone (or move the action to a waypoint without one)",
+                          self.get(("waypoints", k, "zone")))
+
+    def check_grips(self, waypoints) -> None:
+        """A part is gripped only when not held and released only when held (the program starts holding none)."""
+        held: set[str] = set()
+        for k, waypoint in enumerate(waypoints):
+            for i, action in enumerate(waypoint.actions):
+                path = ("waypoints", k, "do", i, action.kind)
+                if action.kind == GRIP and action.part in held:
+                    self.fail(path, "the robot already holds this part here (gripped earlier, not released)",
+                              action.part)
+                if action.kind == RELEASE and action.part not in held:
+                    self.fail(path, "the robot does not hold this part here (no grip of it before; the program starts "
+                              "holding nothing)", action.part)
+                if action.kind == GRIP:
+                    held.add(action.part)
+                elif action.kind == RELEASE:
+                    held.discard(action.part)
 
     def signals(self) -> dict[str, Signal]:
         """``signals: {name: {output: N} or {input: N}}`` (N the controller's number, or null where not known)."""
@@ -501,23 +510,32 @@ class _JobReader(Reader):
             out[name] = Signal(name, direction, number)
         return out
 
-    def actions(self, path, signals: dict[str, Signal]) -> tuple[Action, ...]:
+    def actions(self, path, signals: dict[str, Signal], parts: dict[str, Payload]) -> tuple[Action, ...]:
         """A waypoint's ``do:`` list (``pipeline.program.actions``) -> its Actions."""
         path = (*path, "do")
         if not self.has(path):
             return ()
-        return tuple(self.action((*path, i), signals) for i in range(len(self.sequence(path, 1, "actions"))))
+        return tuple(self.action((*path, i), signals, parts) for i in range(len(self.sequence(path, 1, "actions"))))
 
-    def action(self, path, signals: dict[str, Signal]) -> Action:
+    def action(self, path, signals: dict[str, Signal], parts: dict[str, Payload]) -> Action:
         entry = self.get(path)
         kinds = [key for key in (entry if isinstance(entry, dict) else ()) if key in ACTION_KINDS]
         if len(kinds) != 1:
             self.fail(path, "must be one action: {set: NAME, value: on}, {pulse: NAME, time: s}, {wait: s}, "
-                      "{wait_input: NAME, value: on, timeout: s} or {comment: TEXT}", entry)
+                      "{wait_input: NAME, value: on, timeout: s}, {comment: TEXT}, {grip: PART} or {release: PART}",
+                      entry)
         kind = kinds[0]
         extra = {SET: ((SET, "value"), ()), PULSE: ((PULSE, "time"), ()), WAIT: ((WAIT,), ()),
-                 WAIT_INPUT: ((WAIT_INPUT, "value"), ("timeout",)), COMMENT: ((COMMENT,), ())}[kind]
+                 WAIT_INPUT: ((WAIT_INPUT, "value"), ("timeout",)), COMMENT: ((COMMENT,), ()),
+                 GRIP: ((GRIP,), ()), RELEASE: ((RELEASE,), ())}[kind]
         self.mapping(path, *extra)
+        if kind in (GRIP, RELEASE):
+            name = self.get((*path, kind))
+            if not isinstance(name, str) or name not in parts:
+                listed = ", ".join(parts) or "none"
+                self.fail((*path, kind), f"names no part of the job's parts: table ({listed}); add it, e.g. parts: "
+                          f"{{{name}: {{mass: 3.0, com: [0, 0, 120]}}}}", name)
+            return Action(kind, part=name)
         if kind == COMMENT:
             text = self.text((*path, COMMENT), max_chars=MAX_COMMENT_CHARS)
             if any(c in text for c in "\r\n\"'") or not text.isprintable():
@@ -692,7 +710,8 @@ class _JobReader(Reader):
         if tool is not None:
             robot = robot_with_tool(robot, tool)
         signals = self.signals()
-        waypoints, start = self.waypoints(robot, signals)
+        parts = self.parts(length_scale)
+        waypoints, start = self.waypoints(robot, signals, parts)
         timing = self.choice(("timing",), TIMING_METHODS + tuple(TIMING_ALIASES), "toppra")
         timing = TIMING_ALIASES.get(timing, timing)
         self.check_rpy_unit()
@@ -726,25 +745,53 @@ class _JobReader(Reader):
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
             cell=self.cell,
             document=self.document,
-            payload=self.payload(length_scale),
+            payload=self.load(("payload",), length_scale, "tool"),
             signals=signals,
+            parts=parts,
             **self.planning(angle_scale),
         )
 
-    def payload(self, length_scale: float | None) -> Payload | None:
-        """``payload: {mass: kg, com: [x, y, z]}`` (com: the centre of mass in the flange frame, length_unit; the
-        flange's origin when absent) -> Payload, or None when absent."""
-        if not self.has(("payload",)):
+    def parts(self, length_scale: float | None) -> dict[str, Payload]:
+        """``parts: {name: {mass, com, inertia, source}}``: what the ``grip`` actions pick up (``load``)."""
+        if not self.has(("parts",)):
+            return {}
+        table = self.get(("parts",))
+        if not isinstance(table, dict) or not table:
+            self.fail(("parts",), "must map part names to {mass: kg, com: [x, y, z], inertia: [...], source: text}",
+                      table)
+        for name in table:
+            if not isinstance(name, str) or not SIGNAL_NAME.match(name):
+                self.fail(("parts", name), "a part's name is a letter, then letters, digits or underscores (at most "
+                          "32)", name)
+        return {name: self.load(("parts", name), length_scale, name) for name in table}
+
+    def load(self, path, length_scale: float | None, name: str) -> Payload | None:
+        """A load at ``path`` (``pipeline.program.payload``): ``{mass: kg, com: [x, y, z], inertia: [Ixx, Iyy, Izz,
+        Ixy, Ixz, Iyz], source: text}``; com (length_unit) the centre of mass in the flange frame (the flange's origin
+        when absent), inertia [kg m^2 whatever length_unit] about it in the flange's axes (absent: a point mass),
+        source where the numbers come from. None when absent."""
+        if not self.has(path):
             return None
-        self.mapping(("payload",), ("mass",), ("com",))
-        mass = self.number(("payload", "mass"), low=0.0, high=MAX_PAYLOAD_KG, low_open=True, unit="kg")
+        self.mapping(path, ("mass",), ("com", "inertia", "source"))
+        mass = self.number((*path, "mass"), low=0.0, high=MAX_PAYLOAD_KG, low_open=True, unit="kg")
         com = np.zeros(3)
-        if self.has(("payload", "com")):
+        if self.has((*path, "com")):
             if length_scale is None:
-                self.fail(("length_unit",), "required because payload gives com (length_unit: m or mm)",
+                self.fail(("length_unit",), f"required because {field_name(path)} gives com (length_unit: m or mm)",
                           kind=MissingFieldError)
-            com = self.vector(("payload", "com"), 3, "x, y, z of the centre of mass in the flange frame") * length_scale
-        return Payload(mass, com)
+            com = self.vector((*path, "com"), 3, "x, y, z of the centre of mass in the flange frame") * length_scale
+        inertia = np.zeros((3, 3))
+        if self.has((*path, "inertia")):
+            six = self.vector((*path, "inertia"), 6, "Ixx, Iyy, Izz, Ixy, Ixz, Iyz [kg m^2] about the centre of mass")
+            if np.max(np.abs(six)) > MAX_INERTIA_KG_M2:
+                self.fail((*path, "inertia"), f"is in kg m^2, at most {MAX_INERTIA_KG_M2:g}: are these kg mm^2 "
+                          "(divide by 1e6)?", self.get((*path, "inertia")))
+            inertia = inertia_matrix(six)
+            problem = physical_inertia_problem(inertia)
+            if problem is not None:
+                self.fail((*path, "inertia"), f"is no body's inertia: {problem}", self.get((*path, "inertia")))
+        source = self.text((*path, "source"), max_chars=500) if self.has((*path, "source")) else ""
+        return Payload(mass, com, inertia, source, name)
 
     def planning(self, angle_scale: float | None) -> dict:
         """``plan``, ``planner``, ``plan_time_budget`` and ``plan_tilt_max`` (in the file's angle unit, at

@@ -24,8 +24,8 @@ from ..cell.tilt import TiltLimit
 from ..cell.tool import Tool
 from ..files.robot_spec import Limits
 from ..model.robot import Robot
-from .actions import Action, Signal, actions_document, rest_s, signals_document
-from .job import Payload
+from .actions import Action, Signal, actions_document, held_after, rest_s, signals_document
+from .payload import Payload, combined
 from .tool_moves import ToolJointPath
 
 JOINT, LINEAR, CIRCULAR = "joint", "linear", "circular"
@@ -125,8 +125,8 @@ class Program:
     TCP speed limit), ``tcp_accel_max`` [m/s^2] on tool moves (None: not limited), ``speed_scale``,
     ``timing`` method, ``path`` shape, ``dt`` [s], ``waypoints`` (how each was solved), ``moves``,
     ``stops`` (waypoint indices where the motion rests, first and last included), ``plan`` (the job's),
-    ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none), ``payload`` the job's
-    Payload (None: not given), ``job_name`` the job it was compiled from (``name`` may be renamed for a controller;
+    ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none), ``payload`` the tool's load
+    (``pipeline.program.payload.Payload``; None: not given), ``parts`` the parts its grip and release actions name, ``job_name`` the job it was compiled from (``name`` may be renamed for a controller;
     every controller program records the job: ``pipeline.files.atomic.job_mark``); ``actions``: per waypoint what
     the controller does once there (``pipeline.program.actions``; () or empty tuples: nothing) and ``signals`` the
     named signals they use."""
@@ -151,6 +151,7 @@ class Program:
     job_name: str = ""
     actions: tuple[tuple[Action, ...], ...] = ()
     signals: dict[str, Signal] = field(default_factory=dict)
+    parts: dict[str, Payload] = field(default_factory=dict)
 
     def actions_at(self, k: int) -> tuple[Action, ...]:
         """The actions at waypoint ``k`` (once the robot is there; waypoint 0's before the first move)."""
@@ -164,6 +165,16 @@ class Program:
     def rests(self) -> tuple[float, ...]:
         """Per waypoint, how long the motion stands still there for its actions, as timed [s]."""
         return tuple(self.rest_at(k) for k in range(len(self.moves) + 1))
+
+    def load_after(self, k: int) -> Payload | None:
+        """What the flange carries once waypoint ``k``'s actions have run: the tool's load and the parts held, as one
+        load (None: nothing known to be carried)."""
+        return combined([self.payload] + [self.parts[name] for name in held_after(self.actions, k)])
+
+    @property
+    def loads(self) -> tuple[Payload | None, ...]:
+        """Per move, what the flange carries on it (``load_after`` the waypoint it leaves)."""
+        return tuple(self.load_after(move.end - 1) for move in self.moves)
 
     @property
     def has_tcp_limits(self) -> bool:
@@ -202,7 +213,9 @@ class Program:
                 "plan_tilt_max_deg": None if self.tilt is None else float(np.degrees(self.tilt.max_rad)),
                 "waypoints": [w.to_dict() for w in self.waypoints], "moves": [m.to_dict() for m in self.moves],
                 "actions": {str(k): actions_document(a) for k, a in enumerate(self.actions) if a},
-                "signals": signals_document(self.signals)}
+                "signals": signals_document(self.signals),
+                "payload": None if self.payload is None else self.payload.to_document(1.0),
+                "parts": {name: part.to_document(1.0) for name, part in self.parts.items()}}
 
 
 def program_arrays(program: Program) -> dict[str, np.ndarray]:

@@ -8,7 +8,9 @@ whole profile is certified once (``pipeline.timing.profile.certify``: joint limi
 cell the clearance). When the clearance fails inside a blend, that blend is narrowed and its stretch
 timed again (at most MAX_REFINEMENTS times); a failure elsewhere is a ClearanceError with the job time.
 ``ruckig`` (waypoint to waypoint, off the path) times each stretch through its targets and planned
-vertices.
+vertices. When the robot's limits bound joint torques, each stretch's torques (Drake's inverse dynamics) are those
+with what the flange carries on it (the tool's load and the parts held: ``Program.load_after``), and a rest holds
+the torque with the load after its waypoint's actions (a grip or a release happens at rest).
 """
 
 from __future__ import annotations
@@ -41,12 +43,40 @@ class ProgramDetails(TimingDetails):
     back end's ``timing`` details and the blends narrowed for the limits or the clearance; ``passages_s``:
     the time [s] at which the motion passes (or comes to rest at) each waypoint; ``rests_s``: per waypoint how long
     the motion rests there for its actions' waits [s] (it leaves at passage + rest); ``tilt``: the tilt certificate
-    of the planned moves (``pipeline.cell.tilt.TiltReport.to_dict``; None without a tilt limit)."""
+    of the planned moves (``pipeline.cell.tilt.TiltReport.to_dict``; None without a tilt limit); ``loads_s``: what the
+    flange carries from ``from_s`` [s] on (``load`` its name, None: nothing given, and ``mass_kg``), one entry per
+    stretch and rest; a sample at a piece's first time belongs to the piece before it (its torques are that one's)."""
 
     stretches: tuple[dict, ...]
     passages_s: tuple[float, ...]
     rests_s: tuple[float, ...] = ()
     tilt: dict | None = None
+    loads_s: tuple[dict, ...] = ()
+
+
+class CarriedLoads:
+    """The inverse dynamics of a program's robot with what its flange carries after each waypoint
+    (``Program.load_after``), or nothing to compute when the limits bound no torque."""
+
+    def __init__(self, program: Program):
+        self.program = program
+        self.drake = None
+        if program.limits.tau_max is not None:
+            from ..model.chain.drake_model import build_drake_robot
+
+            self.drake = build_drake_robot(program.robot.spec)
+
+    def after(self, k: int):
+        """What ``pipeline.timing.time_path`` takes as ``drake`` for motion leaving waypoint ``k`` (None: no torques)."""
+        return None if self.drake is None else self.drake.carrying(self.program.load_after(k))
+
+    def held_torque(self, q: np.ndarray, k: int) -> np.ndarray | None:
+        """(dof,) the torque [N m or N] that holds the robot at rest at ``q`` once waypoint ``k``'s actions have run
+        (None: no torques)."""
+        if self.drake is None:
+            return None
+        zero = np.zeros_like(q)
+        return self.drake.inverse_dynamics(q, zero, zero, self.program.load_after(k))[0]
 
 
 def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SAMPLES) -> Profile:
@@ -54,9 +84,10 @@ def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SA
     profile fails its certificate, ClearanceError (with the job time) when it comes too close."""
     paths = [None if program.timing == "ruckig" else StretchPath(program, first, last, scene)
              for first, last in program.stretches()]
-    profiles = [_time_stretch(program, path, k, max_samples) for k, path in enumerate(paths)]
+    loads = CarriedLoads(program)
+    profiles = [_time_stretch(program, path, k, max_samples, loads) for k, path in enumerate(paths)]
     for _ in range(MAX_REFINEMENTS + 1):
-        joined = _joined(program, paths, profiles)
+        joined = _joined(program, paths, profiles, loads)
         certificate = certify(joined, scene=scene)
         clearance = certificate.clearance
         if clearance is None or clearance.passed:
@@ -68,7 +99,7 @@ def time_program(program: Program, scene=None, max_samples: int = DEFAULT_MAX_SA
             raise ClearanceError(clearance, joined, hint, first, last)
         paths[k].narrow(blend)
         paths[k].rebuild()
-        profiles[k] = _time_stretch(program, paths[k], k, max_samples)
+        profiles[k] = _time_stretch(program, paths[k], k, max_samples, loads)
     else:
         raise ClearanceError(clearance, joined, "", *program.stretches()[k])
     if not certificate.passed:
@@ -89,12 +120,13 @@ def _tilt_certified(program: Program, profile: Profile) -> Profile:
     return dataclasses.replace(profile, details=dataclasses.replace(profile.details, tilt=report.to_dict()))
 
 
-def _time_stretch(program: Program, path: StretchPath | None, k: int, max_samples: int) -> Profile:
-    """Stretch k timed from rest to rest (uncertified)."""
+def _time_stretch(program: Program, path: StretchPath | None, k: int, max_samples: int,
+                  loads: CarriedLoads) -> Profile:
+    """Stretch k timed from rest to rest (uncertified), with what the flange carries on it."""
+    first, last = program.stretches()[k]
     common = {"method": program.timing, "speed_scale": program.speed_scale, "limits": program.limits,
-              "dt": program.dt, "max_samples": max_samples}
+              "dt": program.dt, "max_samples": max_samples, "drake": loads.after(first)}
     if path is None:
-        first, last = program.stretches()[k]
         vertices = [program.targets[first]]
         for move in program.moves[first: last]:
             vertices += list(move.planned.waypoints[1:]) if move.planned is not None else [move.target]
@@ -103,13 +135,15 @@ def _time_stretch(program: Program, path: StretchPath | None, k: int, max_sample
     return time_path(program.robot, path.path, tcp=tcp, schedule=path.schedule, **common)
 
 
-def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
+def _joined(program: Program, paths: list, profiles: list[Profile], loads: CarriedLoads) -> Profile:
     """The stretches' profiles one after the other, each stop held for its actions' waits (``rest_profile``), with
-    their schedules, the passage times and the rests."""
+    their schedules, the passage times, the rests and the load each stretch carries."""
     starts = _stretch_starts(program, profiles)
-    passages, stretches, pieces = [], [], []
+    passages, stretches, pieces, carried = [], [], [], []
     if program.rest_at(0) > 0.0:
-        pieces.append(rest_profile(profiles[0], 0, program.rest_at(0), program.dt))
+        pieces.append(rest_profile(profiles[0], 0, program.rest_at(0), program.dt,
+                                   loads.held_torque(profiles[0].q[0], 0)))
+        carried.append(program.load_after(0))
     for path, profile, offset, (first, last) in zip(paths, profiles, starts, program.stretches()):
         if path is None:
             times = [offset + t for t in _ruckig_passages(program, first, last, profile)]
@@ -120,9 +154,15 @@ def _joined(program: Program, paths: list, profiles: list[Profile]) -> Profile:
                           "timing": profile.details.to_dict() if profile.details else None,
                           "blends_narrowed": 0 if path is None else sum(b.narrowed for b in path.blends)})
         pieces.append(profile)
+        carried.append(program.load_after(first))
         if program.rest_at(last) > 0.0:
-            pieces.append(rest_profile(profile, -1, program.rest_at(last), program.dt))
-    joined = join_profiles(pieces, ProgramDetails(tuple(stretches), (0.0, *passages), program.rests))
+            pieces.append(rest_profile(profile, -1, program.rest_at(last), program.dt,
+                                       loads.held_torque(profile.q[-1], last)))
+            carried.append(program.load_after(last))
+    starts_s = np.cumsum([0.0] + [p.duration for p in pieces[:-1]])
+    loads_s = tuple({"from_s": float(t), "load": None if load is None else load.name,
+                     "mass_kg": 0.0 if load is None else load.mass} for t, load in zip(starts_s, carried))
+    joined = join_profiles(pieces, ProgramDetails(tuple(stretches), (0.0, *passages), program.rests, loads_s=loads_s))
     schedule = stopped_schedules(pieces)
     return joined if schedule is None else dataclasses.replace(joined, schedule=schedule)
 
@@ -134,9 +174,10 @@ def _stretch_starts(program: Program, profiles: list[Profile]) -> np.ndarray:
     return np.cumsum([rests[0]] + [p.duration + rest for p, rest in zip(profiles[:-1], rests[1:])])
 
 
-def rest_profile(profile: Profile, sample: int, duration: float, dt: float) -> Profile:
+def rest_profile(profile: Profile, sample: int, duration: float, dt: float, tau: np.ndarray | None = None) -> Profile:
     """The robot at rest for ``duration`` [s] where ``profile`` is at its ``sample`` (0 or -1: a stop), sampled
-    about every ``dt`` [s], under the limits the profile has there."""
+    about every ``dt`` [s], under the limits the profile has there; ``tau`` (dof,) [N m or N] the torque holding it
+    (None: the profile's at that sample)."""
     n = max(2, int(np.ceil(duration / dt)) + 1)
     t = np.linspace(0.0, duration, n)
 
@@ -150,8 +191,9 @@ def rest_profile(profile: Profile, sample: int, duration: float, dt: float) -> P
         index = 0 if sample == 0 else len(profile.schedule.bounds) - 2
         schedule = LimitSchedule(np.array([0.0, duration]), *(values[index: index + 1] for values in (
             profile.schedule.joint_speed, profile.schedule.tcp_speed, profile.schedule.tcp_accel)))
-    return dataclasses.replace(profile, t=t, q=held(profile.q), qd=zeros, qdd=zeros, qddd=zeros.copy(),
-                               tau=held(profile.tau), tcp=tcp, schedule=schedule, details=None, certificate=None)
+    torque = held(profile.tau) if tau is None else np.repeat(tau[None, :], n, axis=0)
+    return dataclasses.replace(profile, t=t, q=held(profile.q), qd=zeros, qdd=zeros, qddd=zeros.copy(), tau=torque,
+                               tcp=tcp, schedule=schedule, details=None, certificate=None)
 
 
 def stopped_schedules(profiles: list[Profile]) -> LimitSchedule | None:

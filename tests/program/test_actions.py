@@ -131,7 +131,7 @@ def test_bad_actions_name_the_field(action, problem, field):
 def test_a_wait_where_the_waypoint_has_a_zone_is_refused():
     document = gripper_document()
     document["waypoints"][3]["do"] = [{"wait": 0.1}]          # waypoint 3 has a 60 mm zone
-    with pytest.raises(JobFileError, match="actions wait there, so the motion stops: remove the zone"):
+    with pytest.raises(JobFileError, match="actions wait or change the load there, so the motion stops: remove the zone"):
         parse_job(document, "job.yaml", "job")
 
 

@@ -37,6 +37,8 @@ from .kinematics import DhKinematics
 
 BASE_FRAME = "base"
 END_FRAME = "end"
+#: The body welded to the end frame that stands for what the robot carries (``DrakeRobot.inverse_dynamics``).
+PAYLOAD_BODY = "payload"
 
 #: Placeholder mass properties for links whose file gives none: a 1 kg solid sphere of radius
 #: 0.05 m centred on the link frame origin. Kinematics never depends on it; dynamics would.
@@ -284,14 +286,19 @@ def angular_first_to_linear_first(J_wv: np.ndarray) -> np.ndarray:
 
 
 class DrakeRobot:
-    """A Drake plant built from a RobotSpec, with its context: FK and Jacobian of the end frame."""
+    """A Drake plant built from a RobotSpec, with its context: FK and Jacobian of the end frame, and inverse
+    dynamics with a payload (a body ``payload`` welded to the end frame, massless until a payload is given)."""
 
     def __init__(self, spec: RobotSpec):
         self.spec = spec
-        self.plant = build_plant(spec)
+        self.plant = MultibodyPlant(time_step=0.0)
+        add_robot(self.plant, spec)
+        self.end_frame = self.plant.GetFrameByName(END_FRAME)
+        self.payload_body = self.plant.AddRigidBody(PAYLOAD_BODY, SpatialInertia.Zero())
+        self.plant.WeldFrames(self.end_frame, self.payload_body.body_frame())
+        self.plant.Finalize()
         self.context = self.plant.CreateDefaultContext()
         self.base_frame = self.plant.GetFrameByName(BASE_FRAME)
-        self.end_frame = self.plant.GetFrameByName(END_FRAME)
         self.dof = self.plant.num_positions()
 
     def set_positions(self, q) -> None:
@@ -311,10 +318,23 @@ class DrakeRobot:
         )
         return angular_first_to_linear_first(J_wv)
 
-    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
-        """Joint torques [N m or N] for (N, dof) or (dof,) positions, velocities, accelerations
-        (gravity -9.81 m/s^2 along base z included)."""
+    def set_payload(self, payload) -> None:
+        """Make the payload body ``payload`` (``pipeline.program.payload.Payload``: mass [kg], centre of mass [m] and
+        inertia [kg m^2] in the end frame; None: nothing carried)."""
+        if payload is None:
+            inertia = SpatialInertia.Zero()
+        else:
+            I = payload.inertia
+            rotational = RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])
+            inertia = SpatialInertia.MakeFromCentralInertia(payload.mass, np.asarray(payload.com, dtype=float),
+                                                            rotational)
+        self.payload_body.SetSpatialInertiaInBodyFrame(self.context, inertia)
+
+    def inverse_dynamics(self, q, qd, qdd, payload=None) -> np.ndarray:
+        """Joint torques [N m or N] for (N, dof) or (dof,) positions, velocities, accelerations (gravity -9.81
+        m/s^2 along base z included), the end frame carrying ``payload`` (``set_payload``; None: nothing)."""
         q, qd, qdd = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q, qd, qdd))
+        self.set_payload(payload)
         forces = MultibodyForces(self.plant)
         tau = np.empty_like(q)
         for k in range(len(q)):
@@ -325,8 +345,24 @@ class DrakeRobot:
                       - self.plant.CalcGravityGeneralizedForces(self.context))
         return tau
 
+    def carrying(self, payload) -> "CarriedDynamics":
+        """This robot's inverse dynamics with ``payload`` on its end frame (what ``pipeline.timing`` calls)."""
+        return CarriedDynamics(self, payload)
+
     def __repr__(self) -> str:
         return f"DrakeRobot({self.spec.name!r}, bodies={self.plant.num_bodies()}, dof={self.dof})"
+
+
+@dataclass(frozen=True)
+class CarriedDynamics:
+    """A DrakeRobot's inverse dynamics with one payload (None: nothing carried)."""
+
+    drake: DrakeRobot
+    payload: object
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """Joint torques [N m or N] (``DrakeRobot.inverse_dynamics``) with this payload."""
+        return self.drake.inverse_dynamics(q, qd, qdd, self.payload)
 
 
 def build_drake_robot(spec: RobotSpec) -> DrakeRobot:

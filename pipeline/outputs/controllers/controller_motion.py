@@ -92,7 +92,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...program.model import CIRCULAR, JOINT, LINEAR, Program
-from ...program.timing import join_profiles, rest_profile, stopped_schedules
+from ...program.timing import CarriedLoads, join_profiles, rest_profile, stopped_schedules
 from ...program.tool_moves import joint_path_along
 from ...program.tool_path import ToolMove, ToolPath
 from ...timing import time_path
@@ -544,6 +544,7 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
     profiles, passages, stretches = [], [], []
     offset = 0.0
     last_of = {m.move.source: m.index for m in path.moves}        # a waypoint's last written move
+    loads = CarriedLoads(program)
     for stretch in path.stretches:
         if stretch.path is None:            # no motion: the stretch takes no time
             passages += [offset] * len(stretch.moves)
@@ -552,10 +553,13 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
         speeds = stretch.speeds.copy()
         speeds[:, 2] = np.where(speeds[:, 2] < 0.0, accel, speeds[:, 2])
         schedule = LimitSchedule(stretch.bounds, *speeds.T)
+        leaving = next((path.moves[i].move.source - 1 for i in stretch.moves if path.moves[i].move.source), 0)
         profile = time_path(robot, stretch.path, method=method, speed_scale=program.speed_scale,
-                            limits=program.limits, dt=program.dt, tcp=tcp, schedule=schedule)
+                            limits=program.limits, dt=program.dt, tcp=tcp, schedule=schedule,
+                            drake=loads.after(leaving))
         if not profiles and program.rest_at(0) > 0.0:       # waypoint 0's waits, before the first move
-            profiles.append(rest_profile(profile, 0, program.rest_at(0), program.dt))
+            profiles.append(rest_profile(profile, 0, program.rest_at(0), program.dt,
+                                         loads.held_torque(profile.q[0], 0)))
             offset += program.rest_at(0)
         bound_times = profile.schedule.bounds
         # passages sit on schedule bounds: their times are exact
@@ -566,7 +570,8 @@ def time_written(program: Program, path: ControllerPath, method: str | None = No
         offset += profile.duration
         source = path.moves[stretch.moves[-1]].move.source
         if source is not None and last_of[source] == stretch.moves[-1] and program.rest_at(source) > 0.0:
-            profiles.append(rest_profile(profile, -1, program.rest_at(source), program.dt))
+            profiles.append(rest_profile(profile, -1, program.rest_at(source), program.dt,
+                                         loads.held_torque(profile.q[-1], source)))
             offset += program.rest_at(source)
     details = WrittenDetails(tuple(stretches), tuple(passages))
     joined = join_profiles(profiles, details)
