@@ -130,12 +130,28 @@ class ControllerSection:
     elbow_up: tuple[float, ...]
 
 
+#: Gravity for the payload diagram's static moments [m/s^2] (the makers' kgf·m to N·m).
+STANDARD_GRAVITY = 9.80665
+
+
+@dataclass(frozen=True, eq=False)
+class PayloadLimits:
+    """A robot file's ``payload_limits``: the maker's payload diagram. ``rated_kg`` the rated payload [kg] (None: not
+    given); ``wrist``: joint index -> (allowable static moment [N m] or None, allowable inertia [kg m^2] or None) about
+    that joint's axis; ``source`` where the numbers come from (pipeline.model.payload_limits checks a load)."""
+
+    rated_kg: float | None
+    wrist: dict[int, tuple[float | None, float | None]]
+    source: str
+
+
 @dataclass(frozen=True, eq=False)
 class RobotSpec:
     """A validated robot description in SI units.
 
     ``X_BaseD0``: pose of DH frame 0 in the robot base frame; ``X_DnE``: pose of the end frame in
     the last DH frame (the tool). Both 4x4 [m]. ``controller``: the file's controller section (None: none).
+    ``payload_limits``: the maker's payload diagram (None: not given).
     """
 
     name: str
@@ -148,6 +164,7 @@ class RobotSpec:
     angle_unit: str
     provenance: Any = None
     controller: ControllerSection | None = None
+    payload_limits: PayloadLimits | None = None
 
     @property
     def dof(self) -> int:
@@ -221,7 +238,7 @@ MAX_RADIUS_M = 2.0            # a link radius [m]: thicker is mm written under m
 MIN_SIZE_M = 1e-6             # a link radius, a cell shape's size [m]: thinner is no shape (0 aborts Drake)
 
 _TOP_REQUIRED = ("name", "convention", "length_unit", "angle_unit", "joints")
-_TOP_OPTIONAL = ("tool", "base", "controller", "provenance", "description", "assumptions", "notes")
+_TOP_OPTIONAL = ("tool", "base", "controller", "provenance", "description", "assumptions", "notes", "payload_limits")
 _CONTROLLER_REQUIRED = ("maker",)
 _CONTROLLER_OPTIONAL = ("axes", "coupling", "base", "flange", "elbow_up")
 #: Required on every row but a continuous joint's, which must not give them.
@@ -394,6 +411,35 @@ class _RobotReader(Reader):
                 self.angle((key, "rpy", i))
         return X
 
+    def payload_limits(self, names: list[str]) -> PayloadLimits | None:
+        """The optional ``payload_limits: {rated: kg, wrist: {JOINT: {moment: N m, inertia: kg m^2}}, source: text}``
+        (the maker's payload diagram: models/README.md, "Payload limits"); the wrist entries name the last three
+        joints."""
+        path = ("payload_limits",)
+        if not self.has(path):
+            return None
+        self.mapping(path, ("source",), ("rated", "wrist"))
+        source = self.text((*path, "source"), max_chars=1000)
+        rated = self.number((*path, "rated"), low=0.0, high=MAX_MASS_KG, low_open=True, unit="kg") \
+            if self.has((*path, "rated")) else None
+        wrist = {}
+        if self.has((*path, "wrist")):
+            table = self.get((*path, "wrist"))
+            if not isinstance(table, dict) or not table:
+                self.fail((*path, "wrist"), "must map wrist joint names to {moment: N m, inertia: kg m^2}", table)
+            for name in table:
+                entry = (*path, "wrist", name)
+                if name not in names[-3:]:
+                    self.fail(entry, f"names no wrist joint (the last three: {', '.join(map(str, names[-3:]))})", name)
+                self.mapping(entry, (), ("moment", "inertia"))
+                moment, inertia = (self.number((*entry, key), low=0.0, high=MAX_RATE, low_open=True,
+                                               unit=unit) if self.has((*entry, key)) else None
+                                   for key, unit in (("moment", "N m"), ("inertia", "kg m^2")))
+                if moment is None and inertia is None:
+                    self.fail(entry, "gives neither moment [N m] nor inertia [kg m^2]", table[name])
+                wrist[names.index(name)] = (moment, inertia)
+        return PayloadLimits(rated, wrist, source)
+
     def controller(self, dof: int) -> ControllerSection | None:
         """The optional ``controller`` section (models/README.md, "The controller section") in SI units."""
         path = ("controller",)
@@ -460,6 +506,7 @@ class _RobotReader(Reader):
             angle_unit=self.angle_unit,
             provenance=self.get(("provenance",)),
             controller=self.controller(len(joints)),
+            payload_limits=self.payload_limits(names),
         )
         if spec.reach_bound < MIN_REACH_M:
             self.fail(("joints",), f"the arm reaches at most {spec.reach_bound * 1e3:.3g} mm from its base: "

@@ -104,8 +104,23 @@ def robot_document(spec: RobotSpec, length_unit: str = "mm", angle_unit: str = "
             document[key] = pose
     if spec.controller is not None:
         document["controller"] = controller_document(spec.controller, units)
+    if spec.payload_limits is not None:
+        document["payload_limits"] = payload_limits_document(spec)
     document["joints"] = [_joint(joint, units) for joint in spec.joints]
     return document
+
+
+def payload_limits_document(spec: RobotSpec) -> dict:
+    """The ``payload_limits`` section of a robot file (kg, N m, kg m^2 whatever the file's units)."""
+    limits = spec.payload_limits
+    out = {"source": limits.source}
+    if limits.rated_kg is not None:
+        out["rated"] = limits.rated_kg
+    if limits.wrist:
+        out["wrist"] = {spec.joints[i].name: {key: value for key, value in (("moment", moment), ("inertia", inertia))
+                                              if value is not None}
+                        for i, (moment, inertia) in limits.wrist.items()}
+    return out
 
 
 def controller_document(section: ControllerSection, units: _Units) -> dict:

@@ -38,8 +38,10 @@ from ..files.schema import Document, Reader, document_from_data, field_name, loa
 from ..files.units import ANGLE_UNITS, LENGTH_UNITS
 from ..model.robot import Robot, load_robot, robot_with_tool
 from .actions import (ACTION_KINDS, COMMENT, GRIP, INPUT, MAX_ACTION_TIME_S, MAX_COMMENT_CHARS, MAX_SIGNAL_NUMBER,
-                      OUTPUT, PULSE, RELEASE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, stops_motion)
-from .payload import MAX_INERTIA_KG_M2, MAX_PAYLOAD_KG, Payload, inertia_matrix, physical_inertia_problem
+                      OUTPUT, PULSE, RELEASE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, held_after,
+                      stops_motion)
+from ..model.payload_limits import payload_problems
+from .payload import MAX_INERTIA_KG_M2, MAX_PAYLOAD_KG, Payload, combined, inertia_matrix, physical_inertia_problem
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png", "rapid", "ls",
            "jbi", "krl", "urscript")
@@ -471,6 +473,23 @@ class _JobReader(Reader):
                           "motion stops: remove the zone (or move the action to a waypoint without one)",
                           self.get(("waypoints", k, "zone")))
 
+    def check_loads(self, spec, payload: Payload | None, parts: dict[str, Payload], waypoints) -> None:
+        """Every load the program carries (the tool's, and with each set of parts it holds) within the robot file's
+        payload diagram (``pipeline.model.payload_limits``); the error names the part gripped last (or the payload),
+        the axis, the value and the limit."""
+        carried = {(): payload} if payload is not None else {}
+        for k in range(len(waypoints)):
+            held = held_after([w.actions for w in waypoints], k)
+            if held and held not in carried:
+                carried[held] = combined([payload] + [parts[name] for name in held])
+        for held, load in carried.items():
+            problems = payload_problems(spec, load)
+            if problems:
+                what = " + ".join(["tool"] * (payload is not None) + list(held))
+                self.fail(("parts", held[-1]) if held else ("payload",),
+                          f"{what} ({load.mass:.3g} kg) is beyond the {spec.name}'s payload diagram: "
+                          f"{'; '.join(problems)} (payload_limits of {Path(spec.source).name})")
+
     def check_grips(self, waypoints) -> None:
         """A part is gripped only when not held and released only when held (the program starts holding none)."""
         held: set[str] = set()
@@ -707,11 +726,14 @@ class _JobReader(Reader):
     def job(self, robot: Robot, name: str, inputs_sha256: str) -> Job:
         angle_scale, length_scale = self.units(robot)
         tool = self.tool(robot, length_scale, angle_scale)
+        flange_spec = robot.spec
         if tool is not None:
             robot = robot_with_tool(robot, tool)
         signals = self.signals()
         parts = self.parts(length_scale)
+        payload = self.load(("payload",), length_scale, "tool")
         waypoints, start = self.waypoints(robot, signals, parts)
+        self.check_loads(flange_spec, payload, parts, waypoints)
         timing = self.choice(("timing",), TIMING_METHODS + tuple(TIMING_ALIASES), "toppra")
         timing = TIMING_ALIASES.get(timing, timing)
         self.check_rpy_unit()
@@ -745,7 +767,7 @@ class _JobReader(Reader):
             singularity=self.choice(("singularity",), SINGULARITY_POLICIES, "stop"),
             cell=self.cell,
             document=self.document,
-            payload=self.load(("payload",), length_scale, "tool"),
+            payload=payload,
             signals=signals,
             parts=parts,
             **self.planning(angle_scale),

@@ -14,6 +14,8 @@ stretch runs from one stop to the next and is timed as one path.
 
 from __future__ import annotations
 
+import dataclasses
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -165,6 +167,11 @@ class Program:
     def rests(self) -> tuple[float, ...]:
         """Per waypoint, how long the motion stands still there for its actions, as timed [s]."""
         return tuple(self.rest_at(k) for k in range(len(self.moves) + 1))
+
+    @property
+    def flange_spec(self):
+        """The robot's spec with its end frame at the flange F (the job's tool taken off), where loads are given."""
+        return dataclasses.replace(self.robot.spec, X_DnE=self.robot.spec.X_DnE @ np.linalg.inv(self.tool.X_FT))
 
     def load_after(self, k: int) -> Payload | None:
         """What the flange carries once waypoint ``k``'s actions have run: the tool's load and the parts held, as one

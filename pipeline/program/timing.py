@@ -64,7 +64,7 @@ class CarriedLoads:
         if program.limits.tau_max is not None:
             from ..model.chain.drake_model import build_drake_robot
 
-            self.drake = build_drake_robot(program.robot.spec)
+            self.drake = build_drake_robot(program.flange_spec)
 
     def after(self, k: int):
         """What ``pipeline.timing.time_path`` takes as ``drake`` for motion leaving waypoint ``k`` (None: no torques)."""
