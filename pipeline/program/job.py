@@ -41,7 +41,7 @@ from .actions import (ACTION_KINDS, COMMENT, GRIP, INPUT, MAX_ACTION_TIME_S, MAX
                       OUTPUT, PULSE, RELEASE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, held_after,
                       stops_motion)
 from ..model.payload_limits import payload_problems
-from .payload import MAX_INERTIA_KG_M2, MAX_PAYLOAD_KG, Payload, combined, inertia_matrix, physical_inertia_problem
+from .payload import MAX_GYRATION_M, MAX_PAYLOAD_KG, Payload, combined, inertia_matrix, physical_inertia_problem
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png", "rapid", "ls",
            "jbi", "krl", "urscript")
@@ -805,9 +805,10 @@ class _JobReader(Reader):
         inertia = np.zeros((3, 3))
         if self.has((*path, "inertia")):
             six = self.vector((*path, "inertia"), 6, "Ixx, Iyy, Izz, Ixy, Ixz, Iyz [kg m^2] about the centre of mass")
-            if np.max(np.abs(six)) > MAX_INERTIA_KG_M2:
-                self.fail((*path, "inertia"), f"is in kg m^2, at most {MAX_INERTIA_KG_M2:g}: are these kg mm^2 "
-                          "(divide by 1e6)?", self.get((*path, "inertia")))
+            if np.max(np.abs(six)) > mass * MAX_GYRATION_M ** 2:
+                self.fail((*path, "inertia"), f"is in kg m^2: more than {mass:g} kg x ({MAX_GYRATION_M:g} m)^2 about "
+                          "the centre of mass is no load a robot carries: are these kg mm^2 (divide by 1e6)?",
+                          self.get((*path, "inertia")))
             inertia = inertia_matrix(six)
             problem = physical_inertia_problem(inertia)
             if problem is not None:

@@ -16,9 +16,9 @@ import numpy as np
 
 #: The heaviest load a job may name [kg] (a guard against a unit slip: the largest industrial arms carry ~2.3 t).
 MAX_PAYLOAD_KG = 5000.0
-#: The largest principal inertia a job may name [kg m^2] (a 2.3 t load 1 m from its centre of mass: ~2300; a
-#: value in kg mm^2 is a million times the kg m^2 one).
-MAX_INERTIA_KG_M2 = 1e4
+#: The largest radius of gyration a load's inertia may give about its centre of mass [m] (sqrt(I / m): 0.29 x the
+#: length of a slender rod; a car body is about 1 m); an inertia in kg mm^2 gives a million times the kg m^2 one.
+MAX_GYRATION_M = 3.0
 #: Masses below this are no load [kg] (what is left when a part is taken from the total it was added to).
 MASS_TOLERANCE_KG = 1e-9
 
