@@ -74,7 +74,8 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   tload (loaddata [mass kg, cog [x,y,z] mm in tool0, aom the quaternion of the principal axes of the inertia at
   the cog, ix, iy, iz the principal moments kg m^2]: RAPID Instructions manual, "loaddata", "tooldata") -> the job's
   ``payload`` in the flange frame (inertia = aom diag(ix, iy, iz) aom^T); none for a tload of mass 0 or less, or
-  for ``write_rapid``'s PLACEHOLDER_LOAD in a module whose comments say PLACEHOLDER (the job gave no payload).
+  for exactly ``write_rapid``'s PLACEHOLDER_LOAD (1 kg at tool0's origin, no inertia: the job gave no payload; a
+  real tool's centre of gravity is not exactly at the flange).
 * ``GripLoad <loaddata>`` ("GripLoad": the payload the tool holds, cog and aom in the TOOL frame) -> the ``grip``
   of the part of that name (the loaddata's name as first written; its data in the flange frame in the job's
   ``parts``), on the waypoint of the move before it, after the ``release`` of the part held before (GripLoad
@@ -303,7 +304,6 @@ def read_rapid(text: str, robot, base_in_world: np.ndarray | None = None, *, sou
     base_in_world = (np.linalg.inv(controller_frames(robot_model, ABB)[0]) if base_in_world is None
                      else np.asarray(base_in_world))
     reader = _Reader(robot_model, data, base_in_world, source, tool)
-    reader.placeholder_marked = any("PLACEHOLDER" in comment.text for _, comment in _comments(text))
     for k, step in enumerate(steps):
         _refuse_call(step, source, last=k == len(steps) - 1)
     for k, step in enumerate(steps):
@@ -560,7 +560,6 @@ class _Reader:
         self.signals: dict[str, tuple[str, str]] = {}         # lower-case name -> (name as first written, direction)
         self.monitored = {"confj": True, "confl": True}       # ConfJ/ConfL \On, the controller's default
         self.tload: tuple | None = None                       # (loaddata value, line) of the tool's load
-        self.placeholder_marked = False                       # the module's comments say PLACEHOLDER
         self.parts: dict[str, tuple[str, list, int | None]] = {}  # lower-case name -> (name, loaddata, line)
         self.held: str | None = None                          # lower-case name of the part GripLoad connected
 
@@ -746,7 +745,7 @@ class _Reader:
         if not robhold:
             raise RapidReadError(self.source, str(name), "is a stationary tool (robhold FALSE): not read here",
                                  line=call.line)
-        if not (self.placeholder_marked and tload == json.loads(PLACEHOLDER_LOAD)):
+        if tload != json.loads(PLACEHOLDER_LOAD):
             self.tload = (tload, call.line)
         return _frame(tframe, self.source)
 
