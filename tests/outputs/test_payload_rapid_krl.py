@@ -125,7 +125,8 @@ def test_rapid_writes_tload_with_inertia_and_gripload_at_the_grip_and_release(ra
     # the box's cog in the tool frame: 150 mm on the flange is 30 mm past the TCP 120 mm out
     assert lines.count("LOCAL PERS loaddata box := [2.5,[0,0,30],[1,0,0,0],0.0052,0.0052,0.0042];") == 1
     assert lines.count("GripLoad box;") == 1 and lines.count("GripLoad load0;") == 1
-    pick, place = lines.index("MoveL p2, speed_500, fine, tool_job;"), lines.index("MoveL p5, speed_500, fine, tool_job;")
+    pick = lines.index("MoveL p2, speed_500, fine, tool_job;")
+    place = lines.index("MoveL p5, speed_500, fine, tool_job;")
     assert lines[pick + 1:pick + 5] == ["WaitDI part_present, 1 \\MaxTime:=2;", "SetDO gripper_close, 1;",
                                         "WaitTime \\InPos, 0.25;", "GripLoad box;"]
     assert lines[place + 1:place + 4] == ["SetDO gripper_close, 0;", "WaitTime \\InPos, 0.2;", "GripLoad load0;"]
@@ -159,7 +160,7 @@ def test_rapidchecker_accepts_the_module_with_loads(rapid, tmp_path):
 # ---- read back
 
 def test_rapid_round_trip_keeps_payload_parts_actions_and_loads(program, rapid):
-    _, doc, again = rapid
+    _, _, again = rapid
     assert_same_load(again.payload, program.payload)
     assert list(again.parts) == ["box"]
     assert_same_load(again.parts["box"], program.parts["box"])
@@ -170,7 +171,7 @@ def test_rapid_round_trip_keeps_payload_parts_actions_and_loads(program, rapid):
 
 
 def test_krl_round_trip_keeps_payload_parts_actions_and_loads(program, krl):
-    *_, doc, again = krl
+    *_, again = krl
     assert_same_load(again.payload, program.payload)
     assert list(again.parts) == ["part1"]                            # KRL holds the total: the part gets a name
     assert_same_load(again.parts["part1"], program.parts["box"])

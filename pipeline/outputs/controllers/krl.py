@@ -206,6 +206,8 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
         "- a waypoint's outputs switch at its exact stop, or by TRIGGER WHEN DISTANCE=1 in the middle of its "
         "approximation contour",
+        *(["$LOAD at each grip and release: the total carried (the tool's load and the parts held), as KRL holds one "
+           "load on the flange"] if program.parts else []),
         "Assumed (no BAS call): no external axes; "
         + frames_words(program.robot, KUKA, "$ROBROOT", "$FLANGE", "S/T"),
         f"Axis angles: {mapping.source}",

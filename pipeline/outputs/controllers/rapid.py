@@ -123,11 +123,11 @@ WRITTEN_JOINTS_RAD = 1e-3
 COMMENT_WIDTH = 96
 DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", "loaddata", "speeddata", "zonedata",
                                                         "jointtarget", "robtarget"))}
-#: How each data type is declared: tool and work object data persistent (as RobotStudio declares them), the rest
+#: How each data type is declared: tool, work object and load data persistent (as RobotStudio declares them), the rest
 #: constants; all LOCAL to the module (module docstring, "Scope").
-STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "loaddata": "LOCAL PERS", "speeddata": "LOCAL CONST", "zonedata": "LOCAL CONST",
-           "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
-#: Predefined data the module writes (RAPID Instructions manual, speeddata, zonedata, tooldata, wobjdata).
+STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "loaddata": "LOCAL PERS", "speeddata": "LOCAL CONST",
+           "zonedata": "LOCAL CONST", "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
+#: Predefined data the module writes (RAPID Instructions manual, speeddata, zonedata, tooldata, wobjdata, loaddata).
 PREDEFINED_NAMES = ("vmax", APPROACH_SPEED, "fine", "z0", "tool0", "wobj0", NO_LOAD)
 #: The global entry routine's name is this prefix and the module's name (module docstring, "Scope").
 ENTRY_PREFIX = "main_"
@@ -418,18 +418,17 @@ class _Module:
         """OutputError naming a signal whose name is also a name the module declares or uses (its data, the predefined
         data it writes, the module or its entry routine): RAPID would take that name for the data, not the signal; and
         a parts' loaddata named as predefined data, the module or its routine."""
-        taken = {name.lower() for name in self.declarations} | {name.lower() for name in PREDEFINED_NAMES}
-        taken |= {module_name.lower(), entry_routine(module_name).lower()}
+        used = {name.lower() for name in PREDEFINED_NAMES} | {module_name.lower(), entry_routine(module_name).lower()}
+        taken = used | {name.lower() for name in self.declarations}
         for k in range(len(self.program.waypoints)):
             for action in self.program.actions_at(k):
                 if action.signal is not None and action.signal.lower() in taken:
                     raise OutputError(f"RAPID signal name {action.signal!r} (waypoint {k}) is also a name the module "
                                       "declares or uses for data: rename the signal in the job")
-        predefined = {name.lower() for name in PREDEFINED_NAMES} | {module_name.lower(), entry_routine(module_name).lower()}
         for name, (datatype, _) in self.declarations.items():
-            if datatype == "loaddata" and name.lower() in predefined:
-                raise OutputError(f"RAPID loaddata {name!r} of the parts held is also a name the module uses (predefined "
-                                  "data, the module or its routine): rename the part in the job")
+            if datatype == "loaddata" and name.lower() in used:
+                raise OutputError(f"RAPID loaddata {name!r} of the parts held is also a name the module uses "
+                                  "(predefined data, the module or its routine): rename the part in the job")
 
     def add_move(self, move: Move) -> None:
         program, k = self.program, move.end

@@ -106,8 +106,7 @@ from ...model.vendors.axes import KUKA, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
-from ...program.actions import (COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT,
-                                 WAIT_INPUT)
+from ...program.actions import COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
 from ...program.payload import MASS_TOLERANCE_KG, Payload, expressed_in, removed
 from .krl import abc_rotation
 

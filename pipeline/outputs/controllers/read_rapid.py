@@ -119,8 +119,7 @@ from ...model.vendors.axes import ABB, joint_values
 from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import pose_solutions, select_solution
-from ...program.actions import (COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT,
-                                 WAIT_INPUT)
+from ...program.actions import COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
 from ...program.payload import Payload, expressed_in
 from ...program.tool_path import ToolMove, ToolPath
 from .rapid import NO_LOAD, PLACEHOLDER_LOAD
@@ -923,7 +922,8 @@ class _Reader:
             payload = self.load(*self.tload, controller_frames(self.robot, ABB)[1], f"{self.tool_name} tload")
             if payload is not None:
                 doc["payload"] = payload.to_document(1.0)
-        parts = {name: self.load(value, line, self.X_FT, f"loaddata {name}") for name, value, line in self.parts.values()}
+        parts = {name: self.load(value, line, self.X_FT, f"loaddata {name}")
+                 for name, value, line in self.parts.values()}
         for name, part in parts.items():
             if part is None:
                 raise RapidReadError(self.source, f"loaddata {name}", "a part's mass must be above 0 kg",
