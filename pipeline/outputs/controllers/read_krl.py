@@ -284,6 +284,11 @@ def _with_actions(waypoint, actions: list[dict]):
     return {**waypoint, "do": actions}
 
 
+def _is_load(name: str) -> bool:
+    """Whether the system variable ``name`` is $LOAD or a component of it (not $LOAD_A1.. the loads on the arm)."""
+    return name == "$LOAD" or name.startswith("$LOAD.")
+
+
 def _same_load(a: Payload | None, b: Payload | None) -> bool:
     """Whether two loads (None: none) are the same within LOAD_MATCH."""
     if a is None or b is None:
@@ -565,7 +570,7 @@ class _Program:
             self.base = self.frame_of(node, value, "$BASE", ("BASE_DATA",))
         elif name == "$IPO_MODE" and value != "#BASE":
             self.fail(node, name, "must be #BASE here (a robot-held tool; #TCP is an external tool)", value)
-        elif name.startswith("$LOAD"):
+        elif _is_load(name):
             self.assign_load(node, name, value)
         else:
             self.settings[name] = value
@@ -574,7 +579,7 @@ class _Program:
     def is_load(self, item, env: dict) -> bool:
         """Whether ``item`` (a statement or comment) assigns $LOAD or one of its components."""
         return (isinstance(item, lark.Tree) and item.data == "assignment" and item.children[0].data == "sysvar"
-                and _text(item.children[0], env).startswith("$LOAD"))
+                and _is_load(_text(item.children[0], env)))
 
     def assign_load(self, node, name: str, value) -> None:
         """A $LOAD assignment: its components kept for the load change it is part of (``load_changed``)."""
