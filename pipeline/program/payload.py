@@ -10,6 +10,7 @@ the difference (``removed``), so a controller that holds only the total (KRL ``$
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -106,6 +107,34 @@ def removed(total: Payload, part: Payload, name: str) -> Payload | None:
     about_total = total.inertia - _moved(part.inertia, part.mass, np.asarray(part.com) - total.com)
     inertia = _moved(about_total, -mass, com - total.com)
     return Payload(float(mass), com, inertia, total.source, name)
+
+
+def principal_axes(payload: Payload) -> tuple[np.ndarray, np.ndarray]:
+    """(moments (3,) [kg m^2], R (3, 3)): the principal moments of the load's inertia about its centre of mass and
+    the rotation whose columns are their axes in F's axes (inertia = R diag(moments) R^T, det R = +1), as RAPID's
+    ``loaddata`` (aom, ix, iy, iz) and KRL's ``$LOAD`` (CM's A, B, C, J) state an inertia. A diagonal inertia gives
+    R = I and its diagonal in order; otherwise the eigenvectors are ordered and signed to lie nearest I (the largest
+    trace of R), so that the axes turn as little as they can from F's."""
+    inertia = np.asarray(payload.inertia, dtype=float)
+    if not np.any(inertia - np.diag(np.diag(inertia))):
+        return np.diag(inertia).copy(), np.eye(3)
+    moments, vectors = np.linalg.eigh(inertia)
+    best = None
+    for order in itertools.permutations(range(3)):
+        R = vectors[:, order] * np.where(np.diag(vectors[:, order]) < 0.0, -1.0, 1.0)
+        if np.linalg.det(R) < 0.0:
+            R[:, int(np.argmin(np.abs(np.diag(R))))] *= -1.0
+        if best is None or np.trace(R) > np.trace(best[1]) + 1e-12:
+            best = (moments[list(order)], R)
+    return best
+
+
+def expressed_in(payload: Payload, X_AB: np.ndarray) -> Payload:
+    """The load given in frame B expressed in frame A, X_AB (4, 4) [m] B's pose in A: the centre of mass moved
+    (X_AB com), the inertia turned (R_AB I R_AB^T); mass, source and name kept."""
+    R = X_AB[:3, :3]
+    com = R @ np.asarray(payload.com, dtype=float) + X_AB[:3, 3]
+    return Payload(payload.mass, com, R @ payload.inertia @ R.T, payload.source, payload.name)
 
 
 def _moved(inertia: np.ndarray, mass: float, offset: np.ndarray) -> np.ndarray:

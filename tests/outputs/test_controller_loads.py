@@ -82,7 +82,8 @@ def test_reserved_job_names_get_a_prefix_and_are_refused_as_given(gp7, ur5, lang
 def test_payload_is_written_in_every_language_and_a_placeholder_without(gp7, ur5):
     loaded = dataclasses.replace(gp7, payload=PAYLOAD)
     src, _ = write_krl(loaded, "GP7")
-    assert "$LOAD.M = 2.500" in src and "$LOAD.CM = {X 0.000,Y 10.000,Z 80.000,A 0.0,B 0.0,C 0.0}" in src
+    assert "$LOAD = {M 2.500,CM {X 0.000,Y 10.000,Z 80.000,A 0.0000,B 0.0000,C 0.0000},J {X 0.000000,Y 0.000000,Z " \
+        "0.000000}}" in src.splitlines()
     assert "PLACEHOLDER" in write_krl(gp7, "GP7")[0]
     assert "[TRUE,[[0,0,120],[1,0,0,0]],[2.5,[0,10,80],[1,0,0,0],0,0,0]]" in write_rapid(loaded, "GP7")
     assert "PLACEHOLDER" in write_rapid(gp7, "GP7")

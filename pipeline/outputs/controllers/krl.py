@@ -40,9 +40,16 @@ Programming Instructions for System Integrators; the chapter and section named a
   approximated (C_PTP with $APO.CDIS and $APO.CPTP as above; C_DIS under kss8), the move's ends keep the job's
   zones, exact stops stand only where the certified motion stops, and the header carries the written program's
   certificate and cycle time as written.
-* Load: ``$LOAD.M`` [kg] and ``$LOAD.CM`` {X, Y, Z [mm], A, B, C 0} (centre of mass in the flange frame) from the
-  job's ``payload`` ("$LOAD"; inertia not written: the machine data's); without a payload a PLACEHOLDER comment
-  says that the controller keeps its own $LOAD and to set it.
+* Load ("$LOAD": the load data of the current tool, KRL's one load on the flange: the TOTAL of the tool and what it
+  carries; KUKA System Variables, "$LOAD"): ``$LOAD = {M m,CM {X,Y,Z,A,B,C},J {X,Y,Z}}`` as one assignment of the
+  whole structure, M [kg] to 0.001 kg, CM the centre of mass [mm] in the flange frame $FLANGE to 0.001 mm with A,
+  B, C [deg] (to 0.0001 deg, R = Rz(A) Ry(B) Rx(C)) the orientation of the principal axes of the inertia at it, J
+  the principal moments [kg m^2] to 1e-6 (``payload.principal_axes``: A, B, C 0 for a diagonal inertia). After the
+  initialisation the job's ``payload``; at each ``grip``/``release``, in its place among the waypoint's actions,
+  the total after it (``Program.load_after``: the tool's load and the parts held, ``payload.combined``). Without a
+  payload a PLACEHOLDER comment says that the controller keeps its own $LOAD and to set it; parts without a
+  payload are still written, each $LOAD then the parts' alone (no part held: M 0), with a PLACEHOLDER comment on
+  its line saying that the tool's load is missing from it.
 * Actions (``pipeline.program.actions``), each waypoint's right after its last written motion (waypoint 0's after
   the PTP to the start), with the signals' numbers on the controller (a signal without a number is an OutputError
   naming it; the job's names ride in the header's signals mark, ``settings_mark.signals_mark``, and each output
@@ -87,7 +94,8 @@ from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
-from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT
+from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, held_after
+from ...program.payload import Payload, combined, expressed_in, principal_axes
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
 from .settings_mark import settings_mark, signals_mark
@@ -97,8 +105,8 @@ KRC2, KSS8 = "krc2", "kss8"
 GENERATIONS = (KRC2, KSS8)
 #: Axis speed [% of the axes' maximum] of the first motion (the BCO run to the start).
 BCO_PERCENT = 10
-#: Decimal places written: positions [mm], angles [deg].
-MM_DECIMALS, DEG_DECIMALS = 3, 4
+#: Decimal places written: positions [mm], angles [deg], masses [kg], inertias [kg m^2].
+MM_DECIMALS, DEG_DECIMALS, KG_DECIMALS, INERTIA_DECIMALS = 3, 4, 3, 6
 #: A PTP target re-solved from its written E6POS with its S and T must land this close to its joints [rad]
 #: (0.002 deg: the written rounding moves the joints by a few 1e-4 deg away from singular poses).
 SELECTED_TOL = np.radians(0.002)
@@ -198,20 +206,37 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         "- $ACC_AXIS is 100 % of the machine data; our joint acceleration limits are not written",
         "- a waypoint's outputs switch at its exact stop, or by TRIGGER WHEN DISTANCE=1 in the middle of its "
         "approximation contour",
+        *(["$LOAD at each grip and release: the total carried (the tool's load and the parts held), as KRL holds one "
+           "load on the flange"] if program.parts else []),
         "Assumed (no BAS call): no external axes; "
         + frames_words(program.robot, KUKA, "$ROBROOT", "$FLANGE", "S/T"),
         f"Axis angles: {mapping.source}",
     ]
 
 
+def load_assignment(program, load: Payload | None) -> str:
+    """``$LOAD = {M ..,CM {X,Y,Z,A,B,C},J {X,Y,Z}}`` of ``load`` (in the flange frame F; None: no load, M 0) in the
+    controller's flange frame $FLANGE (module docstring); without a job payload the line ends in the PLACEHOLDER
+    comment."""
+    if load is None:
+        load = Payload(0.0, np.zeros(3))
+    in_flange = expressed_in(load, np.linalg.inv(controller_frames(program.robot, KUKA)[1]))
+    moments, R = principal_axes(in_flange)
+    X = np.eye(4)
+    X[:3, :3], X[:3, 3] = R, in_flange.com
+    inertia = ",".join(f"{k} {_num(float(v), INERTIA_DECIMALS)}" for k, v in zip("XYZ", moments))
+    text = f"$LOAD = {{M {_num(in_flange.mass, KG_DECIMALS)},CM {{{frame_text(X)}}},J {{{inertia}}}}}"
+    if program.payload is None:
+        text += " ; PLACEHOLDER: the tool's load is unknown (no payload in the job): this is the parts' load alone"
+    return text
+
+
 def load_lines(program) -> list[str]:
-    """``$LOAD.M`` and ``$LOAD.CM`` of the job's payload, or the PLACEHOLDER comment (module docstring)."""
-    payload = program.payload
-    if payload is None:
-        return ["; PLACEHOLDER: the job gives no payload: $LOAD is the controller's own; set the tool's mass and "
-                "centre of mass (payload: {mass, com} in the job)"]
-    com = ",".join(f"{k} {_num(v * 1000.0, MM_DECIMALS)}" for k, v in zip("XYZ", payload.com))
-    return [f"$LOAD.M = {payload.mass:.3f}", f"$LOAD.CM = {{{com},A 0.0,B 0.0,C 0.0}}"]
+    """The job's payload as ``$LOAD`` (``load_assignment``), or the PLACEHOLDER comment (module docstring)."""
+    if program.payload is None:
+        return ["; PLACEHOLDER: the job gives no payload: $LOAD is the controller's own; set the tool's mass, "
+                "centre of mass and inertia (payload: {mass, com, inertia} in the job)"]
+    return [load_assignment(program, program.payload)]
 
 
 def _init(program) -> list[str]:
@@ -371,10 +396,12 @@ def _output_statement(program, action) -> str:
 
 
 def action_lines(program, k: int, zoned: bool = False) -> tuple[list[str], list[str]]:
-    """The KRL lines of waypoint k's actions (module docstring): (before its motion, after it). ``zoned``: the
+    """The KRL lines of waypoint k's actions (module docstring): (before its motion, after it); a grip or release as
+    the ``$LOAD`` of the total after it. ``zoned``: the
     motion to k is approximated, so its outputs switch on the path (TRIGGER WHEN DISTANCE=1: at the middle of the
     approximation contour), written before the motion; its comments follow the motion (a job refuses waits there)."""
     before, after = [], []
+    held = list(held_after(program.actions, k - 1)) if k > 0 else []
     for action in program.actions_at(k):
         if action.kind in (SET, PULSE):
             statement = f"{_output_statement(program, action)} ; {action.signal}"
@@ -388,6 +415,12 @@ def action_lines(program, k: int, zoned: bool = False) -> tuple[list[str], list[
             after += _wait_input_lines(program, action)
         elif action.kind == COMMENT:
             after.append(f"; {action.text}")
+        elif action.kind in (GRIP, RELEASE):
+            if action.kind == GRIP:
+                held.append(action.part)
+            elif action.part in held:
+                held.remove(action.part)
+            after.append(load_assignment(program, combined([program.payload] + [program.parts[p] for p in held])))
     return before, after
 
 

@@ -3,10 +3,20 @@
 What it writes, and the RAPID facts it follows (ABB, "Technical reference manual - RAPID Instructions,
 Functions and Data types", the entries named; "Technical reference manual - RAPID kernel" for names):
 
-* ``tooldata`` (robhold, tframe, tload): tframe is the job's tool X_FT [mm, quaternion]; tload ``[mass, cog,
-  [1,0,0,0], 0, 0, 0]`` is the job's payload (mass [kg], centre of gravity [mm] in the flange frame tool0,
-  "loaddata"; inertia 0: not known); without a payload the load (1 kg at the flange) is a PLACEHOLDER the
-  header says to replace.
+* ``tooldata`` (robhold, tframe, tload): tframe is the job's tool X_FT [mm, quaternion]; tload ``[mass, cog, aom,
+  ix, iy, iz]`` is the job's payload ("loaddata": mass [kg] to 0.001 kg, cog the centre of gravity [mm] in the
+  wrist frame tool0 to 0.001 mm, aom the orientation of the principal axes of its inertia at the cog in tool0 as a
+  quaternion to 1e-6, ix, iy, iz its principal moments [kg m^2] to 1e-6; ``payload.principal_axes``: aom
+  [1,0,0,0] and the diagonal for a diagonal inertia, ``[1,0,0,0],0,0,0`` for a point mass); without a payload the
+  load (1 kg at the flange) is a PLACEHOLDER the header says to replace (``read_rapid`` reads it back as no
+  payload).
+* Parts (``grip``/``release`` actions, "GripLoad"): in its place among the waypoint's actions a grip or release
+  writes ``GripLoad <name>;`` with <name> a ``LOCAL PERS loaddata`` of the parts held from there on (the part's
+  name; several parts held at once: one combined load named by their names joined with ``_``), its cog [mm] and aom
+  in the TOOL frame (the tframe's, as GripLoad's payload is the load the tool holds) and its principal moments, or
+  ``GripLoad load0;`` (the predefined no load) when no part is held any more. Parts without a job payload: the tload
+  stays the PLACEHOLDER and the parts' loads are still written (the header says so). A part whose name is also a
+  name the module declares or uses is an OutputError.
 * Scope (RAPID kernel manual, "Data declarations", "Routine declarations": a module's data and routines are
   global to the task unless declared ``LOCAL``): every data declaration is ``LOCAL``, so two written modules
   never clash in one task; the entry routine is global and named ``main_<module>`` (cut to 32 characters), unique
@@ -85,8 +95,9 @@ from ...model.vendors import selection
 from ...model.vendors.axes import ABB, axis_angles
 from ...model.vendors.configuration import format_configuration
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
-from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
+from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action, held_after
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from ...program.payload import Payload, combined, expressed_in, principal_axes
 from .controller_motion import PASS_THROUGH_ZONE_M, WrittenProgram
 from .lint import RAPID, lint
 from .names import RESERVED_WORDS
@@ -100,22 +111,24 @@ ZONE_MM_RATIO, ZONE_DEG_PER_MM = 1.5, 0.15
 EXTERNAL_AXES = "[9E9,9E9,9E9,9E9,9E9,9E9]"
 TOOL, WOBJ = "tool_job", "wobj_base"
 APPROACH_SPEED = "v100"
-#: Decimals written: positions [mm], quaternions, joint angles [deg], speeds [mm/s], times [s].
-MM, QUATERNION, DEG, SPEED = 3, 6, 4, 3
+#: Decimals written: positions [mm], quaternions, joint angles [deg], speeds [mm/s], masses [kg], inertias [kg m^2].
+MM, QUATERNION, DEG, SPEED, KG, INERTIA = 3, 6, 4, 3, 3, 6
+#: The tload written without a job payload (module docstring): 1 kg at the flange, a PLACEHOLDER; no load (GripLoad).
+PLACEHOLDER_LOAD, NO_LOAD = "[1,[0,0,0],[1,0,0,0],0,0,0]", "load0"
 #: \\T is rounded up to 0.1 ms (1 ms took up to 7 % off the 14 ms joint moves between a planned move's targets).
 TIME_STEP_S = 1e-4
 #: The written pose's joint values must lie this close to the program's [rad] (``written_configuration``).
 WRITTEN_JOINTS_RAD = 1e-3
 #: Header comment lines are wrapped to this many characters; the declarations are written in this order.
 COMMENT_WIDTH = 96
-DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", "speeddata", "zonedata", "jointtarget",
-                                                        "robtarget"))}
-#: How each data type is declared: tool and work object data persistent (as RobotStudio declares them), the rest
+DATA_ORDER = {datatype: k for k, datatype in enumerate(("tooldata", "wobjdata", "loaddata", "speeddata", "zonedata",
+                                                        "jointtarget", "robtarget"))}
+#: How each data type is declared: tool, work object and load data persistent (as RobotStudio declares them), the rest
 #: constants; all LOCAL to the module (module docstring, "Scope").
-STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "speeddata": "LOCAL CONST", "zonedata": "LOCAL CONST",
-           "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
-#: Predefined data the module writes (RAPID Instructions manual, speeddata, zonedata, tooldata, wobjdata).
-PREDEFINED_NAMES = ("vmax", APPROACH_SPEED, "fine", "z0", "tool0", "wobj0")
+STORAGE = {"tooldata": "LOCAL PERS", "wobjdata": "LOCAL PERS", "loaddata": "LOCAL PERS", "speeddata": "LOCAL CONST",
+           "zonedata": "LOCAL CONST", "jointtarget": "LOCAL CONST", "robtarget": "LOCAL CONST"}
+#: Predefined data the module writes (RAPID Instructions manual, speeddata, zonedata, tooldata, wobjdata, loaddata).
+PREDEFINED_NAMES = ("vmax", APPROACH_SPEED, "fine", "z0", "tool0", "wobj0", NO_LOAD)
 #: The global entry routine's name is this prefix and the module's name (module docstring, "Scope").
 ENTRY_PREFIX = "main_"
 
@@ -134,7 +147,7 @@ def write_rapid(program: Program, module_name: str, written: WrittenProgram | No
     comments = [a.text for k in range(len(program.waypoints)) for a in program.actions_at(k) if a.kind == COMMENT]
     lint(program, RAPID, module_name, module.header(module_name) + comments, written_configurations(program))
     module.add_moves()
-    module.check_signal_names(module_name)
+    module.check_names(module_name)
     return module.text(module_name)
 
 
@@ -265,13 +278,33 @@ def via_target(program: Program, move: Move) -> tuple[np.ndarray, np.ndarray]:
     return X, q
 
 
+def loaddata_text(load: Payload, X_FA: np.ndarray) -> str:
+    """``[mass,[x,y,z],[q1,q2,q3,q4],ix,iy,iz]`` (RAPID loaddata: [kg], cog [mm], aom, principal moments [kg m^2]) of
+    ``load`` (in the flange frame F) stated in frame A, X_FA (4, 4) [m] A's pose in F (module docstring)."""
+    in_a = expressed_in(load, np.linalg.inv(X_FA))
+    moments, R = principal_axes(in_a)
+    aom = np.eye(4)
+    aom[:3, :3] = R
+    quaternion, _ = pose_to_quaternion_position(aom)
+    return (f"[{number(in_a.mass, KG)},{numbers(in_a.com * 1e3, MM)},{numbers(quaternion, QUATERNION)},"
+            f"{','.join(number(float(m), INERTIA) for m in moments)}]")
+
+
 def load_text(program: Program) -> str:
-    """The tooldata's tload ``[mass,[x,y,z],[1,0,0,0],0,0,0]`` [kg, mm]: the job's payload, else the 1 kg
-    PLACEHOLDER at the flange (module docstring)."""
-    payload = program.payload
-    if payload is None:
-        return "[1,[0,0,0],[1,0,0,0],0,0,0]"
-    return f"[{number(payload.mass, MM)},{numbers(payload.com * 1e3, MM)},[1,0,0,0],0,0,0]"
+    """The tooldata's tload: the job's payload in tool0 (``loaddata_text``), else the 1 kg PLACEHOLDER_LOAD at the
+    flange (module docstring)."""
+    if program.payload is None:
+        return PLACEHOLDER_LOAD
+    return loaddata_text(program.payload, controller_frames(program.robot, ABB)[1])
+
+
+def held_load(program: Program, held: tuple[str, ...]) -> tuple[str, str | None]:
+    """(loaddata name, its value or None for load0) that ``GripLoad`` connects while the parts ``held`` are held: the
+    part's name (several: their names joined with ``_``) and their load in the tool frame (module docstring)."""
+    if not held:
+        return NO_LOAD, None
+    name = check_identifier("_".join(held), "part name (a loaddata)")
+    return name, loaddata_text(combined([program.parts[part] for part in held], name), program.tool.X_FT)
 
 
 def entry_routine(module_name: str) -> str:
@@ -297,8 +330,13 @@ class _Module:
             self.declare(WOBJ, "wobjdata", f"[FALSE,TRUE,\"\",{uframe},[[0,0,0],[1,0,0,0]]]")
 
     def declare(self, name: str, datatype: str, value: str | None) -> None:
+        """Declare ``name`` once (a repeat of the same data type keeps the first); OutputError when it is already
+        declared as another type (a part named like a target)."""
         if value is not None:
-            self.declarations.setdefault(check_identifier(name, "data name"), (datatype, value))
+            known = self.declarations.setdefault(check_identifier(name, "data name"), (datatype, value))
+            if known[0] != datatype:
+                raise OutputError(f"RAPID data name {name!r} is both a {known[0]} and a {datatype} of the module: "
+                                  "rename the part in the job")
 
     def jointtarget(self, name: str, q: np.ndarray) -> str:
         angles = axis_angles(self.program.robot, q, ABB)
@@ -361,19 +399,36 @@ class _Module:
             self.add_actions(move.end)
 
     def add_actions(self, k: int) -> None:
-        """Waypoint ``k``'s actions, after the last move written into it (module docstring, "Actions")."""
-        self.instructions += [action_instruction(action) for action in self.program.actions_at(k)]
+        """Waypoint ``k``'s actions, after the last move written into it (module docstring, "Actions"); a grip or
+        release as ``GripLoad`` of the parts held after it (module docstring, "Parts")."""
+        held = list(held_after(self.program.actions, k - 1)) if k > 0 else []
+        for action in self.program.actions_at(k):
+            if action.kind not in (GRIP, RELEASE):
+                self.instructions.append(action_instruction(action))
+                continue
+            if action.kind == GRIP:
+                held.append(action.part)
+            elif action.part in held:
+                held.remove(action.part)
+            name, value = held_load(self.program, tuple(held))
+            self.declare(name, "loaddata", value)
+            self.instructions.append(f"GripLoad {name};")
 
-    def check_signal_names(self, module_name: str) -> None:
+    def check_names(self, module_name: str) -> None:
         """OutputError naming a signal whose name is also a name the module declares or uses (its data, the predefined
-        data it writes, the module or its entry routine): RAPID would take that name for the data, not the signal."""
-        taken = {name.lower() for name in self.declarations} | {name.lower() for name in PREDEFINED_NAMES}
-        taken |= {module_name.lower(), entry_routine(module_name).lower()}
+        data it writes, the module or its entry routine): RAPID would take that name for the data, not the signal; and
+        a parts' loaddata named as predefined data, the module or its routine."""
+        used = {name.lower() for name in PREDEFINED_NAMES} | {module_name.lower(), entry_routine(module_name).lower()}
+        taken = used | {name.lower() for name in self.declarations}
         for k in range(len(self.program.waypoints)):
             for action in self.program.actions_at(k):
                 if action.signal is not None and action.signal.lower() in taken:
                     raise OutputError(f"RAPID signal name {action.signal!r} (waypoint {k}) is also a name the module "
                                       "declares or uses for data: rename the signal in the job")
+        for name, (datatype, _) in self.declarations.items():
+            if datatype == "loaddata" and name.lower() in used:
+                raise OutputError(f"RAPID loaddata {name!r} of the parts held is also a name the module uses "
+                                  "(predefined data, the module or its routine): rename the part in the job")
 
     def add_move(self, move: Move) -> None:
         program, k = self.program, move.end
@@ -426,7 +481,12 @@ class _Module:
             settings_mark(program),
             *([signals_mark(program)] if signals_mark(program) else []),
             (f"{TOOL}: tframe is the job's tool; its load (1 kg at the flange) is a PLACEHOLDER: set the real one."
-             if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (no inertia)."),
+             if program.payload is None else f"{TOOL}: tframe is the job's tool, tload its payload (cog in tool0, "
+             "aom the principal axes of its inertia, ix, iy, iz its principal moments)."),
+            *([("GripLoad connects the load of the parts held (loaddata named by the parts: cog and aom in the tool "
+                "frame, principal moments), GripLoad load0 disconnects it"
+                + (" (the parts' loads are written though the tool's is the PLACEHOLDER)." if program.payload is None
+                   else "."))] if program.parts else []),
             (f"Data are LOCAL to this module; run {entry_routine(module_name)} (PP to Routine, or call it from the "
              "task's main)."),
             (f"{WOBJ}: the robot's base in the cell; the controller's base frame must be set the same."

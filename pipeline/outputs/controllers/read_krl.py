@@ -63,6 +63,16 @@ spacing, the editor's ``&ACCESS``/``&REL``/``&PARAM`` lines). What is read, and 
   WAIT FOR inline forms are these statements inside their folds (CONTINUE before an output: set in the advance run).
   Numbered signals are named ``do<n>`` / ``di<n>`` (a SIGNAL's own name where the file declares one) in the
   document's ``signals``; ``read_program`` renames them by the header's signals mark.
+* Load ("$LOAD", the TOTAL on the flange: ``write_krl``'s module docstring): ``$LOAD = {M, CM {X, Y, Z, A, B, C},
+  J {X, Y, Z}}`` and the partial ``$LOAD.M = m``, ``$LOAD.CM = {...}``, ``$LOAD.J = {...}`` (what ``write_krl``
+  wrote before, and what tools write; a component not assigned keeps its value, none assigned is 0: CM at the
+  flange, J 0 a point mass); consecutive assignments are one load. M [kg], CM [mm] in $FLANGE with A, B, C [deg]
+  the principal axes (R = Rz(A) Ry(B) Rx(C)), J [kg m^2] the principal moments: inertia R diag(J) R^T. The load in
+  force at the first motion is the job's ``payload`` (the tool's; none with M 0 or no $LOAD). After the first
+  motion, on the waypoint of the motion before, in its place among the actions: a load of more mass than the
+  previous one is the ``grip`` of a part named ``part1``, ``part2``... whose data (the job's ``parts``) is the
+  difference (``payload.removed``); a load equal to an earlier one (within LOAD_MATCH) is the ``release`` of the
+  parts gripped since (the last gripped first); any other is a KrlReadError naming the line.
 
 What has no static meaning is a ``KrlReadError`` naming the file, the line and the construct: a loop on a condition
 (WHILE, REPEAT) or a LOOP other than the outermost one, IF (but the timeout pattern), SWITCH, GOTO, an INTERRUPT other
@@ -96,7 +106,8 @@ from ...model.vendors.axes import KUKA, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
-from ...program.actions import COMMENT, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, SET, WAIT, WAIT_INPUT
+from ...program.actions import COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
+from ...program.payload import MASS_TOLERANCE_KG, Payload, expressed_in, removed
 from .krl import abc_rotation
 
 MOVE_KINDS = {"ptp": "joint", "lin": "linear", "circ": "circular"}
@@ -133,6 +144,13 @@ REFUSED_WORDS = {
     "BRAKE": "BRAKE belongs to an interrupt routine: no static meaning",
 }
 _WORD = re.compile(r"[A-Za-z_$][A-Za-z0-9_$]*")
+#: The load's components read (module docstring, "Load"): the whole structure's and each partial assignment's.
+LOAD_FIELDS = {"$LOAD": ("M", "CM", "J"), "$LOAD.M": ("M",), "$LOAD.CM": ("CM",), "$LOAD.J": ("J",)}
+#: Two loads are the same within these: mass [kg], centre of mass [m], inertia [kg m^2] (above what a file's rounding
+#: of 0.001 kg, 0.001 mm and 1e-6 kg m^2 leaves of one load written twice).
+LOAD_MATCH = (1e-3, 1e-5, 1e-5)
+#: The name of the n-th part a load change grips (``PART_NAME.format(n)``).
+PART_NAME = "part{}"
 
 
 class KrlReadError(FileFormatError):
@@ -266,6 +284,20 @@ def _with_actions(waypoint, actions: list[dict]):
     return {**waypoint, "do": actions}
 
 
+def _is_load(name: str) -> bool:
+    """Whether the system variable ``name`` is $LOAD or a component of it (not $LOAD_A1.. the loads on the arm)."""
+    return name == "$LOAD" or name.startswith("$LOAD.")
+
+
+def _same_load(a: Payload | None, b: Payload | None) -> bool:
+    """Whether two loads (None: none) are the same within LOAD_MATCH."""
+    if a is None or b is None:
+        return a is b
+    mass, com, inertia = LOAD_MATCH
+    return (abs(a.mass - b.mass) <= mass and float(np.abs(a.com - b.com).max()) <= com
+            and float(np.abs(a.inertia - b.inertia).max()) <= inertia)
+
+
 def _line(node) -> int | None:
     return getattr(node, "line", None) if isinstance(node, lark.Token) else (
         None if node.meta.empty else node.meta.line)
@@ -397,6 +429,12 @@ class _Program:
     pending: list = field(default_factory=list)
     calls: tuple = ()
     has_dat: bool = True
+    load: dict = field(default_factory=dict)
+    load_line: int | None = None
+    tool_load: Payload | None = None
+    loads: list = field(default_factory=list)
+    held: list = field(default_factory=list)
+    parts: dict = field(default_factory=dict)
 
     def fail(self, node, field_name: str, problem: str, value=None):
         raise KrlReadError(self.source, field_name, problem, value=value, line=_line(node) if node is not None else None)
@@ -408,6 +446,7 @@ class _Program:
         main = self.tree.children[0]
         items = self.items(main)
         self.walk(items, {}, top=True)
+        self.load_changed()
 
     def items(self, routine: lark.Tree) -> list:
         """A routine's statements and its full-line comments (not fold lines), in line order."""
@@ -429,6 +468,8 @@ class _Program:
         i = 0
         while i < len(items):
             item = items[i]
+            if not self.is_load(item, env):
+                self.load_changed()
             if isinstance(item, str):
                 self.comment(item)
                 i += 1
@@ -529,8 +570,79 @@ class _Program:
             self.base = self.frame_of(node, value, "$BASE", ("BASE_DATA",))
         elif name == "$IPO_MODE" and value != "#BASE":
             self.fail(node, name, "must be #BASE here (a robot-held tool; #TCP is an external tool)", value)
+        elif _is_load(name):
+            self.assign_load(node, name, value)
         else:
             self.settings[name] = value
+
+    # ---- the load (module docstring, "Load")
+    def is_load(self, item, env: dict) -> bool:
+        """Whether ``item`` (a statement or comment) assigns $LOAD or one of its components."""
+        return (isinstance(item, lark.Tree) and item.data == "assignment" and item.children[0].data == "sysvar"
+                and _is_load(_text(item.children[0], env)))
+
+    def assign_load(self, node, name: str, value) -> None:
+        """A $LOAD assignment: its components kept for the load change it is part of (``load_changed``)."""
+        fields = LOAD_FIELDS.get(name)
+        if fields is None:
+            self.fail(node, name, f"is not read (read: {', '.join(LOAD_FIELDS)})", value)
+        values = value.values if isinstance(value, _Point) and len(fields) > 1 else {fields[0]: value}
+        for key, component in values.items():
+            if key not in fields:
+                self.fail(node, name, f"has no component {key} (read: {', '.join(fields)})", value)
+            wanted = float if key == "M" else dict
+            if not isinstance(component.values if isinstance(component, _Point) else component, wanted):
+                self.fail(node, f"{name} {key}" if len(fields) > 1 else name,
+                          "must be a number [kg]" if key == "M" else "must be an aggregate {X, Y, Z...}", component)
+            self.load[key] = component.values if isinstance(component, _Point) else component
+        self.load_line = self.load_line or _line(node)
+
+    def current_load(self) -> Payload | None:
+        """The load the components assigned so far make, in $FLANGE (None: M 0 or none assigned)."""
+        mass = self.load.get("M", 0.0)
+        if mass <= MASS_TOLERANCE_KG:
+            return None
+        cm, j = self.load.get("CM", {}), self.load.get("J", {})
+        for key, part in (("CM", cm), ("J", j)):
+            if any(not isinstance(v, float) for v in part.values()):
+                raise KrlReadError(self.source, f"$LOAD.{key}", "must hold numbers", value=part, line=self.load_line)
+        R = abc_rotation(cm.get("A", 0.0), cm.get("B", 0.0), cm.get("C", 0.0))
+        inertia = R @ np.diag([j.get(k, 0.0) for k in "XYZ"]) @ R.T
+        com = np.array([cm.get(k, 0.0) for k in "XYZ"]) / 1000.0
+        return Payload(float(mass), com, inertia, f"{self.source}:{self.load_line} $LOAD")
+
+    def load_changed(self) -> None:
+        """The load assignments since the last change, read (module docstring, "Load"): before the first motion the
+        tool's load, after it a grip or release on the last motion's waypoint."""
+        if self.load_line is None:
+            return
+        line, new = self.load_line, self.current_load()
+        self.load_line = None
+        if not self.motions:
+            self.tool_load = new
+            return
+        if not self.loads:
+            self.loads = [self.tool_load]
+        earlier = next((i for i, load in enumerate(self.loads) if _same_load(load, new)), None)
+        if earlier is not None:
+            for name in reversed(self.held[earlier:]):
+                self.actions.setdefault(len(self.motions) - 1, []).append({RELEASE: name})
+            del self.loads[earlier + 1:], self.held[earlier:]
+            return
+        previous = self.loads[-1]
+        name = PART_NAME.format(len(self.parts) + 1)
+        part = None if new is None or new.mass <= (0.0 if previous is None else previous.mass) + LOAD_MATCH[0] else (
+            Payload(new.mass, new.com, new.inertia, new.source, name) if previous is None else
+            removed(new, previous, name))
+        if part is None:
+            raise KrlReadError(self.source, "$LOAD", "a load after the first motion is read as a part gripped (more "
+                               "mass than the load before) or released (back to an earlier load); this one is "
+                               "neither", line=line)
+        self.parts[name] = part
+        self.loads.append(new)
+        self.held.append(name)
+        self.actions.setdefault(len(self.motions) - 1, []).append({GRIP: name})
+        self.stops.add(len(self.motions) - 1)
 
     def frame_of(self, node, value, name: str, tables: tuple[str, ...]) -> _Frame:
         """The tool or base a $TOOL / $BASE assignment selects."""
@@ -1026,6 +1138,12 @@ class _Reader:
             doc["tcp_accel_max"] = accel
         if program.signals:
             doc["signals"] = dict(program.signals)
+        X_F_flange = controller_frames(self.robot, KUKA)[1]
+        if program.tool_load is not None:
+            doc["payload"] = expressed_in(program.tool_load, X_F_flange).to_document(1.0)
+        if program.parts:
+            doc["parts"] = {name: expressed_in(part, X_F_flange).to_document(1.0)
+                            for name, part in program.parts.items()}
         if program.loop_line is not None:
             doc["description"] = (f"{Path(self.src_name).name}: one cycle of its endless LOOP (line "
                                   f"{program.loop_line}), read by dh-pipeline")

@@ -71,6 +71,16 @@ types", the entries named; "Technical reference manual - RAPID kernel" for the s
   controller section's flange, ``controller.controller_frames``); robhold FALSE (a stationary tool) is refused.
   A tool the module does not declare (RobotStudio keeps tools in the task's ``CalibData`` module) is an error naming
   its line and name unless the caller passes its tframe: ``tool`` (4, 4) [m] on the controller's tool0.
+  tload (loaddata [mass kg, cog [x,y,z] mm in tool0, aom the quaternion of the principal axes of the inertia at
+  the cog, ix, iy, iz the principal moments kg m^2]: RAPID Instructions manual, "loaddata", "tooldata") -> the job's
+  ``payload`` in the flange frame (inertia = aom diag(ix, iy, iz) aom^T); none for a tload of mass 0 or less, or
+  for exactly ``write_rapid``'s PLACEHOLDER_LOAD (1 kg at tool0's origin, no inertia: the job gave no payload; a
+  real tool's centre of gravity is not exactly at the flange).
+* ``GripLoad <loaddata>`` ("GripLoad": the payload the tool holds, cog and aom in the TOOL frame) -> the ``grip``
+  of the part of that name (the loaddata's name as first written; its data in the flange frame in the job's
+  ``parts``), on the waypoint of the move before it, after the ``release`` of the part held before (GripLoad
+  replaces the payload); ``GripLoad load0`` -> the ``release`` of the part held. A loaddata the module does not
+  declare with a value (a task's other module, the controller's) is an error naming the line and the name.
   ``wobjdata`` [robhold, ufprog, ufmec, uframe, oframe]: targets are in uframe x oframe, in the controller's world
   frame; ``base_in_world`` (4, 4) [m] is our base frame in that world (default: the world is the section's base
   frame, as with ``wobj0``; ``write_rapid``'s ``wobj_base`` has uframe = the controller's base frame in the cell,
@@ -91,6 +101,7 @@ The document: ``robot`` as the caller names it, ``length_unit`` m, ``angle_unit`
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import textwrap
@@ -108,14 +119,18 @@ from ...model.vendors.axes import ABB, joint_values
 from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import pose_solutions, select_solution
-from ...program.actions import COMMENT, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, SET, WAIT, WAIT_INPUT
+from ...program.actions import COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
+from ...program.payload import Payload, expressed_in
 from ...program.tool_path import ToolMove, ToolPath
+from .rapid import NO_LOAD, PLACEHOLDER_LOAD
 from .read_ls import as_robot, parse_subset
 from .settings_mark import SIGNAL_MARK
 
 MOVES = ("moveabsj", "movej", "movel", "movec")
 CONFIG_INSTRUCTIONS = ("confj", "confl", "pathacclim")
 ACTION_INSTRUCTIONS = ("setdo", "set", "reset", "pulsedo", "waittime", "waitdi")
+#: Instructions that change the load the tool holds (module docstring, "GripLoad").
+LOAD_INSTRUCTIONS = ("gripload",)
 #: Instructions that end the program: read as nothing where they are its last step.
 ENDING_INSTRUCTIONS = ("stop", "exit")
 #: Predefined data (RAPID Instructions manual, "speeddata", "zonedata"): vN is N mm/s, zN is N mm, z0 and fine 0.
@@ -325,12 +340,12 @@ def _refuse_call(step, source: str, last: bool) -> None:
     if not isinstance(step, _Call):
         return
     name = step.name.lower()
-    if name in MOVES or name in ACTION_INSTRUCTIONS or name in CONFIG_INSTRUCTIONS or (
+    if name in MOVES or name in ACTION_INSTRUCTIONS or name in CONFIG_INSTRUCTIONS or name in LOAD_INSTRUCTIONS or (
             last and name in ENDING_INSTRUCTIONS):
         return
     reason = _refusal(step.name) or ("a call of a routine the module does not hold has no static meaning (read "
                                      "here: MoveAbsJ, MoveJ, MoveL, MoveC, ConfJ, ConfL, PathAccLim, SetDO, "
-                                     "Set, Reset, PulseDO, WaitTime, WaitDI and the module's procedures)")
+                                     "Set, Reset, PulseDO, WaitTime, WaitDI, GripLoad and the module's procedures)")
     raise RapidReadError(source, step.name, reason, line=step.line)
 
 
@@ -543,6 +558,9 @@ class _Reader:
         self.stops: set[int] = set()                          # waypoints where a WaitTime \InPos, 0 stops
         self.signals: dict[str, tuple[str, str]] = {}         # lower-case name -> (name as first written, direction)
         self.monitored = {"confj": True, "confl": True}       # ConfJ/ConfL \On, the controller's default
+        self.tload: tuple | None = None                       # (loaddata value, line) of the tool's load
+        self.parts: dict[str, tuple[str, list, int | None]] = {}  # lower-case name -> (name, loaddata, line)
+        self.held: str | None = None                          # lower-case name of the part GripLoad connected
 
     def step(self, step, last: bool = False) -> None:
         """Read one instruction or comment (module docstring); ``last``: the program's last step, where ``Stop`` or
@@ -560,6 +578,8 @@ class _Reader:
                 self.waypoints.append(waypoint)
         elif name in ("confj", "confl"):
             self.monitored[name] = self.switch(step)
+        elif name in LOAD_INSTRUCTIONS:
+            self.grip_load(step)
         elif name in ACTION_INSTRUCTIONS:
             action = self.action(step)
             if action is not None:
@@ -571,6 +591,28 @@ class _Reader:
 
     def add_action(self, action: dict) -> None:
         (self.waypoints[-1].setdefault("do", []) if self.waypoints else self.before_first).append(action)
+
+    def grip_load(self, call: _Call) -> None:
+        """``GripLoad <loaddata>``: the release of the part held, then the grip of this one; ``GripLoad load0``: the
+        release (module docstring); RapidReadError naming the line for a loaddata not declared in the module."""
+        self.arguments(call, 1, ())
+        value = call.required[0]
+        if not isinstance(value, _Name):
+            raise RapidReadError(self.source, call.name, "takes the name of a loaddata here", value, line=call.line)
+        key = value.lower()
+        if key != NO_LOAD:
+            known = self.data.values.get(key)
+            if known is None or known[0] != "loaddata" or known[1] is None:
+                raise RapidReadError(self.source, f"GripLoad {value}", f"no loaddata named {value} is declared with a "
+                                     "value in the module: the part's load is not in the file", line=call.line)
+            self.parts.setdefault(key, (str(value), self.data.resolved(known[1], call.name, call.line), call.line))
+        if key == self.held:
+            return
+        if self.held is not None:
+            self.add_action({RELEASE: self.parts[self.held][0]})
+        self.held = None if key == NO_LOAD else key
+        if self.held is not None:
+            self.add_action({GRIP: self.parts[key][0]})
 
     def action(self, call: _Call) -> dict | None:
         """The action of SetDO, Set, Reset, PulseDO, WaitTime or WaitDI (None: WaitTime of 0 s, only a stop)."""
@@ -698,10 +740,12 @@ class _Reader:
             raise RapidReadError(self.source, call.name, f"tool {name}: no tooldata of that name is declared with a "
                                  "value in the module (RobotStudio keeps tools in the task's CalibData module): pass "
                                  "its tframe as tool (4, 4) [m]", line=call.line)
-        robhold, tframe, _ = self.data.get(name, "tooldata", call.name, call.line)
+        robhold, tframe, tload = self.data.get(name, "tooldata", call.name, call.line)
         if not robhold:
             raise RapidReadError(self.source, str(name), "is a stationary tool (robhold FALSE): not read here",
                                  line=call.line)
+        if tload != json.loads(PLACEHOLDER_LOAD):
+            self.tload = (tload, call.line)
         return _frame(tframe, self.source)
 
     def joint_target(self, value, call: _Call) -> np.ndarray:
@@ -874,7 +918,37 @@ class _Reader:
         if self.signals:
             doc["signals"] = {name: {direction: numbers[key][1] if numbers.get(key, (None,))[0] == direction
                                      else None} for key, (name, direction) in self.signals.items()}
+        if self.tload is not None:
+            payload = self.load(*self.tload, controller_frames(self.robot, ABB)[1], f"{self.tool_name} tload")
+            if payload is not None:
+                doc["payload"] = payload.to_document(1.0)
+        parts = {name: self.load(value, line, self.X_FT, f"loaddata {name}")
+                 for name, value, line in self.parts.values()}
+        for name, part in parts.items():
+            if part is None:
+                raise RapidReadError(self.source, f"loaddata {name}", "a part's mass must be above 0 kg",
+                                     line=self.parts[name.lower()][2])
+        if parts:
+            doc["parts"] = {name: part.to_document(1.0) for name, part in parts.items()}
         return doc
+
+    def load(self, value, line: int | None, X_FA: np.ndarray, what: str) -> Payload | None:
+        """The load (in the flange frame) of a loaddata ``value`` [mass, cog mm, aom, ix, iy, iz] stated in frame A,
+        X_FA (4, 4) [m] A's pose in the flange frame; None for a mass of 0 or less (no load). RapidReadError naming
+        ``what`` and the line where the value is not a loaddata."""
+        shape = (isinstance(value, list) and len(value) == 6 and isinstance(value[1], list) and len(value[1]) == 3
+                 and isinstance(value[2], list) and len(value[2]) == 4)
+        flat = [value[0], *value[1], *value[2], *value[3:]] if shape else []
+        if not shape or not all(isinstance(v, float) and not isinstance(v, bool) and math.isfinite(v) for v in flat):
+            raise RapidReadError(self.source, what, "a loaddata is [mass, [x, y, z], [q1, q2, q3, q4], ix, iy, iz] "
+                                 "of numbers", value, line=line)
+        if value[0] <= 0.0:
+            return None
+        aom = _frame([[0.0, 0.0, 0.0], value[2]], self.source)[:3, :3]
+        inertia = aom @ np.diag(value[3:]) @ aom.T
+        local = Payload(float(value[0]), np.array(value[1]) / 1e3, inertia, f"{self.source}: {what}",
+                        what.split()[-1] if what.startswith("loaddata") else "tool")
+        return expressed_in(local, X_FA)
 
 
 def _comment_texts(text: str) -> list[str]:
