@@ -72,7 +72,7 @@ def test_loads_grips_and_releases_read_back_as_written(carrying, language):
     for load, load_back in zip(carrying.loads, back.loads):
         same_load(load, load_back)
     assert carrying.loads[2].mass == pytest.approx(3.7) and carrying.loads[1].mass == pytest.approx(1.2)
-    assert "payload schedule" not in document.get("description", "")     # the data were read, not left on the controller
+    assert "payload schedule" not in document.get("description", "")     # read, not left on the controller
 
 
 def mn_lines(text: str) -> list[str]:

@@ -111,8 +111,7 @@ from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_IN
 from ...program.model import CIRCULAR, JOINT, Move, Program
 from ...program.payload import Payload
 from .lint import FANUC_LS, lint
-from .settings_mark import (LoadSchedules, check_signal_numbers, load_schedules, loads_mark, settings_mark,
-                            signals_mark)
+from .settings_mark import LoadSchedules, check_signal_numbers, load_schedules, loads_mark, settings_mark, signals_mark
 
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
@@ -456,6 +455,11 @@ def placeholder_text(where: str) -> str:
     return f"PLACEHOLDER: the job gives no payload: set the real one in {where}"
 
 
+#: The header's first sentence on the loads (module docstring, "Load").
+SCHEDULES_INTRO = ("Payload schedules to set on the controller: PAYLOAD kg, CENTER X Y Z cm (faceplate frame), "
+                   "INERTIA X Y Z kgf cm s2 (about the center, faceplate axes).")
+
+
 def schedule_texts(program: Program, schedules: LoadSchedules | None) -> list[str]:
     """The header's payload schedules (module docstring, "Load"): per schedule its data to set on the controller,
     then the loads mark; a PLACEHOLDER for a load the job does not give. ConfigurationError beyond 10 schedules."""
@@ -464,8 +468,7 @@ def schedule_texts(program: Program, schedules: LoadSchedules | None) -> list[st
     if len(schedules.held) > MAX_PAYLOAD_SCHEDULES:
         raise ConfigurationError(f"the program carries {len(schedules.held)} distinct loads (tool and parts held): "
                                  f"FANUC has {MAX_PAYLOAD_SCHEDULES} payload schedules")
-    texts = ["Payload schedules to set on the controller: PAYLOAD kg, CENTER X Y Z cm (faceplate frame), INERTIA X "
-             "Y Z kgf cm s2 (about the center, faceplate axes)."]
+    texts = [SCHEDULES_INTRO]
     if program.payload is None:
         texts.append("PLACEHOLDER: the job gives no payload (the tool's load): add it to every schedule.")
     for n in range(1, len(schedules.held) + 1):

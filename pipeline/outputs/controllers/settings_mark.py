@@ -212,7 +212,8 @@ LOAD_KEYS = ("m", "cx", "cy", "cz", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 
 def _load_words(key: str, load: Payload) -> list[str]:
     values = [load.mass, *load.com, *load.inertia_six]
-    return [f"{PREFIX}{key}.{name}={value:.9g}" for name, value in zip(LOAD_KEYS, values) if name == "m" or value != 0.0]
+    return [f"{PREFIX}{key}.{name}={value:.9g}" for name, value in zip(LOAD_KEYS, values)
+            if name == "m" or value != 0.0]
 
 
 def loads_mark(program: Program, schedules: LoadSchedules, max_chars: int) -> str:

@@ -303,14 +303,18 @@ def signal_mark_lines(program: Program) -> list[str]:
     return [entry for entry in signals_mark(program).split() if len(entry) <= COMMENT_MAX]
 
 
+#: The header's first sentence on the loads (module docstring, "Load").
+LOADS_INTRO = ("Loads: no INFORM instruction changes the tool file load, so give ARM control (tool file W kg, Xg Yg "
+               "Zg mm in the flange frame, Ix Iy Iz kg m2 about the centre in the flange axes) the load each grip and "
+               "release names.")
+
+
 def tool_file_texts(program: Program, schedules: LoadSchedules | None) -> list[str]:
     """The header's loads (module docstring, "Load"): per load its tool file data to give ARM control, then the
     loads mark; a PLACEHOLDER for a load the job does not give."""
     if schedules is None:
         return [placeholder_text("tool file 1 (W, Xg, Yg, Zg, Ix, Iy, Iz)")]
-    texts = ["Loads: no INFORM instruction changes the tool file load, so give ARM control (tool file W kg, Xg Yg Zg "
-             "mm in the flange frame, Ix Iy Iz kg m2 about the centre in the flange axes) the load each grip and "
-             "release names."]
+    texts = [LOADS_INTRO]
     if program.payload is None:
         texts.append("PLACEHOLDER: the job gives no payload (the tool's load): add it to every load.")
     for n in range(1, len(schedules.held) + 1):
