@@ -86,8 +86,8 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   neither waits nor stops) follows the CNT move: the controller runs it as the robot rounds the corner, not at the
   point (unverified how early).
 
-``program_points`` (the motions in the order they are written, with their points' joint values) and
-``controller_frame`` are shared with the Yaskawa writer.
+``program_points`` (the motions in the order they are written, with their points' joint values),
+``controller_frame``, ``flange_diagonal`` and ``placeholder_text`` are shared with the Yaskawa writer.
 """
 
 from __future__ import annotations
