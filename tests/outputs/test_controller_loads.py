@@ -91,8 +91,8 @@ def test_payload_is_written_in_every_language_and_a_placeholder_without(gp7, ur5
     assert "  set_payload(2.5, [0.0, 0.01, 0.08])" in script.splitlines()
     assert read_urscript(script, UR5_JOB["robot"])["payload"] == {"mass": 2.5, "com": [0.0, 0.01, 0.08]}
     assert "PLACEHOLDER" in write_urscript(ur5, "ur5")
-    for writer in (write_ls, write_jbi):
-        assert "payload 2.5 kg" in writer(loaded, "GP7") and "PLACEHOLDER" in writer(gp7, "GP7")
+    for writer, said in ((write_ls, "payload 2.5 kg"), (write_jbi, "W 2.5 kg")):      # FANUC schedule, tool file
+        assert said in writer(loaded, "GP7") and "PLACEHOLDER" in writer(gp7, "GP7")
 
 
 def test_job_payload_is_validated(tmp_path):

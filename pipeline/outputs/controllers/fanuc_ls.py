@@ -37,9 +37,18 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
 * Frames: ``/MN`` starts with ``UFRAME_NUM=0 ;`` and ``UTOOL_NUM=1 ;``, the frames every point names (``UF : 0,
   UT : 1``): a point whose UF/UT differs from the active frame numbers stops the program with an INTP-250-class
   alarm (user frame number mismatch; a third-party knowledge-base page, unverified for the tool frame).
-* Load: LS has no load data of its own (``PAYLOAD[n]`` selects a payload schedule whose mass and centre of mass
-  are system settings on the controller: not written here); the job's payload (mass [kg], centre of mass in
-  the flange frame [mm]) is a comment, or a PLACEHOLDER comment when the job gives none.
+* Load: LS holds no load data: ``PAYLOAD[n]`` selects payload schedule n, whose data are system settings on the
+  controller (up to 10 schedules: PAYLOAD [kg], PAYLOAD CENTER X, Y, Z [cm], the centre of gravity's offset from the
+  faceplate centre in the faceplate (flange) frame, PAYLOAD INERTIA X, Y, Z [kgf cm s^2, 1 kg m^2 = 100 / 9.80665];
+  FANUC setup manual, as Lincoln Electric's copy gives it; secondary). The writer numbers the distinct loads the
+  program carries (``settings_mark.load_schedules``: schedule 1 the tool's load alone, then each new set of parts
+  held, in the order the grip and release actions first carry it; more than 10 is refused), writes ``PAYLOAD[1]``
+  before the first motion and ``PAYLOAD[n]`` for each grip and release in its place among its waypoint's actions,
+  and states each schedule's data in the header (``schedule_texts``: to set on the controller) with the loads mark
+  (``settings_mark.loads_mark``) that ``read_ls`` reads back. The inertia X, Y, Z written is the diagonal of the
+  load's inertia about its centre of gravity in the faceplate axes: its principal moments when that inertia is
+  diagonal, else the diagonal alone, said in the comment (the schedule holds no products of inertia). A job
+  without any load (no payload, no part) gets a PLACEHOLDER comment and no ``PAYLOAD`` instruction.
 * Name and job: the program name is never a word of the format or of the TP instructions (``names``); a comment
   line records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``).
 * Points: ``P[i]{ GP1: UF : 0, UT : 1, CONFIG : 'F/N U/D T/B, t1, t4, t6', X Y Z W P R }`` for poses, the
@@ -77,8 +86,8 @@ writes) is ``/PROG name``, ``/ATTR`` (the header), ``/MN`` (numbered lines), ``/
   neither waits nor stops) follows the CNT move: the controller runs it as the robot rounds the corner, not at the
   point (unverified how early).
 
-``program_points`` (the motions in the order they are written, with their points' joint values) and
-``controller_frame`` are shared with the Yaskawa writer.
+``program_points`` (the motions in the order they are written, with their points' joint values),
+``controller_frame``, ``flange_diagonal`` and ``placeholder_text`` are shared with the Yaskawa writer.
 """
 
 from __future__ import annotations
@@ -98,16 +107,21 @@ from ...model.vendors.axes import FANUC, YASKAWA, axis_angles
 from ...model.vendors.configuration import configurations, format_configuration
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
-from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
+from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, Move, Program
+from ...program.payload import Payload
 from .lint import FANUC_LS, lint
-from .settings_mark import check_signal_numbers, settings_mark, signals_mark
+from .settings_mark import LoadSchedules, check_signal_numbers, load_schedules, loads_mark, settings_mark, signals_mark
 
 #: Comment lines of a pendant program: at most this many characters each.
 COMMENT_CHARS = 32
 NAME_PATTERN = re.compile(r"^[A-Z][A-Z0-9_]{0,7}$")
 FANUC_SPEED_MM_S = (1, 2000)
 MM, DEG = 1000.0, 180.0 / math.pi
+#: FANUC's payload schedules (module docstring, "Load"); kgf cm s^2 per kg m^2 (1 kgf = 9.80665 N, 1 m^2 = 1e4 cm^2).
+MAX_PAYLOAD_SCHEDULES, KGF_CM_S2 = 10, 100.0 / 9.80665
+#: A product of inertia below this is none [kg m^2] (below what the comments write of a moment).
+PRODUCT_TOLERANCE = 1e-9
 #: The user frame and tool frame numbers every point names and /MN selects (module docstring, "Frames").
 USER_FRAME, TOOL_FRAME = 0, 1
 _SEPARATOR = ",\t"
@@ -320,10 +334,11 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
     check_six_joints(program)
     X_B_base, frame = controller_frame(program.robot, FANUC)
     check_signal_numbers(program, "FANUC TP", "DO[n], DI[n]")
+    schedules = load_schedules(program)
     comments = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
                 *comment_lines(signals_mark(program)),
                 *comment_lines(_header_text(program, frame)),
-                *comment_lines(payload_text(program, "PAYLOAD schedule (UT 1)"))]
+                *(line for text in schedule_texts(program, schedules) for line in comment_lines(text))]
     if written is not None:
         comments += [line for text in [WRITTEN_CNT_RULE, *written.header_lines(), *cnt_differences(program, written)]
                      for line in comment_lines(text)]
@@ -331,7 +346,8 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
     zones = [line for motion in motions if motion.zone > 0.0 for line in comment_lines(_zone_comment(program, motion))]
     configs = [None if w.method is None else configurations(program.robot, w.q, FANUC) for w in program.waypoints]
     lint(program, FANUC_LS, name, comments + zones, configs)
-    lines = [f"UFRAME_NUM={USER_FRAME}", f"UTOOL_NUM={TOOL_FRAME}", *(f"!{line}" for line in comments)]
+    lines = [f"UFRAME_NUM={USER_FRAME}", f"UTOOL_NUM={TOOL_FRAME}", *(f"!{line}" for line in comments),
+             *([] if schedules is None else ["PAYLOAD[1]"])]
     positions, index = [], 0
     for m, motion in enumerate(motions):
         labels = []
@@ -344,7 +360,8 @@ def write_ls(program: Program, name: str, created: _dt.datetime | None = None, w
         lines.append(_motion(program, motion, labels))
         if m + 1 == len(motions) or motions[m + 1].move is not motion.move:     # the waypoint's last motion
             k = 0 if motion.move is None else motion.move.end
-            lines.extend(line for action in program.actions_at(k) for line in action_lines(program, action))
+            lines.extend(line for i, action in enumerate(program.actions_at(k))
+                         for line in action_lines(program, action, schedules and schedules.selected.get((k, i))))
     lines.extend(timeout_lines(program))
     return "\n".join([f"/PROG  {name}", *_attributes(program, len(lines), created), "/MN",
                       *(f"{n:4d}:  {line} ;" for n, line in enumerate(lines, start=1)), "/POS", *positions, "/END",
@@ -359,8 +376,11 @@ TIMEOUT_COMMENT = "input timeout"
 WAITTMOUT_S, WAIT_STEP_S, PULSE_STEP_S = 0.01, 0.01, 0.1
 
 
-def action_lines(program: Program, action: Action) -> list[str]:
-    """The /MN lines (without number and ``;``) of one action (module docstring, "Actions")."""
+def action_lines(program: Program, action: Action, schedule: int | None = None) -> list[str]:
+    """The /MN lines (without number and ``;``) of one action (module docstring, "Actions"); a grip or release:
+    ``PAYLOAD[schedule]``, the load it leaves the robot carrying (module docstring, "Load")."""
+    if action.kind in (GRIP, RELEASE):
+        return [f"PAYLOAD[{schedule}]"]
     if action.kind == COMMENT:
         return [f"!{line}" for line in comment_action_lines(action.text)]
     if action.kind == WAIT:
@@ -430,14 +450,48 @@ def _header_text(program: Program, frame: str) -> str:
             "controller.")
 
 
-def payload_text(program: Program, where: str) -> str:
-    """A comment: the job's payload (mass [kg], centre of mass in the flange frame [mm]) to set in ``where``, or a
-    PLACEHOLDER when the job gives none (the module docstring's "Load")."""
-    payload = program.payload
-    if payload is None:
-        return f"PLACEHOLDER: the job gives no payload: set the real one in {where}"
-    com = " ".join(f"{v:.1f}" for v in rounded(payload.com * MM, 1))
-    return f"payload {payload.mass:g} kg, com {com} mm (flange): set it in {where}"
+def placeholder_text(where: str) -> str:
+    """A comment for a job that gives no load (no payload, no part): a PLACEHOLDER to set the real one in ``where``."""
+    return f"PLACEHOLDER: the job gives no payload: set the real one in {where}"
+
+
+#: The header's first sentence on the loads (module docstring, "Load").
+SCHEDULES_INTRO = ("Payload schedules to set on the controller: PAYLOAD kg, CENTER X Y Z cm (faceplate frame), "
+                   "INERTIA X Y Z kgf cm s2 (about the center, faceplate axes).")
+
+
+def schedule_texts(program: Program, schedules: LoadSchedules | None) -> list[str]:
+    """The header's payload schedules (module docstring, "Load"): per schedule its data to set on the controller,
+    then the loads mark; a PLACEHOLDER for a load the job does not give. ConfigurationError beyond 10 schedules."""
+    if schedules is None:
+        return [placeholder_text("PAYLOAD schedule 1 (UT 1)")]
+    if len(schedules.held) > MAX_PAYLOAD_SCHEDULES:
+        raise ConfigurationError(f"the program carries {len(schedules.held)} distinct loads (tool and parts held): "
+                                 f"FANUC has {MAX_PAYLOAD_SCHEDULES} payload schedules")
+    texts = [SCHEDULES_INTRO]
+    if program.payload is None:
+        texts.append("PLACEHOLDER: the job gives no payload (the tool's load): add it to every schedule.")
+    for n in range(1, len(schedules.held) + 1):
+        load = schedules.load(program, n)
+        texts.append(f"PAYLOAD[{n}] {' + '.join(('tool', *schedules.held[n - 1]))}: "
+                     + ("no load known" if load is None else _schedule_data(load)))
+    return [*texts, loads_mark(program, schedules, COMMENT_CHARS)]
+
+
+def _schedule_data(load: Payload) -> str:
+    """A schedule's data (module docstring, "Load"): payload [kg], center [cm], inertia [kgf cm s^2]."""
+    diagonal, products = flange_diagonal(load)
+    center = " ".join(f"{v:.3f}" for v in rounded(load.com * 100.0, 3))
+    inertia = " ".join(f"{v:.5f}" for v in rounded(diagonal * KGF_CM_S2, 5))
+    kept = "" if not products else " (the diagonal in the faceplate axes: products of inertia not held)"
+    return f"payload {load.mass:g} kg, center {center} cm, inertia {inertia} kgf cm s2{kept}."
+
+
+def flange_diagonal(load: Payload) -> tuple[np.ndarray, bool]:
+    """(the load's inertia about its centre of mass in the flange axes, diagonal (3,) [kg m^2], whether it has
+    products of inertia, which a controller holding three moments drops)."""
+    inertia = np.asarray(load.inertia, dtype=float)
+    return np.diag(inertia).copy(), bool(np.any(np.abs(inertia - np.diag(np.diag(inertia))) > PRODUCT_TOLERANCE))
 
 
 def _reach(program: Program, motion: Motion) -> tuple[float, str]:

@@ -39,6 +39,10 @@ file, the line and the construct of what is refused.
   first move are comment actions, except the writer's ``'zone .. mm PLn`` lines; comments before it are the header.
   The job's ``signals`` table names each number used (``do1: {output: 1}``); ``read_program`` renames them as the
   writer's mark says.
+* Loads: the writer's loads mark in the header (``settings_mark.loads_mark``) is the job's ``payload`` and ``parts``,
+  and its comment lines at a grip or release (``'dh.grip=box``, ``'dh.release=box``, each followed by ``'ARM control:
+  load n from here``: ``yaskawa_jbi.LOAD_CHANGE``) are grip and release actions; a part the mark does not state is
+  refused naming the line. Nothing else in a job changes the load (the tool file's data are on the controller).
 * Refused naming the line and the construct: ``JUMP`` and ``*LABEL`` (jumps and loops), ``IF``/``IFTHEN``/
   ``IFTHENEXP``/``ELSE``/``ENDIF``/``SWITCH`` and other branches, ``CALL``/``RET`` (another job), ``PAUSE``,
   ``TSYNC`` (a synchronisation with another task), ``SKILLSND`` (a command to another program), a wait on an output
@@ -64,7 +68,8 @@ from ...model.vendors.configuration import configurations
 from .fanuc_ls import MM, controller_frame, controller_pose
 from .read_ls import (ControllerProgramError, as_robot, comment_tool, job_document, parse_text, pose_fields,
                       pose_waypoint, tool_frame)
-from .yaskawa_jbi import PL_MM
+from .settings_mark import MarkedLoads, marked_loads
+from .yaskawa_jbi import LOAD_CHANGE, PL_MM
 
 #: An arc's first MOVC point is the previous move's end when they agree within these [mm, deg] (the file's rounding).
 SAME_POINT_MM = 0.001 + 1e-9
@@ -79,6 +84,9 @@ PULSE = re.compile(rf"PULSE\s+OT#\((\d+)\)(?:\s+T=({NUMBER}))?")
 TIMER = re.compile(rf"TIMER\s+T=({NUMBER})")
 WAIT = re.compile(rf"WAIT\s+IN#\((\d+)\)\s*=\s*(ON|OFF)(?:\s+T=({NUMBER}))?")
 PAUSE_IF = re.compile(r"PAUSE\s+IF\s+IN#\((\d+)\)\s*=\s*(ON|OFF)")
+#: The writer's comment lines at a grip or release (module docstring, "Loads").
+LOAD_ACTION = re.compile(r"dh\.(grip|release)=([A-Za-z][A-Za-z0-9_]{0,31})")
+LOAD_LINE = re.compile("'\\s*" + re.escape(LOAD_CHANGE).replace(re.escape("{n}"), r"\d+"))
 #: Instructions that assign a variable: the first argument is the variable set.
 ASSIGNMENTS = ("SET", "SETE", "GETE", "GETS", "GETARG", "CNVRT", "ADD", "SUB", "MUL", "DIV", "INC", "DEC", "AND",
                "OR", "NOT", "XOR", "CLEAR", "DIN", "MFRAME", "GETPOS", "SETREG", "GETREG")
@@ -113,6 +121,8 @@ def read_jbi(text: str, robot, tool: np.ndarray | None = None, pl_mm=PL_MM, sour
     statements = [(token.line, str(token).strip()) for token in
                   (node.children[0] for node in tree.find_data("instruction"))]
     items, header_comments, notes = _items(statements, source)
+    loads = marked_loads(text)
+    _check_parts(items, loads, source)
     instructions = [item for item in items if item["kind"] == "motion"]
     if not instructions:
         raise ControllerProgramError(source, "//INST", "no motion instruction (MOVJ, MOVL, MOVC): a job of actions "
@@ -133,6 +143,8 @@ def read_jbi(text: str, robot, tool: np.ndarray | None = None, pl_mm=PL_MM, sour
             waypoints[k]["do"] = [entry for entry, _ in listed]
             signals.update(signal for _, signal in listed if signal)
     document = job_document(reference, X_FT, waypoints, solved[first["points"][-1]]["q"], None)
+    if loads is not None:
+        document.update(loads.document(source))
     if signals:
         document["signals"] = dict(sorted(signals.items()))
     if notes:
@@ -222,6 +234,9 @@ def _item(line: int, text: str, following: list[tuple[int, str]], source: str) -
         comment = text[1:].strip()
         if ZONE_COMMENT.fullmatch(comment):
             return {"kind": "skip"}, 1
+        if load := LOAD_ACTION.fullmatch(comment):
+            said = 2 if following and LOAD_LINE.fullmatch(following[0][1]) else 1
+            return {**_action_item(line, {load.group(1): load.group(2)}, None), "text": text}, said
         return {"kind": "comment", "comment": comment, "text": text, "line": line,
                 "action": ({"comment": comment}, None)}, 1
     if text == "NOP":
@@ -242,6 +257,16 @@ def _item(line: int, text: str, following: list[tuple[int, str]], source: str) -
     if word in REFUSED:
         _refuse(source, line, text, REFUSED[word])
     _refuse(source, line, text, "an instruction this reader does not read (its effect on the motion is not known)")
+
+
+def _check_parts(items: list[dict], loads: MarkedLoads | None, source: str) -> None:
+    """ControllerProgramError naming the line of a grip or release whose part the loads mark does not state."""
+    for item in items:
+        entry = item["action"][0] if item["kind"] == "action" else {}
+        part = entry.get("grip", entry.get("release"))
+        if part is not None and (loads is None or part not in loads.parts):
+            _refuse(source, item["line"], item["text"], f"part {part}: its load is not in the header's loads mark "
+                    "(dh.part.N=name with its dh.part.N.m ...): what the robot carries from here is not known")
 
 
 def _refuse(source: str, line: int, text: str, why: str):

@@ -60,10 +60,16 @@ refused (``ControllerProgramError`` naming the file, the line and the instructio
 * Refused, naming the line and the construct: other jumps and labels (``JMP``, ``LBL``), branches (``IF``, ``SELECT``),
   calls of other programs (``CALL``, ``RUN``), register and flag assignments, register speeds and CNT, targets in
   position registers (``PR[i]``: their values are not in the file), ``SKIP CONDITION``, waits on other conditions,
-  ``OVERRIDE`` or ``PAYLOAD`` after the first move, timers, and any instruction the grammar does not read.
+  ``OVERRIDE`` after the first move, timers, and any instruction the grammar does not read.
 * ``OVERRIDE=n%`` before the first move is the job's ``speed_scale`` n / 100 (the controller runs every speed at n %
-  of the program's); ``PAYLOAD[n]`` before the first move is noted in the job's description (the schedule's data is
-  on the controller).
+  of the program's).
+* Loads: a payload schedule's data are system settings on the controller, not in the file, but the writer states them
+  in its loads mark (``settings_mark.loads_mark``: the tool's load, the parts, which parts schedule n carries), read
+  back as the job's ``payload`` and ``parts``. ``PAYLOAD[n]`` whose schedule the mark states selects that load: the
+  parts it carries that the robot did not are gripped there, those it no longer carries released (grip and release
+  actions in its place among the waypoint's actions; the robot starts carrying none). Without the mark's schedule,
+  ``PAYLOAD[n]`` before the first move is noted in the job's description (the schedule's data is on the controller)
+  and after it refused naming the line: the load changes there to data the file does not hold.
 
 ``ControllerProgramError`` names the file, the line or point and what is wrong. ``tool_frame``,
 ``zone_from_cnt`` and ``pose_waypoint`` are shared with the Yaskawa reader; ``parse_subset`` with the RAPID and
@@ -91,6 +97,7 @@ from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from ...program.actions import INPUT, OUTPUT, SIGNAL_NAME
 from .fanuc_ls import CONTINUED, MM, WAITTMOUT_S, controller_frame, controller_pose
+from .settings_mark import MarkedLoads, marked_loads
 
 #: The writer's zone comment (``fanuc_ls._zone_comment``): zone [mm] and CNT n.
 ZONE_COMMENT = re.compile(r"zone\s+(\d+(?:\.\d+)?)\s*mm\s+CNT\s*(\d+)", re.IGNORECASE)
@@ -220,7 +227,7 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
     robot, reference = as_robot(robot)
     tree = parse_text("fanuc_ls", text, source)
     positions = dict(map(_position, tree.find_data("position")))
-    walk = _Walk(source)
+    walk = _Walk(source, marked_loads(text))
     for line, instruction in _mn_lines(tree):
         walk.read(line, instruction)
     walk.finish()
@@ -233,6 +240,8 @@ def read_ls(text: str, robot, tool: np.ndarray | None = None, tcp_accel_max: flo
     points = [[_point(robot, tool_robot, positions, ref, X_B_UF, walk, motion, source) for ref in motion.refs]
               for motion in walk.motions]
     document = _document(reference, X_FT, walk, points, tcp_accel_max)
+    if walk.loads is not None:
+        document.update(walk.loads.document(source))
     if walk.signals:
         document["signals"] = {name: {direction: number} for name, (direction, number) in walk.signals.items()}
     return document
@@ -294,7 +303,7 @@ REFUSED = (
     (re.compile(r"PR\["), "a position register assignment: its value is not in the file"),
     (re.compile(r"(R|SR|AR|F|M)\["), "a register or flag assignment: registers have no static value in the file"),
     (re.compile(r"OVERRIDE\b"), "changes the speed override during the program (read before the first move only)"),
-    (re.compile(r"PAYLOAD\["), "selects a payload schedule during the program (read before the first move only)"),
+    (re.compile(r"PAYLOAD\["), "selects a payload schedule by a register: its number is not in the file"),
     (re.compile(r"TIMER\["), "a timer"),
     (re.compile(r"UALM\[|ABORT\b|END\b"), ("ends or stops the program before its end (only the timeout pattern "
      "END ; LBL[x] ; UALM[m] ; ABORT at the program's end is read)")),
@@ -332,10 +341,13 @@ class _Motion:
 
 class _Walk:
     """The /MN instructions in order: motions with their actions, the header comments, the frame selections, the
-    position register elements the file sets, the signals (name -> (direction, number)) and the timeout pattern."""
+    position register elements the file sets, the signals (name -> (direction, number)), the timeout pattern and
+    the parts held (the writer's ``loads`` mark, or None)."""
 
-    def __init__(self, source: str):
+    def __init__(self, source: str, loads: MarkedLoads | None = None):
         self.source = source
+        self.loads = loads
+        self.held: frozenset = frozenset()
         self.motions: list[_Motion] = []
         self.header: list[str] = []
         self.before: list[dict] = []                 # actions before the first motion
@@ -494,10 +506,21 @@ class _Walk:
         self.override = percent / 100.0
 
     def _payload(self, line: int, text: str, node: Tree) -> None:
-        """PAYLOAD[n] before the first move: noted in the job's description (its data is on the controller)."""
-        if self.motions:
-            raise refusal(self.source, line, text)
-        self.notes.append(f"{text} selects a payload schedule whose data is on the controller (not read)")
+        """PAYLOAD[n]: with the mark's schedule n, the grips and releases that make its load; without, before the first
+        move noted in the job's description, after it refused (module docstring, "Loads")."""
+        n = _label(node.children[0])
+        carried = None if self.loads is None else self.loads.schedules.get(n)
+        if carried is None and self.motions:
+            raise ControllerProgramError(self.source, f"line {line}", f"{text}: selects payload schedule {n} after the "
+                                         f"first move: its data is on the controller, not in the file (no dh.payload"
+                                         f".{n} mark of dh-pipeline's): the load the robot carries from here is not "
+                                         "known", line=line)
+        if carried is None:
+            self.notes.append(f"{text} selects a payload schedule whose data is on the controller (not read)")
+            return
+        self.actions.extend({"release": name} for name in sorted(self.held - carried))
+        self.actions.extend({"grip": name} for name in sorted(carried - self.held))
+        self.held = carried
 
     def _end(self, line: int, text: str, node) -> None:
         self.after_end = []

@@ -15,16 +15,28 @@ Each key is one word, so the mark survives the writers' wrapping of comments int
 The job's signal names ride in the same way where the language numbers its I/O (``signals_mark``:
 ``dh.signal.gripper_close=out1 dh.signal.part_present=in3``): a reader names a numbered signal ``do<N>`` / ``di<N>``
 (or as the program itself names it), and ``with_signal_names`` gives it back the job's name.
+
+The loads ride in the same way where the language holds none (FANUC's payload schedules and Yaskawa's tool file are
+settings on the controller): ``load_schedules`` numbers the distinct loads a program carries (1: the tool's load
+alone, then each new set of parts held in the order the grip and release actions first carry it), and ``loads_mark``
+states them, one word per number so that the 32-character comment lines of both languages keep every word whole:
+``dh.payload.2=tool+1`` (load 2 is the tool's load and part 1), ``dh.part.1=box`` (part 1's name), ``dh.tool.m=1.2``,
+``dh.tool.cz=0.045``, ``dh.part.1.ixx=0.0052`` (mass [kg], centre of mass cx, cy, cz [m] in the flange frame,
+inertia ixx, iyy, izz, ixy, ixz, iyz [kg m^2] about it in the flange axes; a 0 is left out) with 9 significant digits,
+so ``marked_loads`` reads back the job's numbers to 1e-9 of each. A load the job does not give (no payload) has no
+words.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 
 from ...errors import ConfigurationError
-from ...program.actions import INPUT, OUTPUT, PULSE, SET, WAIT_INPUT
+from ...program.actions import GRIP, INPUT, OUTPUT, PULSE, RELEASE, SET, WAIT_INPUT
 from ...program.model import Program
+from ...program.payload import Payload, combined
 
 #: The action keys whose value is a signal's name.
 SIGNAL_KINDS = (SET, PULSE, WAIT_INPUT)
@@ -154,3 +166,123 @@ def _unscaled(waypoint, scale: float, ruckig: bool):
     if ruckig:
         return {key: value for key, value in waypoint.items() if key != "speed"}
     return {**waypoint, "speed": min(100.0, waypoint["speed"] / scale)}
+
+
+@dataclass(frozen=True)
+class LoadSchedules:
+    """The distinct loads a program carries (module docstring): ``held[n - 1]`` the parts load n carries with the
+    tool's load (load 1: none), in the order first gripped; ``selected[(k, i)]`` the load waypoint k's action i (a
+    grip or a release) leaves the robot carrying."""
+
+    held: tuple[tuple[str, ...], ...]
+    selected: dict
+
+    def load(self, program: Program, n: int) -> Payload | None:
+        """Load n as one (``payload.combined``; None: the job gives neither the tool's load nor a part of it)."""
+        what = " + ".join(("tool", *self.held[n - 1]))
+        return combined([program.payload, *(program.parts[name] for name in self.held[n - 1])], name=what)
+
+
+def load_schedules(program: Program) -> LoadSchedules | None:
+    """The loads ``program`` carries, numbered in order of first use (module docstring); None when the job gives
+    no load (no payload, no part)."""
+    if program.payload is None and not program.parts:
+        return None
+    held, numbers, selected = [], {frozenset(): 1}, {}
+    order = [()]
+    for k in range(len(program.waypoints)):
+        for i, action in enumerate(program.actions_at(k)):
+            if action.kind == GRIP:
+                held.append(action.part)
+            elif action.kind == RELEASE:
+                held = [name for name in held if name != action.part]
+            else:
+                continue
+            key = frozenset(held)
+            if key not in numbers:
+                numbers[key] = len(order) + 1
+                order.append(tuple(held))
+            selected[(k, i)] = numbers[key]
+    return LoadSchedules(tuple(order), selected)
+
+
+#: A load's quantities in the mark, and where each is in a Payload (module docstring).
+LOAD_KEYS = ("m", "cx", "cy", "cz", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+
+
+def _load_words(key: str, load: Payload) -> list[str]:
+    values = [load.mass, *load.com, *load.inertia_six]
+    return [f"{PREFIX}{key}.{name}={value:.9g}" for name, value in zip(LOAD_KEYS, values)
+            if name == "m" or value != 0.0]
+
+
+def loads_mark(program: Program, schedules: LoadSchedules, max_chars: int) -> str:
+    """The header comment stating the loads and what each numbered load carries (module docstring).
+    ConfigurationError when a word is longer than ``max_chars`` (a comment line), naming it."""
+    index = {name: i + 1 for i, name in enumerate(program.parts)}
+    words = [f"{PREFIX}payload.{n}=" + "+".join(("tool", *(str(index[name]) for name in held)))
+             for n, held in enumerate(schedules.held, start=1)]
+    if program.payload is not None:
+        words += _load_words("tool", program.payload)
+    for name, i in index.items():
+        words += [f"{PREFIX}part.{i}={name}", *_load_words(f"part.{i}", program.parts[name])]
+    for word in words:
+        if len(word) > max_chars:
+            raise ConfigurationError(f"the loads' mark {word!r} is longer than a comment line ({max_chars} "
+                                     "characters): a shorter part name, or fewer parts held at once")
+    return " ".join(words)
+
+
+_SCHEDULE = re.compile(r"\bdh\.payload\.([0-9]{1,3})=tool((?:\+[0-9]{1,3})*)(?![A-Za-z0-9_+])")
+_PART = re.compile(r"\bdh\.part\.([0-9]{1,3})=([A-Za-z][A-Za-z0-9_]{0,31})\b")
+_LOAD_VALUE = re.compile(r"\bdh\.(tool|part\.[0-9]{1,3})\.(" + "|".join(LOAD_KEYS) + r")=([0-9eE.+-]+)")
+
+
+@dataclass(frozen=True)
+class MarkedLoads:
+    """What a program's loads mark states (``marked_loads``): ``payload`` the tool's load and ``parts`` {name: load}
+    as job file entries (mass [kg], com [m], inertia [kg m^2]), ``schedules`` {n: the parts load n carries}."""
+
+    payload: dict | None
+    parts: dict
+    schedules: dict
+
+    def document(self, source: str) -> dict:
+        """The job document's ``payload`` and ``parts`` entries, their ``source`` naming ``source``."""
+        said = {"source": f"{source}: the writer's loads mark (dh.tool, dh.part)"}
+        out = {} if self.payload is None else {"payload": {**self.payload, **said}}
+        if self.parts:
+            out["parts"] = {name: {**entry, **said} for name, entry in self.parts.items()}
+        return out
+
+
+def marked_loads(text: str) -> MarkedLoads | None:
+    """The loads ``text``'s mark states (``loads_mark``), or None without a ``dh.payload`` word. A part the mark
+    names without its mass, a number that is not one and a load naming a part without a name are left out."""
+    names = {int(i): name for i, name in _PART.findall(text)}
+    values: dict = {}
+    for key, quantity, value in _LOAD_VALUE.findall(text):
+        try:
+            number = float(value)
+        except ValueError:
+            continue
+        if math.isfinite(number):
+            values.setdefault(key, {}).setdefault(quantity, number)
+    loads = {key: _entry(found) for key, found in values.items() if "m" in found}
+    parts = {name: loads[f"part.{i}"] for i, name in names.items() if f"part.{i}" in loads}
+    schedules = {}
+    for n, indices in _SCHEDULE.findall(text):
+        held = [names.get(int(i)) for i in indices.split("+")[1:]]
+        if None not in held and all(name in parts for name in held):
+            schedules.setdefault(int(n), frozenset(held))
+    if not schedules:
+        return None
+    return MarkedLoads(loads.get("tool"), parts, schedules)
+
+
+def _entry(found: dict) -> dict:
+    """A job file's load entry from the mark's quantities (a missing one is 0)."""
+    value = {key: found.get(key, 0.0) for key in LOAD_KEYS}
+    entry = {"mass": value["m"], "com": [value["cx"], value["cy"], value["cz"]]}
+    inertia = [value[key] for key in LOAD_KEYS[4:]]
+    return {**entry, "inertia": inertia} if any(inertia) else entry

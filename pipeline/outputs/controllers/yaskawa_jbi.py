@@ -37,8 +37,18 @@ R, T, S >= 180, then the DX100's 18 unused fields as 0), ``Cxxxxx=X,Y,Z,Rx,Ry,Rz
 * Job: ``NOP`` first and ``END`` last (a job without them is refused on loading: "ERROR 3200: NOP or END
   instruction not found", ros-industrial/motoman issue 142); a comment line records the job (``job=NAME``,
   ``pipeline.files.atomic.job_mark``) and the name is never an INFORM word (``names``).
-* Load: INFORM jobs hold no load data (the tool file's W and Xg, Yg, Zg on the controller do): the job's payload
-  is a comment to set there, or a PLACEHOLDER comment when the job gives none.
+* Load: INFORM jobs hold no load data. The tool file on the controller does (W [kg], Xg, Yg, Zg [mm] the centre of
+  gravity in the flange frame, Ix, Iy, Iz [kg m^2] about it in the flange axes; NX100/DX200/YRC1000 manuals, "ARM
+  control"), and no INFORM instruction we can cite changes it while a job runs: this writer does not change the load
+  the controller uses. It numbers the loads the program carries (``settings_mark.load_schedules``: load 1 the tool's
+  load alone, then each new set of parts held, in the order the grip and release actions first carry it), states
+  each one's tool file data in the header (``tool_file_texts``) with the loads mark (``settings_mark.loads_mark``)
+  that ``read_jbi`` reads back, and at each grip and release writes two comment lines in its place among the
+  waypoint's actions: ``'dh.grip=box`` (``dh.release=``: the part) and ``'ARM control: load 2 from here``: the
+  controller's ARM control must be given that load (e.g. a tool file holding its data), or the robot runs with the
+  wrong one. Ix, Iy, Iz are the diagonal of the load's inertia in the flange axes: its principal moments when that
+  inertia is diagonal, else the diagonal alone, said in the comment (the tool file holds no products of inertia). A
+  job without any load (no payload, no part) gets a PLACEHOLDER comment.
 * Points: every point in Cartesian data (``POSTYPE ROBOT``): the TCP in the robot frame, X, Y, Z in mm to
   0.001 mm, Rx, Ry, Rz in deg to 0.01 deg, the rotations "in the order Rz, Ry, Rx" of the frame (DX100
   manual, section 4.3: R = Rz Ry Rx, rotations about the fixed x, y, z axes), with ``///RCONF`` from
@@ -83,12 +93,13 @@ from ...errors import ConfigurationError
 from ...files.atomic import job_mark
 from ...model.vendors.axes import YASKAWA
 from ...model.vendors.configuration import configurations
-from ...program.actions import COMMENT, PULSE, SET, WAIT, WAIT_INPUT, Action
+from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
-from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, header_intro,
-                       payload_text, program_points, rounded, tool_text, written_point_configuration, xyz_rpy)
+from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, flange_diagonal,
+                       header_intro, placeholder_text, program_points, rounded, tool_text, written_point_configuration,
+                       xyz_rpy)
 from .lint import JBI, lint
-from .settings_mark import check_signal_numbers, settings_mark, signals_mark
+from .settings_mark import LoadSchedules, check_signal_numbers, load_schedules, loads_mark, settings_mark, signals_mark
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
@@ -99,6 +110,8 @@ UNUSED_RCONF = 18
 TIME_STEP_S, TIME_MAX_S = 0.01, 655.35
 #: Characters of a comment line (NX100 4.1: comments up to 32 characters).
 COMMENT_MAX = 32
+#: The second comment line at a grip or release (module docstring, "Load"): the load carried from there on.
+LOAD_CHANGE = "ARM control: load {n} from here"
 
 
 def pl_level(zone: float, pl_mm=PL_MM) -> int:
@@ -156,10 +169,11 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     if len(pl_mm) != 8 or np.any(np.diff(pl_mm) <= 0) or min(pl_mm) <= 0:
         raise ConfigurationError(f"pl_mm must be 8 increasing distances [mm] for PL1..PL8, got {pl_mm}")
     X_B_base, frame = controller_frame(program.robot, YASKAWA)
+    schedules = load_schedules(program)
     header = [job_mark(program.job_name or program.name), *comment_lines(settings_mark(program)),
               *signal_mark_lines(program),
               *comment_lines(_header_text(program, frame)),
-              *comment_lines(payload_text(program, "tool file 1 (W, Xg, Yg, Zg)"))]
+              *(line for text in tool_file_texts(program, schedules) for line in comment_lines(text))]
     if written is not None:
         levels = "/".join(f"{v:g}" for v in pl_mm)
         header += [line for text in [WRITTEN_PL_RULE.format(levels=levels), *written.header_lines(),
@@ -167,7 +181,9 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
     motions = job_points(program, written)
     level = pl_level if written is None else closest_pl_level
     zones = [f"zone {m.zone * MM:.1f}mm PL{level(m.zone, pl_mm)}" for m in motions if m.zone > 0.0]
-    lint(program, JBI, name, header + zones, configurations(program.robot, program.targets, YASKAWA))
+    changes = [load_comment(a) for k in range(len(program.waypoints)) for a in program.actions_at(k)
+               if a.kind in (GRIP, RELEASE)]
+    lint(program, JBI, name, header + zones + changes, configurations(program.robot, program.targets, YASKAWA))
     positions, instructions, index = [], [], 0
     for k, motion in enumerate(motions):
         labels = []
@@ -178,7 +194,7 @@ def write_jbi(program: Program, name: str, created: _dt.datetime | None = None, 
         following = motions[k + 1].move if k + 1 < len(motions) else None
         instructions.extend(_instructions(program, motion, labels, following, pl_mm, level))
         if following is None or following is not motion.move:            # the waypoint's last written move
-            instructions.extend(action_lines(program, 0 if motion.move is None else motion.move.end))
+            instructions.extend(action_lines(program, 0 if motion.move is None else motion.move.end, schedules))
     comments = [f"'{line}" for line in header]
     when = created or _dt.datetime.now(_dt.timezone.utc)
     return "\n".join(["/JOB", f"//NAME {name}", "//POS", f"///NPOS {index},0,0,0,0,0", "///TOOL 1",
@@ -287,12 +303,51 @@ def signal_mark_lines(program: Program) -> list[str]:
     return [entry for entry in signals_mark(program).split() if len(entry) <= COMMENT_MAX]
 
 
-def action_lines(program: Program, k: int) -> list[str]:
-    """The INFORM lines of waypoint ``k``'s actions (module docstring)."""
-    return [line for action in program.actions_at(k) for line in _action_lines(program, action, k)]
+#: The header's first sentence on the loads (module docstring, "Load").
+LOADS_INTRO = ("Loads: no INFORM instruction changes the tool file load, so give ARM control (tool file W kg, Xg Yg "
+               "Zg mm in the flange frame, Ix Iy Iz kg m2 about the centre in the flange axes) the load each grip and "
+               "release names.")
 
 
-def _action_lines(program: Program, action: Action, k: int) -> list[str]:
+def tool_file_texts(program: Program, schedules: LoadSchedules | None) -> list[str]:
+    """The header's loads (module docstring, "Load"): per load its tool file data to give ARM control, then the
+    loads mark; a PLACEHOLDER for a load the job does not give."""
+    if schedules is None:
+        return [placeholder_text("tool file 1 (W, Xg, Yg, Zg, Ix, Iy, Iz)")]
+    texts = [LOADS_INTRO]
+    if program.payload is None:
+        texts.append("PLACEHOLDER: the job gives no payload (the tool's load): add it to every load.")
+    for n in range(1, len(schedules.held) + 1):
+        load = schedules.load(program, n)
+        texts.append(f"load {n} {' + '.join(('tool', *schedules.held[n - 1]))}: "
+                     + ("no load known" if load is None else _tool_file_data(load)))
+    return [*texts, loads_mark(program, schedules, COMMENT_MAX)]
+
+
+def _tool_file_data(load) -> str:
+    """A load as tool file data (module docstring, "Load"): W [kg], Xg, Yg, Zg [mm], Ix, Iy, Iz [kg m^2]."""
+    diagonal, products = flange_diagonal(load)
+    centre = " ".join(f"{v:.3f}" for v in rounded(load.com * MM, 3))
+    inertia = " ".join(f"{v:.6f}" for v in rounded(diagonal, 6))
+    kept = "" if not products else " (the diagonal in the flange axes: products of inertia not held)"
+    return f"W {load.mass:g} kg, Xg Yg Zg {centre} mm, Ix Iy Iz {inertia} kg m2{kept}."
+
+
+def action_lines(program: Program, k: int, schedules: LoadSchedules | None = None) -> list[str]:
+    """The INFORM lines of waypoint ``k``'s actions (module docstring); a grip or release names the load it leaves
+    the robot carrying (``schedules``)."""
+    return [line for i, action in enumerate(program.actions_at(k))
+            for line in _action_lines(program, action, k, schedules and schedules.selected.get((k, i)))]
+
+
+def load_comment(action: Action) -> str:
+    """The first comment line of a grip or release (module docstring, "Load"): ``dh.grip=box``."""
+    return f"dh.{action.kind}={action.part}"
+
+
+def _action_lines(program: Program, action: Action, k: int, load: int | None) -> list[str]:
+    if action.kind in (GRIP, RELEASE):
+        return [f"'{load_comment(action)}", f"'{LOAD_CHANGE.format(n=load)}"]
     if action.kind == COMMENT:
         return [f"'{line}" for line in comment_lines(action.text)]
     if action.kind == WAIT:
