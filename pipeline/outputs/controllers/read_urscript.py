@@ -535,6 +535,9 @@ class _Reader:
             self.refuse(node, "needs a mass [kg] >= 0, a centre of mass [x, y, z] [m] and, for set_target_payload, "
                         "an inertia [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] [kg m^2]")
         inertia = np.zeros((3, 3)) if six is None else inertia_matrix(six)
+        problem = physical_inertia_problem(inertia)
+        if problem is not None:
+            self.refuse(node, f"the inertia is no body's: {problem}")
         load = Payload(mass, np.array(com, dtype=float), inertia) if mass > 0.0 else None
         if not self.waypoints:
             self.carried = [(None, load)]

@@ -38,17 +38,19 @@ lists and poses; "Module motion" for the functions):
   controller runs the file's top-level statements, and the call runs the program once (a file that only
   defines one function is run by the controller as a program, but whether a Script node does so is unconfirmed:
   the explicit call does not depend on it).
-* The payload (``pipeline.program.payload``): ``set_target_payload(m, cog, inertia)`` (the Script Manual's "Module
-  motion", SW 5.10 and later: m [kg], cog [x, y, z] [m] from the tool flange, inertia [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
-  [kg m^2] about the centre of mass in the flange's axes, transition_time left at its 0) of the TOTAL the flange
+* The payload (``pipeline.program.payload``): ``set_target_payload(m, cog, inertia)`` (UR Script Manual SW 10.6,
+  set_target_payload, PolyScope 5.10 and later: m [kg], cog [x, y, z] [m] from the tool mount, inertia [Ixx, Iyy,
+  Izz, Ixy, Ixz, Iyz] [kg m^2] with origin in the centre of mass and the flange's axes; transition_time left at its
+  0: the change applies at once, as the deprecated set_payload's; "called when the robot picks up or puts down a
+  workpiece") of the TOTAL the flange
   carries (``Program.load_after``, to PAYLOAD_DECIMALS decimals): the tool's load before the first move, and at each
   ``grip``/``release`` action in its place among its waypoint's actions the tool's load and the parts then held
   (a grip and a release stop the motion: the payload changes at rest). A job without a payload and without parts
   gets a PLACEHOLDER comment (the controller keeps its installation's payload); with parts but no tool's load the
   parts' loads alone are written and the header says the tool's load is unknown. The header says that
   set_target_payload needs PolyScope 5.10 or later: for an older controller replace each
-  ``set_target_payload(m, cog, inertia)`` by ``set_payload(m, cog)`` (the manual's older function: mass and centre
-  of mass, the inertia estimated by the controller); ``read_urscript`` reads both.
+  ``set_target_payload(m, cog, inertia)`` by ``set_payload(m, cog)`` (the older function, deprecated by it: mass and
+  centre of mass, no inertia); ``read_urscript`` reads both.
 * Actions (``pipeline.program.actions``), right after the last written move into their waypoint (waypoint 0's after
   the approach movej; the Script Manual's "Module interfaces" for the functions): a set is
   ``set_standard_digital_out(n, True|False)`` for the job's outputs 0-7, ``set_configurable_digital_out(n - 8, b)``
@@ -87,8 +89,7 @@ from scipy.spatial.transform import Rotation
 from ...errors import OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...model.vendors.controller import controller_of
-from ...program.actions import (COMMENT, GRIP, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action,
-                                 Signal, held_after)
+from ...program.actions import COMMENT, GRIP, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action, Signal, held_after
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from ...program.payload import Payload, combined
 from ...timing.profile import Profile
