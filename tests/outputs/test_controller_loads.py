@@ -88,7 +88,7 @@ def test_payload_is_written_in_every_language_and_a_placeholder_without(gp7, ur5
     assert "[TRUE,[[0,0,120],[1,0,0,0]],[2.5,[0,10,80],[1,0,0,0],0,0,0]]" in write_rapid(loaded, "GP7")
     assert "PLACEHOLDER" in write_rapid(gp7, "GP7")
     script = write_urscript(dataclasses.replace(ur5, payload=PAYLOAD), "ur5")
-    assert "  set_payload(2.5, [0.0, 0.01, 0.08])" in script.splitlines()
+    assert "  set_target_payload(2.5, [0.0, 0.01, 0.08], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0])" in script.splitlines()
     assert read_urscript(script, UR5_JOB["robot"])["payload"] == {"mass": 2.5, "com": [0.0, 0.01, 0.08]}
     assert "PLACEHOLDER" in write_urscript(ur5, "ur5")
     for writer, said in ((write_ls, "payload 2.5 kg"), (write_jbi, "W 2.5 kg")):      # FANUC schedule, tool file

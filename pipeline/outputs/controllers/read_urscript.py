@@ -26,9 +26,17 @@ file, the line and the construct (the line's text). What is read (the Script Man
   limit) % (at most 100); a tool move's v [m/s] -> ``speed`` [m/s]; the largest a [m/s^2] of the tool moves ->
   ``tcp_accel_max`` (joint moves' a is not read: the job's joint moves run at the robot's acceleration limits).
   Zones: the blend radius r [m] -> ``zone`` [m] (0 an exact stop); the last waypoint's zone is 0.
-* The tool: ``set_tcp(pose)`` (the job's ``tool``; a different one after the first move is refused). The payload:
-  ``set_payload(m[, cog])`` / ``set_target_payload(m, cog, inertia)`` (mass [kg] > 0, centre of mass [m]; none
-  given: [0, 0, 0]).
+* The tool: ``set_tcp(pose)`` (the job's ``tool``; a different one after the first move is refused). The payload
+  (``pipeline.program.payload``), as ``write_urscript`` writes it: ``set_target_payload(m, cog, inertia,
+  transition_time)`` (SW 5.10 and later) or ``set_payload(m[, cog])`` (the older function, PolyScope's own; inertia
+  0), m [kg] >= 0, cog [m] from the flange (none given: [0, 0, 0]), inertia [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] [kg m^2]
+  about it; each the TOTAL the flange carries. The last one before the first move is the tool's load (``payload``;
+  mass 0: none). After it, one with a larger mass grips a part (``part1``, ``part2``, ... in ``parts``, a ``grip``
+  action at the last move's waypoint): the part is the difference (``payload.removed``; a point mass when the
+  statement gives no inertia; the name of an equal part gripped before and released, if any), and one back to a
+  total carried before (mass, cog and, where given, inertia within LOAD_TOLERANCE) releases the parts gripped since,
+  the last first; the same total again changes nothing. Any other change (a smaller mass that is no earlier total,
+  e.g. below the tool's load; a difference whose inertia is no body's) is refused, naming the line.
 * Actions (``pipeline.program.actions``), at the waypoint of the last move before them (before the first move: at
   waypoint 0): ``set_standard_digital_out(n, b)`` (also ``set_digital_out``), ``set_configurable_digital_out(n, b)``,
   ``set_tool_digital_out(n, b)`` -> set of output ``do<n>``, ``conf_do<n>``, ``tool_do<n>`` (job numbers n, 8 + n,
@@ -79,6 +87,7 @@ from ...model.ik.branches import configuration_labels
 from ...model.ik.result import limit_variants
 from ...model.robot import Robot, robot_with_tool
 from ...program.actions import MAX_COMMENT_CHARS
+from ...program.payload import Payload, inertia_matrix, physical_inertia_problem, removed
 from .read_ls import as_robot, parse_subset
 from .urscript import IO_BANKS, PULSE_THREAD, WAITED
 
@@ -134,6 +143,14 @@ COMPARISONS = {"==": operator.eq, "!=": operator.ne, "<": operator.lt, "<=": ope
                ">=": operator.ge}
 #: The most turns a loop the program fixes is read for (PolyScope's "Loop n times" flattened).
 MAX_TURNS = 1000
+#: set_payload's and set_target_payload's parameters in the Script Manual's order.
+PAYLOAD_PARAMETERS = {"set_payload": ("m", "cog"), "set_target_payload": ("m", "cog", "inertia", "transition_time")}
+#: Two loads are the same total within this: mass [kg], centre of mass [m], inertia [kg m^2] (PolyScope writes 6
+#: decimals).
+LOAD_TOLERANCE = 1e-6
+#: A part's mass [kg], centre of mass [m] and inertia [kg m^2] are rounded to this many decimals (the difference of
+#: two totals written to 9 decimals carries errors of some 1e-9).
+PART_DECIMALS = 8
 
 
 class UrscriptReadError(FileFormatError):
@@ -233,7 +250,8 @@ class _Reader:
         self.signals: dict[str, dict] = {}
         self.q_previous: np.ndarray | None = None
         self.tcp_accel: list[float] = []
-        self.payload: dict | None = None
+        self.carried: list[tuple[str | None, Payload | None]] = [(None, None)]
+        self.parts: dict[str, Payload] = {}
         self.skipped: dict[str, list] = {}
         self.skipped_calls: dict[str, list[int]] = {}
         self.cursor = 0
@@ -430,8 +448,8 @@ class _Reader:
             self.move(name, self.arguments(name, call, node), node)
         elif name == "set_tcp":
             self.set_tcp(self.first(call, node), node)
-        elif name in ("set_payload", "set_target_payload"):
-            self.set_payload(self.static(call, node), node)
+        elif name in PAYLOAD_PARAMETERS:
+            self.set_payload(self.payload_arguments(name, call, node), node)
         elif name in OUTPUTS:
             self.output(name, self.static(call, node), node)
         elif name == "sleep":
@@ -494,12 +512,71 @@ class _Reader:
     def tool(self) -> np.ndarray:
         return np.eye(4) if self.X_FT is None else self.X_FT
 
-    def set_payload(self, values: list, node: lark.Tree) -> None:
-        mass = self.number(values[0], node) if values else None
-        com = values[1] if len(values) > 1 else [0.0, 0.0, 0.0]
-        if mass is None or not _vector3(com):
-            self.refuse(node, "needs a mass [kg] and a centre of mass [x, y, z] [m]")
-        self.payload = {"mass": mass, "com": [float(v) for v in com]} if mass > 0.0 else None
+    def payload_arguments(self, name: str, call: lark.Tree, node: lark.Tree) -> dict:
+        """set_payload's or set_target_payload's static arguments by parameter name (PAYLOAD_PARAMETERS)."""
+        arguments = [] if call.children[1] is None else call.children[1].children
+        positional = [a for a in arguments if not (isinstance(a, lark.Tree) and a.data == "keyword")]
+        keywords = {str(a.children[0]): a.children[1] for a in arguments
+                    if isinstance(a, lark.Tree) and a.data == "keyword"}
+        if len(positional) > len(PAYLOAD_PARAMETERS[name]) or not set(keywords) <= set(PAYLOAD_PARAMETERS[name]):
+            self.refuse(node, f"{name} takes {', '.join(PAYLOAD_PARAMETERS[name])}")
+        try:
+            return {key: self.value(a) for key, a in [*zip(PAYLOAD_PARAMETERS[name], positional), *keywords.items()]}
+        except _NotStatic as exc:
+            self.refuse(node, f"an argument has no static value: {exc}")
+
+    def set_payload(self, arguments: dict, node: lark.Tree) -> None:
+        """The total the flange carries (module docstring): before the first move the tool's load, after it a grip or
+        a release."""
+        mass, com, six = arguments.get("m"), arguments.get("cog", [0.0, 0.0, 0.0]), arguments.get("inertia")
+        if (not isinstance(mass, float) or not math.isfinite(mass) or mass < 0.0 or not _vector3(com)
+                or not (six is None or (isinstance(six, list) and len(six) == 6
+                                        and all(isinstance(v, float) for v in six)))):
+            self.refuse(node, "needs a mass [kg] >= 0, a centre of mass [x, y, z] [m] and, for set_target_payload, "
+                        "an inertia [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] [kg m^2]")
+        inertia = np.zeros((3, 3)) if six is None else inertia_matrix(six)
+        problem = physical_inertia_problem(inertia)
+        if problem is not None:
+            self.refuse(node, f"the inertia is no body's: {problem}")
+        load = Payload(mass, np.array(com, dtype=float), inertia) if mass > 0.0 else None
+        if not self.waypoints:
+            self.carried = [(None, load)]
+            return
+        if _same_load(load, self.carried[-1][1], six is not None):
+            return
+        if _mass(load) > _mass(self.carried[-1][1]) + LOAD_TOLERANCE:
+            self.grip(load, six is not None, node)
+        else:
+            self.release(load, six is not None, node)
+
+    def grip(self, total: Payload, with_inertia: bool, node: lark.Tree) -> None:
+        """A grip: the part is what ``total`` adds to the load carried."""
+        before = self.carried[-1][1]
+        part = total if before is None else removed(total, before, "part")
+        inertia = np.round(part.inertia, PART_DECIMALS) if with_inertia else np.zeros((3, 3))
+        part = Payload(round(part.mass, PART_DECIMALS), np.round(part.com, PART_DECIMALS) + 0.0, inertia + 0.0)
+        problem = physical_inertia_problem(part.inertia)
+        if problem is not None:
+            self.refuse(node, f"the part it adds ({part.mass:.6g} kg to the {_mass(before):.6g} kg carried) has no "
+                        f"body's inertia: {problem}")
+        held = {name for name, _ in self.carried}
+        name = next((n for n, p in self.parts.items() if n not in held and _same_load(p, part, True)),
+                    f"part{len(self.parts) + 1}")
+        self.parts[name] = part
+        self.carried.append((name, total))
+        self.action({"grip": name})
+
+    def release(self, total: Payload | None, with_inertia: bool, node: lark.Tree) -> None:
+        """A release: back to a total carried before; the parts gripped since are released, the last first."""
+        earlier = [i for i, (_, load) in enumerate(self.carried[:-1]) if _same_load(total, load, with_inertia)]
+        if not earlier:
+            loads = ", ".join(f"{_mass(load):.6g} kg" for _, load in self.carried)
+            self.refuse(node, f"sets {_mass(total):.6g} kg: neither more than the {_mass(self.carried[-1][1]):.6g} kg "
+                        f"carried (a grip) nor a load carried before ({loads}; the first the tool's, set before the "
+                        "first move: a release) - not read as parts gripped and released")
+        for name, _ in reversed(self.carried[earlier[-1] + 1:]):
+            self.action({"release": name})
+        del self.carried[earlier[-1] + 1:]
 
     def output(self, name: str, values: list, node: lark.Tree) -> None:
         if len(values) != 2 or not isinstance(values[1], bool) or not _is_index(values[0]):
@@ -603,8 +680,10 @@ class _Reader:
             doc["description"] = description
         if self.tcp_accel:
             doc["tcp_accel_max"] = max(self.tcp_accel)
-        if self.payload is not None:
-            doc["payload"] = self.payload
+        if self.carried[0][1] is not None:
+            doc["payload"] = self.carried[0][1].to_document(1.0)
+        if self.parts:
+            doc["parts"] = {name: part.to_document(1.0) for name, part in self.parts.items()}
         if self.signals:
             doc["signals"] = self.signals
         if not np.allclose(self.tool(), np.eye(4), atol=1e-12):
@@ -774,6 +853,19 @@ def _static_function(name: str, positional: list, keywords: dict):
     if name in ("d2r", "r2d") and len(positional) == 1 and isinstance(positional[0], float):
         return math.radians(positional[0]) if name == "d2r" else math.degrees(positional[0])
     raise _NotStatic(f"{name} of these arguments is not read")
+
+
+def _mass(load: Payload | None) -> float:
+    """A load's mass [kg] (None: 0)."""
+    return 0.0 if load is None else load.mass
+
+
+def _same_load(a: Payload | None, b: Payload | None, with_inertia: bool) -> bool:
+    """Whether two loads are one total within LOAD_TOLERANCE (None: nothing; the inertia only ``with_inertia``)."""
+    if a is None or b is None:
+        return a is b
+    return (abs(a.mass - b.mass) <= LOAD_TOLERANCE and np.allclose(a.com, b.com, rtol=0.0, atol=LOAD_TOLERANCE)
+            and (not with_inertia or np.allclose(a.inertia, b.inertia, rtol=0.0, atol=LOAD_TOLERANCE)))
 
 
 def _vector3(value) -> bool:

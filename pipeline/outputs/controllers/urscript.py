@@ -38,8 +38,19 @@ lists and poses; "Module motion" for the functions):
   controller runs the file's top-level statements, and the call runs the program once (a file that only
   defines one function is run by the controller as a program, but whether a Script node does so is unconfirmed:
   the explicit call does not depend on it).
-* ``set_payload(m, cog)`` [kg, m in the flange frame] from the job's payload; without one a PLACEHOLDER comment
-  (the controller keeps its installation's payload).
+* The payload (``pipeline.program.payload``): ``set_target_payload(m, cog, inertia)`` (UR Script Manual SW 10.6,
+  set_target_payload, PolyScope 5.10 and later: m [kg], cog [x, y, z] [m] from the tool mount, inertia [Ixx, Iyy,
+  Izz, Ixy, Ixz, Iyz] [kg m^2] with origin in the centre of mass and the flange's axes; transition_time left at its
+  0: the change applies at once, as the deprecated set_payload's; "called when the robot picks up or puts down a
+  workpiece") of the TOTAL the flange
+  carries (``Program.load_after``, to PAYLOAD_DECIMALS decimals): the tool's load before the first move, and at each
+  ``grip``/``release`` action in its place among its waypoint's actions the tool's load and the parts then held
+  (a grip and a release stop the motion: the payload changes at rest). A job without a payload and without parts
+  gets a PLACEHOLDER comment (the controller keeps its installation's payload); with parts but no tool's load the
+  parts' loads alone are written and the header says the tool's load is unknown. The header says that
+  set_target_payload needs PolyScope 5.10 or later: for an older controller replace each
+  ``set_target_payload(m, cog, inertia)`` by ``set_payload(m, cog)`` (the older function, deprecated by it: mass and
+  centre of mass, no inertia); ``read_urscript`` reads both.
 * Actions (``pipeline.program.actions``), right after the last written move into their waypoint (waypoint 0's after
   the approach movej; the Script Manual's "Module interfaces" for the functions): a set is
   ``set_standard_digital_out(n, True|False)`` for the job's outputs 0-7, ``set_configurable_digital_out(n - 8, b)``
@@ -78,8 +89,9 @@ from scipy.spatial.transform import Rotation
 from ...errors import OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...model.vendors.controller import controller_of
-from ...program.actions import COMMENT, OUTPUT, PULSE, SET, WAIT, WAIT_INPUT, Action, Signal
+from ...program.actions import COMMENT, GRIP, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action, Signal, held_after
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
+from ...program.payload import Payload, combined
 from ...timing.profile import Profile
 from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
@@ -98,6 +110,14 @@ PERIOD_RANGE = (0.002, 0.032)
 MAX_REPLAY_LINES = 60_000
 #: Decimals written for lengths [m], angles [rad], speeds and accelerations.
 DECIMALS = 6
+#: Decimals written for a payload's mass [kg], centre of mass [m] and inertia [kg m^2] (1e-9 kg m^2: the parts read
+#: back as differences of two totals keep 1e-6 kg m^2).
+PAYLOAD_DECIMALS = 9
+#: The header's statement of the payload.
+PAYLOAD_NOTE = ("Payload: set_target_payload(m, cog, inertia) [kg, m, kg m^2] of all the flange carries (the tool's "
+                "load and the parts held), before the first move and at each grip and release; set_target_payload "
+                "needs PolyScope 5.10 or later (UR Script Manual): on an older controller replace each by "
+                "set_payload(m, cog).")
 #: A profile must start at the program's first target within this [rad or m].
 START_TOLERANCE = 1e-6
 COMMENT_WIDTH = 96
@@ -154,11 +174,34 @@ def check_arm(robot) -> None:
 
 
 def payload_line(program: Program) -> str:
-    """``set_payload(m, [cx, cy, cz])`` of the job's payload [kg, m], or a PLACEHOLDER comment."""
-    payload = program.payload
-    if payload is None:
-        return "# PLACEHOLDER: the job gives no payload: the installation's payload is used; set_payload(m, cog)"
-    return f"set_payload({number(payload.mass)}, {joints(payload.com)})"
+    """The tool's load before the first move (``payload_call``); a comment without one (module docstring)."""
+    if program.payload is not None:
+        return payload_call(program.payload)
+    if program.parts:
+        return ("# the job gives no tool's load (unknown): the installation's payload is used until the first grip; "
+                "the payloads at the grips and releases are the parts' alone")
+    return ("# PLACEHOLDER: the job gives no payload: the installation's payload is used; "
+            "set_target_payload(m, cog, inertia)")
+
+
+def payload_call(load: Payload | None) -> str:
+    """``set_target_payload(m, [cx, cy, cz], [Ixx, Iyy, Izz, Ixy, Ixz, Iyz])`` [kg, m, kg m^2] of ``load`` (None:
+    nothing, mass 0)."""
+    if load is None:
+        load = Payload(0.0, np.zeros(3))
+    values = [number(v, PAYLOAD_DECIMALS) for v in (load.mass, *load.com, *load.inertia_six)]
+    return f"set_target_payload({values[0]}, [{', '.join(values[1:4])}], [{', '.join(values[4:])}])"
+
+
+def carried_after(program: Program, k: int, i: int) -> Payload | None:
+    """What the flange carries once action ``i`` of waypoint ``k`` has run (the tool's load and the parts held)."""
+    actions = [*program.actions[:k], program.actions_at(k)[:i + 1]]
+    return combined([program.payload] + [program.parts[name] for name in held_after(actions, k)])
+
+
+def payload_notes(program: Program) -> list[str]:
+    """The header's lines on the payload (none when nothing is written)."""
+    return [PAYLOAD_NOTE] if program.payload is not None or program.parts else []
 
 
 def check_name(name: str) -> str:
@@ -186,9 +229,9 @@ def _check_replay_options(period: float, lookahead_time: float, gain: float) -> 
         raise OutputError(f"servoj gain must be in {list(GAIN_RANGE)}, got {gain!r}")
 
 
-def number(value: float) -> str:
-    """``value`` with at most DECIMALS decimals, without trailing zeros or a negative zero (always a float)."""
-    text = f"{value:.{DECIMALS}f}".rstrip("0")
+def number(value: float, decimals: int = DECIMALS) -> str:
+    """``value`` with at most ``decimals`` decimals, without trailing zeros or a negative zero (always a float)."""
+    text = f"{value:.{decimals}f}".rstrip("0")
     text = text + "0" if text.endswith(".") else text
     return "0.0" if text == "-0.0" else text
 
@@ -319,10 +362,14 @@ def thread_lines(pulses: dict[tuple[int, float], str]) -> list[str]:
 
 def action_lines(program: Program, k: int, pulses: dict) -> list[str]:
     """The lines of waypoint ``k``'s actions (module docstring)."""
-    return [line for action in program.actions_at(k) for line in _action(program, action, pulses)]
+    return [line for i in range(len(program.actions_at(k))) for line in _action(program, k, i, pulses)]
 
 
-def _action(program: Program, action: Action, pulses: dict) -> list[str]:
+def _action(program: Program, k: int, i: int, pulses: dict) -> list[str]:
+    """The lines of action ``i`` of waypoint ``k``."""
+    action = program.actions_at(k)[i]
+    if action.kind in (GRIP, RELEASE):
+        return [payload_call(carried_after(program, k, i))]
     if action.kind == COMMENT:
         return [f"# {action.text}"]
     if action.kind == WAIT:
@@ -361,12 +408,12 @@ def replay_actions(program: Program, samples: np.ndarray, period: float, pulses:
         index = -1 if k == 0 else arrival(samples, program.targets[k], start)
         start = max(start, index)
         waited = 0.0
-        for action in actions:
+        for i, action in enumerate(actions):
             if action.kind == WAIT:
                 waited += action.time_s
                 continue
             line = min(len(samples) - 1, index + round(waited / period)) if index >= 0 else -1
-            at.setdefault(line, []).extend(_action(program, action, pulses))
+            at.setdefault(line, []).extend(_action(program, k, i, pulses))
     return at
 
 
@@ -434,6 +481,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
          "certified profile passes through a waypoint without a zone, and at both ends of a planned move"),
         "The first movej goes to the start with the manual's default a and v: an approach.",
         *([ACTIONS_NOTE] if any(program.actions) else []),
+        *payload_notes(program),
     ]
     if profile is not None:
         lines += [
