@@ -1,5 +1,5 @@
 """A reference for the ur5e preset's dynamics that shares none of its code: Drake's plant parsed from Universal Robots'
-own URDF (tests/data/ur5e_description/, see PROVENANCE.md there), a payload body welded to its ``tool0`` frame.
+own URDF (tests/data/ur5e_description/, see PROVENANCE.md there), each load a body welded to its ``tool0`` frame.
 
 The URDF's world is UR's ``base_link``; the preset's base frame is UR's ``base`` (``base_link`` turned half a turn about
 z, as is ``base_link_inertia``, which the shoulder joint sits on), so poses are compared in ``base`` and torques need no
@@ -25,6 +25,17 @@ ROUNDED = {'rpy="1.570796327 0 0"': f'rpy="{np.pi / 2!r} 0 0"',
            f'rpy="{np.pi / 2!r} {np.pi!r} {np.pi!r}" xyz="0 0.0996 0"'}
 #: The URDF's joints in the preset's order (q1..q6).
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
+#: Loads the reference carries at once, each a body of its own welded to tool0.
+MAX_LOADS = 2
+
+
+def spatial_inertia(load) -> SpatialInertia:
+    """A Payload's spatial inertia about tool0's origin (None: zero)."""
+    if load is None:
+        return SpatialInertia.Zero()
+    I = load.inertia
+    return SpatialInertia.MakeFromCentralInertia(load.mass, np.asarray(load.com, dtype=float),
+                                                 RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
 
 
 def urdf_text(exact: bool) -> str:
@@ -38,14 +49,15 @@ def urdf_text(exact: bool) -> str:
 
 
 class UrdfArm:
-    """UR's URDF in a Drake plant with a body ``payload`` welded to ``tool0`` (massless until a payload is given);
-    ``exact``: its ROUNDED origins made exact."""
+    """UR's URDF in a Drake plant with MAX_LOADS bodies ``load0``, ``load1`` welded to ``tool0`` (massless until loads
+    are given); ``exact``: its ROUNDED origins made exact."""
 
     def __init__(self, exact: bool = False):
         self.plant = MultibodyPlant(time_step=0.0)
         (arm,) = Parser(self.plant).AddModelsFromString(urdf_text(exact), "urdf")
-        self.payload = self.plant.AddRigidBody("payload", arm, SpatialInertia.Zero())
-        self.plant.WeldFrames(self.plant.GetFrameByName("tool0"), self.payload.body_frame())
+        self.bodies = [self.plant.AddRigidBody(f"load{k}", arm, SpatialInertia.Zero()) for k in range(MAX_LOADS)]
+        for body in self.bodies:
+            self.plant.WeldFrames(self.plant.GetFrameByName("tool0"), body.body_frame())
         self.plant.Finalize()
         self.context = self.plant.CreateDefaultContext()
         starts = [self.plant.GetJointByName(name).position_start() for name in JOINTS]
@@ -57,17 +69,13 @@ class UrdfArm:
         return self.plant.CalcRelativeTransform(self.context, self.plant.GetFrameByName("base"),
                                                 self.plant.GetFrameByName("tool0")).GetAsMatrix4()
 
-    def inverse_dynamics(self, q, qd, qdd, payload=None) -> np.ndarray:
-        """(6,) joint torques [N m] with gravity, ``payload`` (``pipeline.program.payload.Payload``, its mass, centre
-        of mass and inertia in tool0; None: nothing) on ``tool0``."""
-        if payload is None:
-            inertia = SpatialInertia.Zero()
-        else:
-            I = payload.inertia
-            inertia = SpatialInertia.MakeFromCentralInertia(
-                payload.mass, np.asarray(payload.com, dtype=float),
-                RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
-        self.payload.SetSpatialInertiaInBodyFrame(self.context, inertia)
+    def inverse_dynamics(self, q, qd, qdd, *loads) -> np.ndarray:
+        """(6,) joint torques [N m] with gravity at joint values [rad], speeds [rad/s] and accelerations [rad/s^2], each
+        of ``loads`` (``pipeline.program.payload.Payload``: mass, centre of mass and inertia in tool0; None: nothing)
+        a body on ``tool0``."""
+        assert len(loads) <= MAX_LOADS
+        for body, load in zip(self.bodies, list(loads) + [None] * (MAX_LOADS - len(loads))):
+            body.SetSpatialInertiaInBodyFrame(self.context, spatial_inertia(load))
         self.plant.SetPositions(self.context, np.asarray(q, dtype=float))
         self.plant.SetVelocities(self.context, np.asarray(qd, dtype=float))
         return (self.plant.CalcInverseDynamics(self.context, np.asarray(qdd, dtype=float), MultibodyForces(self.plant))

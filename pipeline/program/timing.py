@@ -56,15 +56,19 @@ class ProgramDetails(TimingDetails):
 
 class CarriedLoads:
     """The inverse dynamics of a program's robot with what its flange carries after each waypoint
-    (``Program.load_after``), or nothing to compute when the limits bound no torque."""
+    (``Program.load_after``), or nothing to compute when the limits bound no torque. The payload body sits on the
+    flange, not on the job's TCP (``program.robot``'s end frame): a load's centre of mass and inertia are in the
+    flange frame."""
 
     def __init__(self, program: Program):
         self.program = program
         self.drake = None
         if program.limits.tau_max is not None:
             from ..model.chain.drake_model import build_drake_robot
+            from ..model.robot import robot_with_tool
 
-            self.drake = build_drake_robot(program.robot.spec)
+            flange = robot_with_tool(program.robot, np.linalg.inv(program.tool.X_FT))
+            self.drake = build_drake_robot(flange.spec)
 
     def after(self, k: int):
         """What ``pipeline.timing.time_path`` takes as ``drake`` for motion leaving waypoint ``k`` (None: no torques)."""
