@@ -24,7 +24,7 @@ $(PREBUILT): $(STAMP) $(wildcard pipeline/model/chain/*.py pipeline/model/ik/*.p
 # trajectories/jobs/ into $(OUT)/<job name>/ (profile CSV/NPZ, JSON report, PNG plot).
 run: $(STAMP) $(PREBUILT)
 	$(PY) -m pipeline check all --samples 200 --out $(OUT)/check
-	@set -e; for robot in gp7 lrmate200id irb1600 arm5 arm6; do $(PY) -m pipeline export $$robot --urdf $(OUT)/urdf/$$robot.urdf; done
+	@set -e; for robot in gp7 lrmate200id irb1600 ur5e arm5 arm6; do $(PY) -m pipeline export $$robot --urdf $(OUT)/urdf/$$robot.urdf; done
 	@set -e; for cell in models/cells/*.yaml; do echo "== $$cell"; $(PY) -m pipeline check-cell $$cell; done
 	@set -e; for job in trajectories/jobs/*.yaml; do \
 		name=$$(basename $$job .yaml); \

@@ -174,5 +174,5 @@ def robot_with_tool(robot: Robot, X_ET: np.ndarray) -> Robot:
 
 
 def load_robot(name_or_path: str | Path) -> Robot:
-    """A preset name (``gp7``, ``lrmate200id``, ``irb1600``, ``arm5``, ``arm6``) or a robot file path."""
+    """A preset name (``gp7``, ``lrmate200id``, ``irb1600``, ``ur5e``, ``arm5``, ``arm6``) or a robot file path."""
     return Robot(load_robot_spec(name_or_path))

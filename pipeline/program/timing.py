@@ -56,7 +56,9 @@ class ProgramDetails(TimingDetails):
 
 class CarriedLoads:
     """The inverse dynamics of a program's robot with what its flange carries after each waypoint
-    (``Program.load_after``), or nothing to compute when the limits bound no torque."""
+    (``Program.load_after``), or nothing to compute when the limits bound no torque. The payload body sits on the
+    flange, not on the job's TCP (``program.robot``'s end frame): a load's centre of mass and inertia are in the
+    flange frame."""
 
     def __init__(self, program: Program):
         self.program = program
