@@ -217,7 +217,7 @@ def check_seed001(n: dict) -> None:
     for pose in (*n["flange_at_zero_mm"].values(), *n["drake_flange_at_zero_mm"].values()):
         np.testing.assert_allclose(pose, [560, 0, 815], atol=1e-9)
     np.testing.assert_allclose(n["joint_axes_at_zero"], YASKAWA_FANUC_AXES, atol=1e-12)
-    assert n["drake_positions"] == 6 and n["drake_bodies"] == 7         # the world and six links
+    assert n["drake_positions"] == 6 and n["drake_bodies"] == 8   # the world, six links and the payload body
     np.testing.assert_allclose(n["drake_position_limits_deg"],
                                [[-170, -65, -70, -190, -135, -360], [170, 145, 190, 190, 135, 360]], atol=1e-9)
     np.testing.assert_allclose(n["drake_velocity_limits_deg_s"], [375, 315, 410, 550, 550, 1000], atol=1e-9)
@@ -294,7 +294,7 @@ def check_seed004(n: dict) -> None:
     assert n["fk_standard_vs_modified_max"] <= EXACT and n["jacobian_standard_vs_modified_max"] <= EXACT
     np.testing.assert_allclose(n["modified_a_prev_m"], [0, 0, 0.22, 0, 0, 0], atol=1e-15)
     np.testing.assert_allclose(n["modified_alpha_prev_deg"], [0, 90, 0, 90, 90, -90], atol=1e-9)
-    assert n["drake_bodies"] == 7 and n["drake_joint_names"] == ["J1", "J2", "J3", "J4", "J5", "J6"]
+    assert n["drake_bodies"] == 8 and n["drake_joint_names"] == ["J1", "J2", "J3", "J4", "J5", "J6"]
     for name in ("standard", "modified"):
         check_comparisons(n["check"][name], n["check_passed"][name])
     assert n["wrist_axis_miss_m"] <= EXACT
