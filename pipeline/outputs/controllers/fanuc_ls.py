@@ -468,14 +468,23 @@ def schedule_texts(program: Program, schedules: LoadSchedules | None) -> list[st
     if len(schedules.held) > MAX_PAYLOAD_SCHEDULES:
         raise ConfigurationError(f"the program carries {len(schedules.held)} distinct loads (tool and parts held): "
                                  f"FANUC has {MAX_PAYLOAD_SCHEDULES} payload schedules")
-    texts = [SCHEDULES_INTRO]
+    return load_texts(program, schedules, SCHEDULES_INTRO, "schedule", lambda n: f"PAYLOAD[{n}]", _schedule_data,
+                      COMMENT_CHARS)
+
+
+def load_texts(program: Program, schedules: LoadSchedules, intro: str, what: str, heading, data,
+               comment_chars: int) -> list[str]:
+    """The header's loads: ``intro``, a PLACEHOLDER when the job gives no tool load (``what``: the word for one
+    load), per load n ``heading(n)``, the tool and parts it holds and its ``data(load)`` (or "no load known"), then
+    the loads mark in comments of ``comment_chars``."""
+    texts = [intro]
     if program.payload is None:
-        texts.append("PLACEHOLDER: the job gives no payload (the tool's load): add it to every schedule.")
+        texts.append(f"PLACEHOLDER: the job gives no payload (the tool's load): add it to every {what}.")
     for n in range(1, len(schedules.held) + 1):
         load = schedules.load(program, n)
-        texts.append(f"PAYLOAD[{n}] {' + '.join(('tool', *schedules.held[n - 1]))}: "
-                     + ("no load known" if load is None else _schedule_data(load)))
-    return [*texts, loads_mark(program, schedules, COMMENT_CHARS)]
+        texts.append(f"{heading(n)} {' + '.join(('tool', *schedules.held[n - 1]))}: "
+                     + ("no load known" if load is None else data(load)))
+    return [*texts, loads_mark(program, schedules, comment_chars)]
 
 
 def _schedule_data(load: Payload) -> str:

@@ -96,10 +96,10 @@ from ...model.vendors.configuration import configurations
 from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
 from .fanuc_ls import (MM, Motion, check_name, check_six_joints, comment_lines, controller_frame, flange_diagonal,
-                       header_intro, placeholder_text, program_points, rounded, tool_text, written_point_configuration,
-                       xyz_rpy)
+                       header_intro, load_texts, placeholder_text, program_points, rounded, tool_text,
+                       written_point_configuration, xyz_rpy)
 from .lint import JBI, lint
-from .settings_mark import LoadSchedules, check_signal_numbers, load_schedules, loads_mark, settings_mark, signals_mark
+from .settings_mark import LoadSchedules, check_signal_numbers, load_schedules, settings_mark, signals_mark
 
 #: Our assumed PL1..PL8 distances [mm] (module docstring): the controller's S1CxG033..S1CxG040 decide.
 PL_MM = (12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
@@ -314,14 +314,7 @@ def tool_file_texts(program: Program, schedules: LoadSchedules | None) -> list[s
     loads mark; a PLACEHOLDER for a load the job does not give."""
     if schedules is None:
         return [placeholder_text("tool file 1 (W, Xg, Yg, Zg, Ix, Iy, Iz)")]
-    texts = [LOADS_INTRO]
-    if program.payload is None:
-        texts.append("PLACEHOLDER: the job gives no payload (the tool's load): add it to every load.")
-    for n in range(1, len(schedules.held) + 1):
-        load = schedules.load(program, n)
-        texts.append(f"load {n} {' + '.join(('tool', *schedules.held[n - 1]))}: "
-                     + ("no load known" if load is None else _tool_file_data(load)))
-    return [*texts, loads_mark(program, schedules, COMMENT_MAX)]
+    return load_texts(program, schedules, LOADS_INTRO, "load", lambda n: f"load {n}", _tool_file_data, COMMENT_MAX)
 
 
 def _tool_file_data(load) -> str:
