@@ -98,7 +98,13 @@ def demo_run(tmp_path_factory):
     return run
 
 
-@pytest.mark.parametrize("job_file", JOB_FILES, ids=lambda p: p.stem)
+#: The golden run by ``make test``; the others run in the slow run and ``make test-kernels`` (CI), to keep ``make test``
+#: within its time.
+FAST_GOLDEN = "gp7_pick_place"
+
+
+@pytest.mark.parametrize("job_file", [p if p.stem == FAST_GOLDEN else pytest.param(p, marks=pytest.mark.slow)
+                                      for p in JOB_FILES], ids=lambda p: p.stem)
 def test_demo_job_matches_its_golden_profile(job_file, regen_golden, demo_run):
     """Every demo job, planned ones too (a plan is the same in any process), against its golden."""
     outcome, _ = demo_run(job_file.stem)
