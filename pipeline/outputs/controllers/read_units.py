@@ -1,7 +1,8 @@
 """A job document read from a controller program, in the units its language writes: RAPID, LS, JBI and KRL
 in millimetres (LS, JBI and KRL orientations as roll, pitch, yaw in degrees, RAPID's as its own quaternions),
 URScript in metres. The readers give SI lengths (``length_unit: m``); this rewrites the document's lengths
-(positions, via points, the tool, zones, TCP speeds and accelerations of tool moves and of the job)."""
+(positions, via points, the tool, zones, TCP speeds and accelerations of tool moves and of the job, the centres of
+mass of the payload and the parts; inertias stay in kg m^2 whatever the length unit)."""
 
 from __future__ import annotations
 
@@ -41,7 +42,16 @@ def in_program_units(document: dict, language: str) -> dict:
     if isinstance(out.get("tool"), dict):
         out["tool"] = _pose(out["tool"], as_rpy)
     out["waypoints"] = [_waypoint(w, as_rpy) for w in document["waypoints"]]
+    if isinstance(out.get("payload"), dict):
+        out["payload"] = _load(out["payload"])
+    if isinstance(out.get("parts"), dict):
+        out["parts"] = {name: _load(part) for name, part in out["parts"].items()}
     return out
+
+
+def _load(entry: dict) -> dict:
+    """A load entry with its centre of mass in mm."""
+    return {**entry, "com": _mm(entry["com"])} if "com" in entry else entry
 
 
 def _waypoint(waypoint, as_rpy: bool):
