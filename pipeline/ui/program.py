@@ -70,7 +70,8 @@ class PageProgram:
     """The page's program (module docstring). ``robot_reference``: a preset name or robot file path as a
     job file names it; ``cell_reference``: a demo cell's name or a cell file path (None: no cell; with
     one, joint moves are planned around its obstacles, ``plan: collision_free``); ``tool``: X_FT (4, 4) [m] or None; ``name``: the
-    job's name. ``settings``: the other job keys, in SI (``SETTINGS``), e.g. ``tcp_speed_max`` [m/s]."""
+    job's name. ``settings``: the other job keys, in SI (``SETTINGS``), e.g. ``tcp_speed_max`` [m/s]. ``payload``: the
+    tool's load (``pipeline.program.payload.Payload``; None: none), kept from the job file and written back."""
 
     def __init__(self, robot_reference: str, cell_reference: str | None = None, tool: np.ndarray | None = None,
                  name: str = "page_program"):
@@ -86,6 +87,7 @@ class PageProgram:
         self.robot: Robot = robot if self.tool is None else robot_with_tool(robot, self.tool)
         self.waypoints: list[PageWaypoint] = []
         self.settings: dict = {"tcp_speed_max": DEFAULT_TCP_SPEED, "outputs": DEFAULT_OUTPUTS}
+        self.payload = None
         if self.cell_reference is not None:
             self.settings["plan"] = "collision_free"
 
@@ -220,6 +222,7 @@ class PageProgram:
         program = cls(str(robot), cell, job.tool, job.name)
         program.settings = {key: getattr(job, key) for key in SETTINGS
                             if key in document and getattr(job, key) is not None}
+        program.payload = job.payload
         solved = [s.q for s in solve_waypoints(job, collision_model(job))]
         for k, (waypoint, q) in enumerate(zip(job.waypoints, solved)):
             via_q = None
@@ -263,6 +266,8 @@ class PageProgram:
         document.update(length_unit="mm", angle_unit="deg")
         if self.tool is not None:
             document["tool"] = self._pose_entry(self.tool)
+        if self.payload is not None:
+            document["payload"] = self.payload.to_document(MM)
         document["waypoints"] = [self._waypoint_entry(w, rows[k - 1] if k else None) for k, w in enumerate(rows)]
         tool_moves = any(w.move != "joint" for w in rows)
         for key, scale in SETTINGS.items():

@@ -112,6 +112,17 @@ def test_job_file_round_trip_keeps_the_waypoints():
     assert np.array_equal(again.tool, original.tool)
 
 
+def test_job_file_round_trip_keeps_the_tools_load(tmp_path):
+    document = yaml.safe_load(PICK_PLACE.read_text())
+    document["payload"] = {"mass": 1.5, "com": [0, 10, 60], "inertia": [0.004, 0.004, 0.002, 0, 0, 0],
+                           "source": "gripper datasheet"}
+    path = tmp_path / "with_payload.yaml"
+    path.write_text(yaml.safe_dump(document))
+    again = parse_job(PageProgram.from_job_file(path).to_document(), base_dir=PICK_PLACE.parent).payload
+    assert again.mass == 1.5 and np.allclose(again.com, [0, 0.010, 0.060], atol=1e-12)
+    assert np.allclose(again.inertia, np.diag([0.004, 0.004, 0.002])) and again.source == "gripper datasheet"
+
+
 def test_job_file_with_targets_the_page_cannot_hold_is_refused():
     with pytest.raises(JobFileError) as refused:
         PageProgram.from_job_file(ROOT / "trajectories" / "jobs" / "arm5_position_axis.yaml")
