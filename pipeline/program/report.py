@@ -4,7 +4,8 @@ program's lower bound beside its cycle time.
 A move lasts from the passage of its start waypoint to the passage of its end waypoint (at a zone, the
 middle of the blend; at a stop, the stop). At each sample the binding limit is the one closest to
 its bound: joint i's speed (against its move's speed fraction), joint i's acceleration, joint i's torque (where
-torques are limited: with what the flange carries there), the TCP's speed or acceleration (where limited); a move's is the one binding at most of its samples, noting
+torques are limited: with what the flange carries there), the TCP's speed or acceleration (where limited); a move's
+is the one binding at most of its samples (and a joint torque at its limit on fewer, with its share of the time), noting
 when blends of its stretch were narrowed to keep the joint limits or the clearance, and a "singularity
 slow-down" when a tool move's track allows the TCP less than the move's speed.
 """
@@ -43,6 +44,23 @@ def binding_labels(profile: Profile) -> list[str]:
     return [names[i] for i in np.argmax(ratios, axis=1)]
 
 
+#: A torque at this fraction of its limit or more binds (the timing holds it at 1 where it does).
+TORQUE_BINDS = 0.99
+
+
+def _torque_note(profile: Profile, samples: slice, binding: str) -> str:
+    """", joint J torque at its limit N% of the time" when a joint's torque reaches TORQUE_BINDS of its limit on
+    some of a move's ``samples`` but is not its ``binding`` limit; "" otherwise."""
+    if profile.tau is None or profile.limits.tau_max is None or samples.stop <= samples.start:
+        return ""
+    ratios = np.abs(profile.tau[samples]) / profile.limits.tau_max
+    joint = int(np.argmax(np.max(ratios, axis=0)))
+    label = f"joint {profile.joint_names[joint]} torque"
+    if ratios[:, joint].max() < TORQUE_BINDS or binding == label:
+        return ""
+    return f", {label} at its limit {np.mean(ratios[:, joint] >= TORQUE_BINDS):.0%} of the time"
+
+
 def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = None) -> dict:
     """The report (JSON-ready): ``cycle_s``, ``lower_bound_s``, their ratio, the stretches' bounds, per move its
     waypoints, kind, duration [s] (from leaving its start waypoint to passing its end), binding limit and what it
@@ -64,6 +82,7 @@ def cycle_report(program: Program, profile: Profile, bound: LowerBound | None = 
         t0, t1 = passages[k] + rests[k], passages[k + 1]
         inside = labels[starts[k]: ends[k]]
         binding = Counter(inside).most_common(1)[0][0] if inside else "none"
+        binding += _torque_note(profile, slice(starts[k], ends[k]), binding)
         if narrowed.get(int(stretch_ends[k])):
             binding += " (blends narrowed to keep the limits or the clearance)"
         if move.track is not None and move.track.along.slowest_tcp_speed < move.speed * program.speed_scale:

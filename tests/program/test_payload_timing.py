@@ -15,6 +15,7 @@ import pytest
 
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job
+from pipeline.program.report import cycle_report
 from pipeline.program.timing import time_program
 from tests.conftest import DATA_DIR
 from tests.ur5e_urdf import UrdfArm
@@ -103,3 +104,10 @@ def test_the_part_slows_the_torque_bound_swing_and_not_the_speed_bound_turn(with
     for ratios in (torque_ratios(program, profile, TURN), torque_ratios(bare_program, bare, TURN)):
         assert np.all(ratios < 0.9)
     assert durations[0][1] == pytest.approx(durations[1][1], abs=1e-6)
+
+
+def test_the_cycle_report_names_the_torque_where_it_binds_and_only_there(with_part):
+    program, profile = with_part
+    moves = cycle_report(program, profile)["moves"]
+    assert "joint shoulder_pan torque at its limit" in moves[SWING]["binding"]
+    assert "torque" not in moves[TURN]["binding"] and "torque" not in moves[0]["binding"]
