@@ -68,7 +68,7 @@ def test_non_editable_install_works_from_another_directory(tmp_path):
     result = subprocess.run([str(python), "-c", probe], cwd=elsewhere, capture_output=True, text=True, check=True)
     found = json.loads(result.stdout)
     assert found["file"].startswith(str(tmp_path / "venv")), found["file"]
-    assert found["presets"] == ["arm5", "arm6", "gp7", "irb1600", "lrmate200id"]
+    assert found["presets"] == ["arm5", "arm6", "gp7", "irb1600", "lrmate200id", "ur5e"]
     assert found["flange"] == pytest.approx([0.56, 0.0, 0.815], abs=1e-12)
     job = source / "trajectories" / "jobs" / "gp7_pick_place.yaml"
     run = subprocess.run([str(python), "-m", "pipeline", "run", str(job), "--out", str(elsewhere / "out")],
