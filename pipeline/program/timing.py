@@ -124,8 +124,21 @@ def _tilt_certified(program: Program, profile: Profile) -> Profile:
 
 def _time_stretch(program: Program, path: StretchPath | None, k: int, max_samples: int,
                   loads: CarriedLoads) -> Profile:
-    """Stretch k timed from rest to rest (uncertified), with what the flange carries on it."""
+    """Stretch k timed from rest to rest (uncertified), with what the flange carries on it; a TimingError of a robot
+    whose torques are limited names the moves and the load."""
     first, last = program.stretches()[k]
+    try:
+        return _timed_stretch(program, path, first, last, max_samples, loads)
+    except TimingError as error:
+        load = program.load_after(first)
+        if type(error) is not TimingError or load is None or program.limits.tau_max is None:
+            raise
+        raise TimingError(f"the moves from waypoint {first} to {last} carrying {load.name} ({load.mass:g} kg): {error}") from error
+
+
+def _timed_stretch(program: Program, path: StretchPath | None, first: int, last: int, max_samples: int,
+                   loads: CarriedLoads) -> Profile:
+    """The stretch from waypoint ``first`` to ``last`` timed from rest to rest (``_time_stretch``)."""
     common = {"method": program.timing, "speed_scale": program.speed_scale, "limits": program.limits,
               "dt": program.dt, "max_samples": max_samples, "drake": loads.after(first)}
     if path is None:

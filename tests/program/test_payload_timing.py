@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
+from pipeline.errors import TimingError
 from pipeline.program.compile import compile_job
-from pipeline.program.job import load_job
+from pipeline.program.job import load_job, parse_job
 from pipeline.program.report import cycle_report
 from pipeline.program.timing import time_program
 from tests.conftest import DATA_DIR
@@ -111,3 +113,12 @@ def test_the_cycle_report_names_the_torque_where_it_binds_and_only_there(with_pa
     moves = cycle_report(program, profile)["moves"]
     assert "joint shoulder_pan torque at its limit" in moves[SWING]["binding"]
     assert "torque" not in moves[TURN]["binding"] and "torque" not in moves[0]["binding"]
+
+
+def test_a_load_too_heavy_to_hold_names_the_moves_and_the_load():
+    document = yaml.safe_load(JOB.read_text(encoding="utf-8"))
+    document["parts"]["part"].update(mass=3.9, com=[0, 600, 190])    # within 5 kg, 0.6 m off the wrist's axis
+    program = compile_job(parse_job(document, source="heavy.yaml"))
+    with pytest.raises(TimingError, match=r"the moves from waypoint 2 to 3 carrying tool \+ part \(4\.9 kg\): joint 4 needs .* N m just to "
+                                          r"hold the path"):
+        time_program(program)
