@@ -28,6 +28,8 @@ from ..errors import ConfigurationError
 from ..files.robot_spec import STANDARD_GRAVITY, RobotSpec
 from .chain.kinematics import DhKinematics
 
+#: A mass this many times the rated payload reads as grams written as kilograms.
+GRAMS_HINT = 100.0
 #: How far a named wrist axis may pass from the wrist centre and still count as through it [m].
 WRIST_CENTRE_TOLERANCE_M = 1e-4
 
@@ -87,7 +89,8 @@ def payload_problems(spec: RobotSpec, load) -> list[str]:
         return []
     problems = []
     if limits.rated_kg is not None and load.mass > limits.rated_kg:
-        problems.append(f"{load.mass:.3g} kg exceeds the {spec.name}'s rated payload {limits.rated_kg:g} kg")
+        grams = " (is the mass in grams? it is in kg)" if load.mass > GRAMS_HINT * limits.rated_kg else ""
+        problems.append(f"{load.mass:.3g} kg exceeds the {spec.name}'s rated payload {limits.rated_kg:g} kg{grams}")
     for w in wrist_loads(spec, load):
         if w.moment_limit is not None and w.moment_n_m > w.moment_limit:
             problems.append(f"the moment about axis {w.joint} is {w.moment_n_m:.3g} N m (centre of mass "

@@ -159,7 +159,8 @@ class Job:
     [m/s^2]: the TCP's acceleration limit on tool moves, or None (neither limits joint moves);
     ``payload``: the tool's load (``pipeline.program.payload.Payload``: mass, centre of mass and inertia in the flange
     frame, source) or None: not given (controller programs then carry a marked placeholder); ``parts``: the parts the
-    waypoints' ``grip`` and ``release`` actions name (name -> Payload); ``signals``: the named digital signals the waypoints' actions use (name ->
+    waypoints' ``grip`` and ``release`` actions name (name -> Payload); ``signals``: the named digital signals the
+    waypoints' actions use (name ->
     ``pipeline.program.actions.Signal``);
     ``tcp_speed_limit`` [m/s] or None: a TCP speed limit that holds everywhere (a safety-rated reduced
     speed), certified on the whole profile; ``singularity``:

@@ -92,6 +92,7 @@ BAD_LOADS = {
     "a zone where the load changes": (lambda d: d["waypoints"][3].update(do=[{"release": "box"}]), "waypoints[3].zone",
                                       "wait or change the load there"),
     "a part's name": (lambda d: d["parts"].update({"2box": {"mass": 1.0}}), "parts.2box", "a part's name"),
+    "a mass in grams": (lambda d: d["parts"]["box"].update(mass=2500), "parts.box", "is the mass in grams?"),
 }
 
 
