@@ -128,7 +128,8 @@ class Program:
     ``timing`` method, ``path`` shape, ``dt`` [s], ``waypoints`` (how each was solved), ``moves``,
     ``stops`` (waypoint indices where the motion rests, first and last included), ``plan`` (the job's),
     ``tilt``: the TiltLimit its planned moves keep (``pipeline.cell.tilt``; None: none), ``payload`` the tool's load
-    (``pipeline.program.payload.Payload``; None: not given), ``parts`` the parts its grip and release actions name, ``job_name`` the job it was compiled from (``name`` may be renamed for a controller;
+    (``pipeline.program.payload.Payload``; None: not given), ``parts`` the parts its grip and release actions name,
+    ``job_name`` the job it was compiled from (``name`` may be renamed for a controller;
     every controller program records the job: ``pipeline.files.atomic.job_mark``); ``actions``: per waypoint what
     the controller does once there (``pipeline.program.actions``; () or empty tuples: nothing) and ``signals`` the
     named signals they use."""

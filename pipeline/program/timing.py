@@ -69,7 +69,8 @@ class CarriedLoads:
             self.drake = build_drake_robot(program.flange_spec)
 
     def after(self, k: int):
-        """What ``pipeline.timing.time_path`` takes as ``drake`` for motion leaving waypoint ``k`` (None: no torques)."""
+        """What ``pipeline.timing.time_path`` takes as ``drake`` for motion leaving waypoint ``k`` (None: no
+        torques)."""
         return None if self.drake is None else self.drake.carrying(self.program.load_after(k))
 
     def held_torque(self, q: np.ndarray, k: int) -> np.ndarray | None:
@@ -133,7 +134,8 @@ def _time_stretch(program: Program, path: StretchPath | None, k: int, max_sample
         load = program.load_after(first)
         if type(error) is not TimingError or load is None or program.limits.tau_max is None:
             raise
-        raise TimingError(f"the moves from waypoint {first} to {last} carrying {load.name} ({load.mass:g} kg): {error}") from error
+        raise TimingError(f"the moves from waypoint {first} to {last} carrying {load.name} ({load.mass:g} kg): "
+                          f"{error}") from error
 
 
 def _timed_stretch(program: Program, path: StretchPath | None, first: int, last: int, max_samples: int,
