@@ -1,8 +1,8 @@
 """The tool's load with its inertia and the parts gripped and released (issue 40) in ABB RAPID and KUKA KRL: the GP7
 payload pick and place written by write_rapid / write_krl holds the tool's load with the principal axes and moments
 of its inertia (RAPID tload, KRL $LOAD), a GripLoad of the part's loaddata / a $LOAD of the total at the grip and
-GripLoad load0 / the tool's $LOAD at the release; read back, the job has the same payload, parts (KRL: part1),
-grip and release actions and loads per move, within the written rounding; what cannot be read is refused naming its
+GripLoad load0 / the tool's $LOAD at the release; read back, the job has the same payload, parts (KRL: named by the
+gripped mark), grip and release actions and loads per move, within the written rounding; what cannot be read is refused naming its
 line. Files only in tmp_path."""
 
 from __future__ import annotations
@@ -173,8 +173,8 @@ def test_rapid_round_trip_keeps_payload_parts_actions_and_loads(program, rapid):
 def test_krl_round_trip_keeps_payload_parts_actions_and_loads(program, krl):
     *_, again = krl
     assert_same_load(again.payload, program.payload)
-    assert list(again.parts) == ["part1"]                            # KRL holds the total: the part gets a name
-    assert_same_load(again.parts["part1"], program.parts["box"])
+    assert list(again.parts) == ["box"]               # KRL holds the total: the header's gripped mark names the part
+    assert_same_load(again.parts["box"], program.parts["box"])
     assert grips_and_releases(again) == grips_and_releases(program) == (
         [[], [], [(GRIP, 0)], [], [], [(RELEASE, 0)], [], []])
     assert other_actions(again) == other_actions(program)
@@ -208,7 +208,7 @@ def test_parts_without_a_payload_keep_the_placeholder_and_write_the_parts(progra
     assert sum(line.startswith("$LOAD = {M 0.000,") for line in lines) == 1            # nothing held: no load
     assert "payload" not in doc and again.payload is None
     assert grips_and_releases(again) == grips_and_releases(bare)
-    assert_same_load(again.parts["part1"], bare.parts["box"])
+    assert_same_load(again.parts["box"], bare.parts["box"])
 
 
 def test_a_job_without_payload_or_parts_reads_back_without(program):

@@ -87,3 +87,16 @@ def test_a_ur5_job_comes_back_from_urscript_as_written(tmp_path):
     record, = measure_job(load_job(path))                        # the language that fits a UR arm: URScript
     assert record.error == "" and record.read_back_passed and record.same_stops, record
     assert record.ratio == pytest.approx(1.0, abs=1e-3), record
+
+
+def test_the_gripped_mark_names_a_total_loads_parts_only_when_it_names_each_once():
+    from pipeline.outputs.controllers.settings_mark import with_part_names
+
+    document = {"parts": {"part1": {"mass": 1.0}, "part2": {"mass": 2.0}},
+                "waypoints": [{"joints": [0] * 6, "do": [{"grip": "part1"}]}, {"joints": [0] * 6, "do": [
+                    {"release": "part1"}, {"grip": "part2"}, {"set": "part1", "value": "on"}]}]}
+    named = with_part_names(document, "; dh.gripped.1=box dh.gripped.2=lid")
+    assert list(named["parts"]) == ["box", "lid"]
+    assert named["waypoints"][1]["do"] == [{"release": "box"}, {"grip": "lid"}, {"set": "part1", "value": "on"}]
+    for text in ("; dh.gripped.1=box", "; dh.gripped.1=box dh.gripped.2=box", "; no mark"):
+        assert with_part_names(document, text) is document

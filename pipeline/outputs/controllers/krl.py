@@ -98,7 +98,7 @@ from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_IN
 from ...program.payload import Payload, combined, expressed_in, principal_axes
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
-from .settings_mark import settings_mark, signals_mark
+from .settings_mark import gripped_mark, settings_mark, signals_mark
 
 #: Controller generations (module docstring): the approximation keyword of a PTP with a zone.
 KRC2, KSS8 = "krc2", "kss8"
@@ -193,6 +193,7 @@ def header(program, name: str, generation: str = KRC2) -> list[str]:
         f"{job_mark(program.job_name or program.name)} generation={generation}",
         settings_mark(program),
         *([signals_mark(program)] if signals_mark(program) else []),
+        *([gripped_mark(program)] if gripped_mark(program) else []),
         ptp,
         "What the controller does differently from the certified profile:",
         "- it plans its own velocity profile for every PTP, LIN and CIRC (its machine data's accelerations and "

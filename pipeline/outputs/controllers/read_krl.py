@@ -109,6 +109,7 @@ from ...model.vendors.selection import select_solution
 from ...program.actions import COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
 from ...program.payload import MASS_TOLERANCE_KG, Payload, expressed_in, removed
 from .krl import abc_rotation
+from .settings_mark import PART_NAME
 
 MOVE_KINDS = {"ptp": "joint", "lin": "linear", "circ": "circular"}
 AXIS_TYPES, POSE_TYPES = ("E6AXIS", "AXIS"), ("E6POS", "POS", "FRAME")
@@ -149,8 +150,6 @@ LOAD_FIELDS = {"$LOAD": ("M", "CM", "J"), "$LOAD.M": ("M",), "$LOAD.CM": ("CM",)
 #: Two loads are the same within these: mass [kg], centre of mass [m], inertia [kg m^2] (above what a file's rounding
 #: of 0.001 kg, 0.001 mm and 1e-6 kg m^2 leaves of one load written twice).
 LOAD_MATCH = (1e-3, 1e-5, 1e-5)
-#: The name of the n-th part a load change grips (``PART_NAME.format(n)``).
-PART_NAME = "part{}"
 
 
 class KrlReadError(FileFormatError):

@@ -4,7 +4,7 @@ timing settings its header marks (``settings_mark``)."""
 from __future__ import annotations
 
 from ...errors import ConfigurationError
-from .settings_mark import with_signal_names, with_written_settings
+from .settings_mark import with_part_names, with_signal_names, with_written_settings
 
 #: The program file's suffix (KRL: the .src; its targets are in the .dat beside it) -> its language.
 READ_SUFFIXES = {".mod": "rapid", ".ls": "ls", ".jbi": "jbi", ".src": "krl", ".script": "urscript"}
@@ -39,4 +39,4 @@ def read_program_text(language: str, text: str, robot, source: str, dat: str | N
                "jbi": lambda: read_jbi(text, robot, source=source, **extra),
                "krl": lambda: read_krl(text, dat, robot, source, dat_source, **extra),
                "urscript": lambda: read_urscript(text, robot, source)}
-    return with_signal_names(with_written_settings(readers[language](), text), text)
+    return with_part_names(with_signal_names(with_written_settings(readers[language](), text), text), text)

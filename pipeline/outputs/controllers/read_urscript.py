@@ -89,6 +89,7 @@ from ...model.robot import Robot, robot_with_tool
 from ...program.actions import MAX_COMMENT_CHARS
 from ...program.payload import Payload, inertia_matrix, physical_inertia_problem, removed
 from .read_ls import as_robot, parse_subset
+from .settings_mark import PART_NAME
 from .urscript import IO_BANKS, PULSE_THREAD, WAITED
 
 #: Each move's parameters in the Script Manual's order.
@@ -561,7 +562,7 @@ class _Reader:
                         f"body's inertia: {problem}")
         held = {name for name, _ in self.carried}
         name = next((n for n, p in self.parts.items() if n not in held and _same_load(p, part, True)),
-                    f"part{len(self.parts) + 1}")
+                    PART_NAME.format(len(self.parts) + 1))
         self.parts[name] = part
         self.carried.append((name, total))
         self.action({"grip": name})

@@ -98,10 +98,40 @@ def with_signal_names(document: dict, text: str) -> dict:
     return {**document, "signals": signals, "waypoints": waypoints}
 
 
-def _renamed_actions(waypoint, renamed: dict):
+#: The parts a program grips, by the number a reader of a total load gives them (``part1``, ``part2``: KRL, URScript).
+GRIPPED_MARK = re.compile(r"\bdh\.gripped\.([0-9]{1,3})=([A-Za-z][A-Za-z0-9_]{0,31})\b")
+#: How a reader of a total load names the n-th part gripped (``PART_NAME.format(n)``).
+PART_NAME = "part{}"
+
+
+def gripped_mark(program: Program) -> str:
+    """``dh.gripped.1=box dh.gripped.2=lid``: the job's parts in the order the program first grips them, for a
+    language that holds only the total load ("" without grips)."""
+    names = list(dict.fromkeys(action.part for actions in program.actions for action in actions
+                               if action.kind == GRIP))
+    return " ".join(f"{PREFIX}gripped.{n}={name}" for n, name in enumerate(names, start=1))
+
+
+def with_part_names(document: dict, text: str) -> dict:
+    """``document`` (a reader's job document) with its parts ``part1``, ``part2``... renamed as ``text``'s gripped
+    mark names them (``gripped_mark``), in its ``parts`` table and its grips and releases; as it is unless the mark
+    names exactly as many parts, each once, as the document has, all named ``partN`` in order."""
+    marked = {int(n): name for n, name in GRIPPED_MARK.findall(text)}
+    parts = document.get("parts") or {}
+    read = [PART_NAME.format(n) for n in range(1, len(parts) + 1)]
+    if not marked or list(parts) != read or sorted(marked) != list(range(1, len(read) + 1)) or \
+            len(set(marked.values())) != len(read):
+        return document
+    renamed = {PART_NAME.format(n): name for n, name in marked.items()}
+    waypoints = [_renamed_actions(w, renamed, (GRIP, RELEASE)) for w in document["waypoints"]]
+    return {**document, "parts": {renamed[name]: entry for name, entry in parts.items()}, "waypoints": waypoints}
+
+
+def _renamed_actions(waypoint, renamed: dict, kinds: tuple[str, ...] = SIGNAL_KINDS):
+    """A waypoint entry whose actions of ``kinds`` name what ``renamed`` maps by their new names."""
     if not isinstance(waypoint, dict) or "do" not in waypoint:
         return waypoint
-    actions = [{key: renamed.get(value, value) if key in SIGNAL_KINDS else value for key, value in action.items()}
+    actions = [{key: renamed.get(value, value) if key in kinds else value for key, value in action.items()}
                for action in waypoint["do"]]
     return {**waypoint, "do": actions}
 

@@ -95,7 +95,7 @@ from ...program.payload import Payload, combined
 from ...timing.profile import Profile
 from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
-from .settings_mark import settings_mark, signals_mark
+from .settings_mark import gripped_mark, settings_mark, signals_mark
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 #: The Script Manual's defaults: movej a [rad/s^2], v [rad/s]; movel a [m/s^2].
@@ -469,6 +469,7 @@ def _header(program: Program, name: str, profile: Profile | None, period: float,
         job_mark(program.job_name or program.name),
         settings_mark(program),
         *([signals_mark(program)] if signals_mark(program) else []),
+        *([gripped_mark(program)] if gripped_mark(program) else []),
         "Units: m, rad, s; poses p[x, y, z, rx, ry, rz] (rotation vector) of the TCP in the base frame.",
         ("Native moves: the controller plans its own velocity profiles (trapezoidal in a and v, no jerk limit), "
          "not the certified profile:"),
