@@ -52,7 +52,8 @@ Programming Instructions for System Integrators; the chapter and section named a
   its line saying that the tool's load is missing from it.
 * Actions (``pipeline.program.actions``), each waypoint's right after its last written motion (waypoint 0's after
   the PTP to the start), with the signals' numbers on the controller (a signal without a number is an OutputError
-  naming it; the job's names ride in the header's signals mark, ``settings_mark.signals_mark``, and each output
+  naming it; the job's names ride in the header's signals mark, ``settings_mark.signals_mark``, the parts' in its
+  gripped mark, ``settings_mark.gripped_mark``, and each output
   statement ends in a comment naming its signal): ``set`` -> ``$OUT[n] = TRUE`` / ``FALSE`` ("Switching functions",
   "OUT"); ``pulse`` -> ``PULSE($OUT[n], TRUE, t)`` (the output on for t [s] while the program goes on: "PULSE");
   ``wait`` -> ``WAIT SEC t`` (it stops the advance run, so the time runs once the robot rests at the exact-stop point

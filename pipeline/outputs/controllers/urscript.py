@@ -67,7 +67,8 @@ lists and poses; "Module motion" for the functions):
   (sleep TIMEOUT_TICK a turn, count the time in ``dh_waited`` [s], past the timeout ``popup(text, title, False,
   True, False)``, an error popup in the positional form PolyScope's URCap code writes (warning, error, blocking:
   pharmbio/robotlab programs/dan_delid.script @ 536ca11f), and ``halt``: the program stops with an error). A
-  comment is ``# text``. The header names the numbered signals (``settings_mark.signals_mark``). In the servoj
+  comment is ``# text``. The header names the numbered signals (``settings_mark.signals_mark``) and the parts the
+  program grips (``settings_mark.gripped_mark``: it sets only the total load). In the servoj
   replay the actions follow the sample where the replay arrives at their waypoint (``arrival``), each after the
   waits before it in the list (the certified profile rests at the waypoint for them: no ``sleep``).
 * The header records the job (``job=NAME``, ``pipeline.files.atomic.job_mark``); the name is never a keyword
