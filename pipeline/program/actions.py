@@ -116,11 +116,13 @@ def stops_motion(actions: tuple[Action, ...]) -> bool:
     return any(a.stops_motion for a in actions)
 
 
-def held_after(actions_per_waypoint, k: int) -> tuple[str, ...]:
-    """The parts held once waypoint ``k``'s actions have run (in the order gripped), from no part at waypoint 0's
-    start."""
+def held_after(actions_per_waypoint, k: int, i: int | None = None) -> tuple[str, ...]:
+    """The parts held once waypoint ``k``'s actions have run (``i``: its actions up to and including action i), in
+    the order gripped, from no part at waypoint 0's start."""
     held: list[str] = []
-    for actions in actions_per_waypoint[: k + 1]:
+    done = [*actions_per_waypoint[:k], tuple(actions_per_waypoint[k])[: None if i is None else i + 1]] \
+        if k < len(actions_per_waypoint) else actions_per_waypoint
+    for actions in done:
         for action in actions:
             if action.kind == GRIP:
                 held.append(action.part)

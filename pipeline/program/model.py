@@ -174,10 +174,10 @@ class Program:
         """The robot's spec with its end frame at the flange F (the job's tool taken off), where loads are given."""
         return dataclasses.replace(self.robot.spec, X_DnE=self.robot.spec.X_DnE @ np.linalg.inv(self.tool.X_FT))
 
-    def load_after(self, k: int) -> Payload | None:
-        """What the flange carries once waypoint ``k``'s actions have run: the tool's load and the parts held, as one
-        load (None: nothing known to be carried)."""
-        return combined([self.payload] + [self.parts[name] for name in held_after(self.actions, k)])
+    def load_after(self, k: int, i: int | None = None) -> Payload | None:
+        """What the flange carries once waypoint ``k``'s actions (``i``: up to and including action i) have run: the
+        tool's load and the parts held, as one load (None: nothing known to be carried)."""
+        return combined([self.payload] + [self.parts[name] for name in held_after(self.actions, k, i)])
 
     @property
     def loads(self) -> tuple[Payload | None, ...]:

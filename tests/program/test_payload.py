@@ -178,3 +178,11 @@ def test_the_cycle_report_says_what_each_move_carries_and_why_torques_are_not_ce
 
 def test_an_inertia_given_as_six_numbers_is_the_symmetric_matrix():
     assert np.array_equal(inertia_matrix([1, 2, 3, 4, 5, 6]), [[1, 4, 5], [4, 2, 6], [5, 6, 3]])
+
+
+def test_the_parts_held_after_each_action_follow_the_grips_and_releases_in_order():
+    from pipeline.program.actions import GRIP, RELEASE, Action, held_after
+
+    actions = ((Action(GRIP, part="box"),), (Action(GRIP, part="lid"), Action(RELEASE, part="box")), ())
+    assert [held_after(actions, 1, i) for i in range(2)] == [("box", "lid"), ("lid",)]
+    assert held_after(actions, 0) == ("box",) and held_after(actions, 1) == held_after(actions, 2) == ("lid",)

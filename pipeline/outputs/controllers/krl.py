@@ -95,8 +95,8 @@ from ...model.vendors.axes import KUKA, axis_angles, axis_map
 from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames, frames_words, tool_on_flange
 from ...model.vendors.selection import select_solution, written_configuration
-from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, held_after
-from ...program.payload import Payload, combined, expressed_in, principal_axes
+from ...program.actions import COMMENT, GRIP, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
+from ...program.payload import Payload, expressed_in, principal_axes
 from .controller_motion import WrittenProgram
 from .lint import KRL, lint, move_lengths, written_speed
 from .settings_mark import gripped_mark, settings_mark, signals_mark
@@ -403,8 +403,7 @@ def action_lines(program, k: int, zoned: bool = False) -> tuple[list[str], list[
     motion to k is approximated, so its outputs switch on the path (TRIGGER WHEN DISTANCE=1: at the middle of the
     approximation contour), written before the motion; its comments follow the motion (a job refuses waits there)."""
     before, after = [], []
-    held = list(held_after(program.actions, k - 1)) if k > 0 else []
-    for action in program.actions_at(k):
+    for i, action in enumerate(program.actions_at(k)):
         if action.kind in (SET, PULSE):
             statement = f"{_output_statement(program, action)} ; {action.signal}"
             if zoned:
@@ -418,11 +417,7 @@ def action_lines(program, k: int, zoned: bool = False) -> tuple[list[str], list[
         elif action.kind == COMMENT:
             after.append(f"; {action.text}")
         elif action.kind in (GRIP, RELEASE):
-            if action.kind == GRIP:
-                held.append(action.part)
-            elif action.part in held:
-                held.remove(action.part)
-            after.append(load_assignment(program, combined([program.payload] + [program.parts[p] for p in held])))
+            after.append(load_assignment(program, program.load_after(k, i)))
     return before, after
 
 

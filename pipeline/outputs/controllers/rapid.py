@@ -401,16 +401,11 @@ class _Module:
     def add_actions(self, k: int) -> None:
         """Waypoint ``k``'s actions, after the last move written into it (module docstring, "Actions"); a grip or
         release as ``GripLoad`` of the parts held after it (module docstring, "Parts")."""
-        held = list(held_after(self.program.actions, k - 1)) if k > 0 else []
-        for action in self.program.actions_at(k):
+        for i, action in enumerate(self.program.actions_at(k)):
             if action.kind not in (GRIP, RELEASE):
                 self.instructions.append(action_instruction(action))
                 continue
-            if action.kind == GRIP:
-                held.append(action.part)
-            elif action.part in held:
-                held.remove(action.part)
-            name, value = held_load(self.program, tuple(held))
+            name, value = held_load(self.program, held_after(self.program.actions, k, i))
             self.declare(name, "loaddata", value)
             self.instructions.append(f"GripLoad {name};")
 

@@ -34,7 +34,7 @@ import re
 from dataclasses import dataclass
 
 from ...errors import ConfigurationError
-from ...program.actions import GRIP, INPUT, OUTPUT, PULSE, RELEASE, SET, WAIT_INPUT
+from ...program.actions import GRIP, INPUT, OUTPUT, PULSE, RELEASE, SET, WAIT_INPUT, held_after
 from ...program.model import Program
 from ...program.payload import Payload, combined
 
@@ -218,16 +218,13 @@ def load_schedules(program: Program) -> LoadSchedules | None:
     no load (no payload, no part)."""
     if program.payload is None and not program.parts:
         return None
-    held, numbers, selected = [], {frozenset(): 1}, {}
+    numbers, selected = {frozenset(): 1}, {}
     order = [()]
     for k in range(len(program.waypoints)):
         for i, action in enumerate(program.actions_at(k)):
-            if action.kind == GRIP:
-                held.append(action.part)
-            elif action.kind == RELEASE:
-                held = [name for name in held if name != action.part]
-            else:
+            if action.kind not in (GRIP, RELEASE):
                 continue
+            held = held_after(program.actions, k, i)
             key = frozenset(held)
             if key not in numbers:
                 numbers[key] = len(order) + 1

@@ -90,9 +90,9 @@ from scipy.spatial.transform import Rotation
 from ...errors import OutputError
 from ...files.atomic import WRITTEN_BY, job_mark
 from ...model.vendors.controller import controller_of
-from ...program.actions import COMMENT, GRIP, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action, Signal, held_after
+from ...program.actions import COMMENT, GRIP, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT, Action, Signal
 from ...program.model import CIRCULAR, JOINT, LINEAR, Move, Program
-from ...program.payload import Payload, combined
+from ...program.payload import Payload
 from ...timing.profile import Profile
 from .lint import LIMITS, URSCRIPT, lint
 from .names import RESERVED_WORDS
@@ -192,12 +192,6 @@ def payload_call(load: Payload | None) -> str:
         load = Payload(0.0, np.zeros(3))
     values = [number(v, PAYLOAD_DECIMALS) for v in (load.mass, *load.com, *load.inertia_six)]
     return f"set_target_payload({values[0]}, [{', '.join(values[1:4])}], [{', '.join(values[4:])}])"
-
-
-def carried_after(program: Program, k: int, i: int) -> Payload | None:
-    """What the flange carries once action ``i`` of waypoint ``k`` has run (the tool's load and the parts held)."""
-    actions = [*program.actions[:k], program.actions_at(k)[:i + 1]]
-    return combined([program.payload] + [program.parts[name] for name in held_after(actions, k)])
 
 
 def payload_notes(program: Program) -> list[str]:
@@ -370,7 +364,7 @@ def _action(program: Program, k: int, i: int, pulses: dict) -> list[str]:
     """The lines of action ``i`` of waypoint ``k``."""
     action = program.actions_at(k)[i]
     if action.kind in (GRIP, RELEASE):
-        return [payload_call(carried_after(program, k, i))]
+        return [payload_call(program.load_after(k, i))]
     if action.kind == COMMENT:
         return [f"# {action.text}"]
     if action.kind == WAIT:
