@@ -125,15 +125,21 @@ def test_real_jobs_are_refused_naming_line_and_construct(name, line, construct):
         read_jbi((REAL / name).read_text(), "gp7", source=name)
 
 
+def assert_refused_at_tool_then_pulses(text: str, source: str, tool_refusal: str) -> None:
+    """``text`` read as ``source`` is refused at its tool file (``tool_refusal``: the message's pattern after
+    ``source:``), and given the tool, at its first pulse point, line 8."""
+    with pytest.raises(ControllerProgramError, match=rf"^{source}:{tool_refusal}"):
+        read_jbi(text, "gp7", source=source)
+    with pytest.raises(ControllerProgramError, match=rf"^{source}:8: C00000: pulse data need the robot's pulses per "
+                                                     "degree"):
+        read_jbi(text, "gp7", tool=TOOL_1, source=source)
+
+
 def test_a_real_job_without_its_call_is_refused_at_its_tool_then_at_its_pulses():
     """The issue: with the refused line removed the job reads on, and ///TOOL 1 is not silently the flange."""
     text = (REAL / "ags_SAMPLE_TC.JBI").read_text().replace("CALL JOB:TOOLCHANGE ARGFI025\n", "")
-    with pytest.raises(ControllerProgramError, match=r"^SAMPLE_TC:5: ///TOOL 1: tool file 1's data is on the "
-                                                     r"controller, not in the file: give it \(read_jbi's tool\)"):
-        read_jbi(text, "gp7", source="SAMPLE_TC")
-    with pytest.raises(ControllerProgramError, match=r"^SAMPLE_TC:8: C00000: pulse data need the robot's pulses per "
-                                                     "degree"):
-        read_jbi(text, "gp7", tool=TOOL_1, source="SAMPLE_TC")
+    assert_refused_at_tool_then_pulses(text, "SAMPLE_TC", r"5: ///TOOL 1: tool file 1's data is on the controller, "
+                                       r"not in the file: give it \(read_jbi's tool\)")
 
 
 #: RoboDK's sample job: (a construct it holds, why it is refused, the lines removed to read on past it), in file order.
@@ -155,12 +161,8 @@ def test_the_robodk_job_is_refused_construct_by_construct():
         with pytest.raises(ControllerProgramError, match=rf"^PROGRAM:{line}: {re.escape(construct)}: {why}"):
             read_jbi(text, "gp7", source="PROGRAM")
         text = re.sub(removed, "", text)
-    with pytest.raises(ControllerProgramError, match=r"^PROGRAM:\d+: ///TOOL 9: tool file 9's data is on the "
-                                                     r"controller, not in the file"):
-        read_jbi(text, "gp7", source="PROGRAM")
-    with pytest.raises(ControllerProgramError, match=r"^PROGRAM:8: C00000: pulse data need the robot's pulses per "
-                                                     "degree"):
-        read_jbi(text, "gp7", tool=TOOL_1, source="PROGRAM")
+    assert_refused_at_tool_then_pulses(text, "PROGRAM", r"\d+: ///TOOL 9: tool file 9's data is on the controller, "
+                                       "not in the file")
 
 
 def test_a_job_without_motion_is_refused():
