@@ -46,3 +46,9 @@ def _as_floats(value, what: str) -> np.ndarray:
     if array.dtype.kind not in "iuf":
         raise ConfigurationError(f"{what} must hold numbers, got {array.dtype} values ({shown(value)})")
     return array.astype(float)
+
+
+def inertia_matrix(six) -> np.ndarray:
+    """[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] [kg m^2] -> the symmetric (3, 3) inertia matrix."""
+    ixx, iyy, izz, ixy, ixz, iyz = (float(v) for v in six)
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import MissingFieldError, RobotFileError, RobotNotFoundError, file_error
+from .arrays import inertia_matrix
 from .schema import Document, Reader, document_from_data, load_document
 from .units import ANGLE_UNITS, LENGTH_UNITS
 
@@ -341,8 +342,7 @@ class _RobotReader(Reader):
         moments = self.vector((*path, "I"), 6, "Ixx, Iyy, Izz, Ixy, Ixz, Iyz [kg m^2]", default=[0.0] * 6)
         if np.abs(moments).max() > MAX_RATE:
             self.fail((*path, "I"), f"is implausibly large (above {MAX_RATE:g} kg m^2)", self.get((*path, "I")))
-        ixx, iyy, izz, ixy, ixz, iyz = moments
-        I_Lcm = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        I_Lcm = inertia_matrix(moments)
         principal = np.linalg.eigvalsh(I_Lcm)
         if principal[0] < 0.0 or principal[0] + principal[1] < principal[2] * (1.0 - 1e-12):
             self.fail((*path, "I"), "is not a physical inertia (principal moments must be >= 0 and obey the "

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..cell.cell_file import Cell, cell_names, load_cell, resolve_cell_path
 from ..errors import ConfigurationError, JobFileError, MissingFieldError, RobotNotFoundError
+from ..files.arrays import inertia_matrix
 from ..files.branch_names import parse_configuration
 from ..files.choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FULL_POSE, IK_METHODS, MOVES, PATH_SHAPES,
                              PLAN_MODES, PLAN_TIME_BUDGET_S, PLANNERS, SINGULARITY_POLICIES, TARGET_KINDS, TIMING_ALIASES,
@@ -36,12 +37,12 @@ from ..files.choices import (DEFAULT_DT, DEFAULT_PATH_SHAPE, DEFAULT_PLANNER, FU
 from ..files.robot_spec import missing_limit_error, preset_names, resolve_robot_path
 from ..files.schema import Document, Reader, document_from_data, field_name, load_document
 from ..files.units import ANGLE_UNITS, LENGTH_UNITS
+from ..model.payload_limits import payload_problems
 from ..model.robot import Robot, load_robot, robot_with_tool
 from .actions import (ACTION_KINDS, COMMENT, GRIP, INPUT, MAX_ACTION_TIME_S, MAX_COMMENT_CHARS, MAX_SIGNAL_NUMBER,
                       OUTPUT, PULSE, RELEASE, SET, SIGNAL_NAME, WAIT, WAIT_INPUT, Action, Signal, held_after,
                       stops_motion)
-from ..model.payload_limits import payload_problems
-from .payload import MAX_GYRATION_M, MAX_PAYLOAD_KG, Payload, combined, inertia_matrix, physical_inertia_problem
+from .payload import MAX_GYRATION_M, MAX_PAYLOAD_KG, Payload, combined, physical_inertia_problem
 
 OUTPUTS = ("csv", "npz", "json", "png", "html", "arm_png", "ros2_yaml", "json_trajectory", "tcp_png", "rapid", "ls",
            "jbi", "krl", "urscript")

@@ -62,12 +62,6 @@ class Payload:
         return f"{self.name} {self.mass:g} kg at ({com}) mm"
 
 
-def inertia_matrix(six) -> np.ndarray:
-    """[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] -> the symmetric (3, 3) matrix."""
-    ixx, iyy, izz, ixy, ixz, iyz = (float(v) for v in six)
-    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-
-
 def physical_inertia_problem(inertia: np.ndarray) -> str | None:
     """Why (3, 3) ``inertia`` [kg m^2] about a centre of mass cannot be a body's, or None: it must be symmetric with
     principal moments >= 0 that meet the triangle inequality (each at most the sum of the other two)."""

@@ -18,9 +18,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pipeline.files.arrays import inertia_matrix
 from pipeline.model.chain.drake_model import build_drake_robot
 from pipeline.model.robot import load_robot
-from pipeline.program.payload import Payload, inertia_matrix
+from pipeline.program.payload import Payload
 from tests.ur5e_urdf import UrdfArm
 
 PI = np.pi

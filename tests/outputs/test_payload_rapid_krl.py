@@ -15,6 +15,7 @@ import pytest
 import yaml
 
 from pipeline.errors import OutputError
+from pipeline.files.arrays import inertia_matrix
 from pipeline.outputs.controllers.krl import write_krl
 from pipeline.outputs.controllers.rapid import write_rapid
 from pipeline.outputs.controllers.read_krl import KrlReadError, read_krl
@@ -23,7 +24,7 @@ from pipeline.outputs.controllers.read_rapid import RapidReadError, read_rapid
 from pipeline.program.actions import GRIP, RELEASE
 from pipeline.program.compile import compile_job
 from pipeline.program.job import parse_job
-from pipeline.program.payload import Payload, inertia_matrix, principal_axes
+from pipeline.program.payload import Payload, principal_axes
 
 from .test_independent_grammars import krl_report
 from .test_rapid import rapidchecker_errors

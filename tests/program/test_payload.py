@@ -12,6 +12,7 @@ import yaml
 
 from pipeline.__main__ import main
 from pipeline.errors import JobFileError, RobotFileError
+from pipeline.files.arrays import inertia_matrix
 from pipeline.files.robot_spec import STANDARD_GRAVITY, parse_robot_spec
 from pipeline.files.robot_writer import robot_document
 from pipeline.model.chain.drake_model import build_drake_robot
@@ -19,7 +20,7 @@ from pipeline.model.payload_limits import payload_problems, wrist_loads
 from pipeline.model.robot import load_robot
 from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
-from pipeline.program.payload import Payload, combined, inertia_matrix, removed
+from pipeline.program.payload import Payload, combined, removed
 from pipeline.program.report import cycle_lines, cycle_report
 from pipeline.program.timing import time_program
 

@@ -81,13 +81,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...errors import FileFormatError
+from ...files.arrays import inertia_matrix
 from ...files.branch_names import label_parts
 from ...model.ik import solve_ik_batch
 from ...model.ik.branches import configuration_labels
 from ...model.ik.result import limit_variants
 from ...model.robot import Robot, robot_with_tool
 from ...program.actions import MAX_COMMENT_CHARS
-from ...program.payload import Payload, inertia_matrix, physical_inertia_problem, removed
+from ...program.payload import Payload, physical_inertia_problem, removed
 from .read_ls import as_robot, parse_subset
 from .settings_mark import PART_NAME
 from .urscript import IO_BANKS, PULSE_THREAD, WAITED
