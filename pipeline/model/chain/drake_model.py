@@ -75,10 +75,14 @@ def link_inertia(joint: DhJoint) -> SpatialInertia:
     """The link's spatial inertia about its frame origin, or the documented placeholder."""
     if joint.inertia is None:
         return SpatialInertia.SolidSphereWithMass(PLACEHOLDER_MASS_KG, PLACEHOLDER_RADIUS_M)
-    m = joint.inertia
-    I = m.I_Lcm
+    return central_spatial_inertia(joint.inertia.mass, joint.inertia.p_LoLcm, joint.inertia.I_Lcm)
+
+
+def central_spatial_inertia(mass: float, com: np.ndarray, I: np.ndarray) -> SpatialInertia:
+    """A body's spatial inertia about its frame origin: ``mass`` [kg], centre of mass ``com`` (3,) [m] and (3, 3)
+    inertia ``I`` [kg m^2] about it, in the body frame."""
     rotational = RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])
-    return SpatialInertia.MakeFromCentralInertia(m.mass, m.p_LoLcm, rotational)
+    return SpatialInertia.MakeFromCentralInertia(mass, np.asarray(com, dtype=float), rotational)
 
 
 def as_rigid_transform(X: np.ndarray) -> RigidTransform:
@@ -321,13 +325,8 @@ class DrakeRobot:
     def set_payload(self, payload) -> None:
         """Make the payload body ``payload`` (``pipeline.program.payload.Payload``: mass [kg], centre of mass [m] and
         inertia [kg m^2] in the end frame; None: nothing carried)."""
-        if payload is None:
-            inertia = SpatialInertia.Zero()
-        else:
-            I = payload.inertia
-            rotational = RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])
-            inertia = SpatialInertia.MakeFromCentralInertia(payload.mass, np.asarray(payload.com, dtype=float),
-                                                            rotational)
+        inertia = SpatialInertia.Zero() if payload is None else \
+            central_spatial_inertia(payload.mass, payload.com, payload.inertia)
         self.payload_body.SetSpatialInertiaInBodyFrame(self.context, inertia)
 
     def inverse_dynamics(self, q, qd, qdd, payload=None) -> np.ndarray:
