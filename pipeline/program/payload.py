@@ -103,6 +103,16 @@ def removed(total: Payload, part: Payload, name: str) -> Payload | None:
     return Payload(float(mass), com, inertia, total.source, name)
 
 
+def same_load(a: Payload | None, b: Payload | None, mass_kg: float, com_m: float,
+              inertia_kg_m2: float | None) -> bool:
+    """Whether two loads (None: nothing) are one within these tolerances: mass [kg], each coordinate of the centre of
+    mass [m], each element of the inertia [kg m^2] (None: the inertias are not compared)."""
+    if a is None or b is None:
+        return a is b
+    return (abs(a.mass - b.mass) <= mass_kg and float(np.abs(np.asarray(a.com) - b.com).max()) <= com_m
+            and (inertia_kg_m2 is None or float(np.abs(a.inertia - b.inertia).max()) <= inertia_kg_m2))
+
+
 def principal_axes(payload: Payload) -> tuple[np.ndarray, np.ndarray]:
     """(moments (3,) [kg m^2], R (3, 3)): the principal moments of the load's inertia about its centre of mass and
     the rotation whose columns are their axes in F's axes (inertia = R diag(moments) R^T, det R = +1), as RAPID's

@@ -107,7 +107,7 @@ from ...model.vendors.configuration import configurations
 from ...model.vendors.controller import controller_frames
 from ...model.vendors.selection import select_solution
 from ...program.actions import COMMENT, GRIP, INPUT, MAX_COMMENT_CHARS, OUTPUT, PULSE, RELEASE, SET, WAIT, WAIT_INPUT
-from ...program.payload import MASS_TOLERANCE_KG, Payload, expressed_in, removed
+from ...program.payload import MASS_TOLERANCE_KG, Payload, expressed_in, removed, same_load
 from .krl import abc_rotation
 from .settings_mark import PART_NAME
 
@@ -286,15 +286,6 @@ def _with_actions(waypoint, actions: list[dict]):
 def _is_load(name: str) -> bool:
     """Whether the system variable ``name`` is $LOAD or a component of it (not $LOAD_A1.. the loads on the arm)."""
     return name == "$LOAD" or name.startswith("$LOAD.")
-
-
-def _same_load(a: Payload | None, b: Payload | None) -> bool:
-    """Whether two loads (None: none) are the same within LOAD_MATCH."""
-    if a is None or b is None:
-        return a is b
-    mass, com, inertia = LOAD_MATCH
-    return (abs(a.mass - b.mass) <= mass and float(np.abs(a.com - b.com).max()) <= com
-            and float(np.abs(a.inertia - b.inertia).max()) <= inertia)
 
 
 def _line(node) -> int | None:
@@ -622,7 +613,7 @@ class _Program:
             return
         if not self.loads:
             self.loads = [self.tool_load]
-        earlier = next((i for i, load in enumerate(self.loads) if _same_load(load, new)), None)
+        earlier = next((i for i, load in enumerate(self.loads) if same_load(load, new, *LOAD_MATCH)), None)
         if earlier is not None:
             for name in reversed(self.held[earlier:]):
                 self.actions.setdefault(len(self.motions) - 1, []).append({RELEASE: name})

@@ -88,7 +88,7 @@ from ...model.ik.branches import configuration_labels
 from ...model.ik.result import limit_variants
 from ...model.robot import Robot, robot_with_tool
 from ...program.actions import MAX_COMMENT_CHARS
-from ...program.payload import Payload, physical_inertia_problem, removed
+from ...program.payload import Payload, physical_inertia_problem, removed, same_load
 from .read_ls import as_robot, parse_subset
 from .settings_mark import PART_NAME
 from .urscript import IO_BANKS, PULSE_THREAD, WAITED
@@ -864,10 +864,7 @@ def _mass(load: Payload | None) -> float:
 
 def _same_load(a: Payload | None, b: Payload | None, with_inertia: bool) -> bool:
     """Whether two loads are one total within LOAD_TOLERANCE (None: nothing; the inertia only ``with_inertia``)."""
-    if a is None or b is None:
-        return a is b
-    return (abs(a.mass - b.mass) <= LOAD_TOLERANCE and np.allclose(a.com, b.com, rtol=0.0, atol=LOAD_TOLERANCE)
-            and (not with_inertia or np.allclose(a.inertia, b.inertia, rtol=0.0, atol=LOAD_TOLERANCE)))
+    return same_load(a, b, LOAD_TOLERANCE, LOAD_TOLERANCE, LOAD_TOLERANCE if with_inertia else None)
 
 
 def _vector3(value) -> bool:
