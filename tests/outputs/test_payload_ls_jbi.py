@@ -34,6 +34,9 @@ from pipeline.program.compile import compile_job
 from pipeline.program.job import load_job, parse_job
 from pipeline.program.payload import Payload
 
+#: The round trips run in the slow run (CI): test_payload_cli.py reads the loads back through the CLI in make test.
+pytestmark = pytest.mark.slow
+
 DATA = Path(__file__).resolve().parents[1] / "data"
 WHEN = dt.datetime(2026, 11, 27, 3, 0)
 WRITERS = {"ls": write_ls, "jbi": write_jbi}

@@ -29,6 +29,9 @@ from pipeline.program.payload import Payload, principal_axes
 from .test_independent_grammars import krl_report
 from .test_rapid import rapidchecker_errors
 
+#: The round trips run in the slow run (CI): test_payload_cli.py reads the loads back through the CLI in make test.
+pytestmark = pytest.mark.slow
+
 JOB = Path(__file__).resolve().parents[1] / "data" / "gp7_payload_pick_place.yaml"
 #: The written rounding: mass [kg], centre of mass [m], inertia [kg m^2].
 MASS_TOL, COM_TOL, INERTIA_TOL = 1e-3, 1e-5, 1e-6
