@@ -26,7 +26,8 @@ from ..cell.tool import Tool
 from ..errors import VendorConfigurationError
 from ..files.branch_names import label_parts, matches
 from ..model.ik import with_drake_model
-from ..model.ik.branches import BranchChoice, branch_change_reason, choose_solution, configuration_labels
+from ..model.ik.branches import (BranchChoice, branch_change_reason, choose_solution, configuration_labels,
+                                 wrist_singular)
 from ..model.ik.result import MATCHED_COMPONENTS, make_target, pose_errors
 from ..model.vendors.configuration import format_configuration
 from ..model.vendors.selection import select_solution
@@ -159,9 +160,13 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
         if choice.changed and not _names_change(waypoint.config, choice):
             log.warning("%s: branch changes from %s to %s (allowed)", job.location(field), choice.previous,
                         choice.branch)
+        singular = wrist_singular(robot, choice.q)
+        if singular:
+            log.info("%s: the wrist is at its singularity (axes 4 and 6 aligned): %s kept at the previous "
+                     "waypoint's %.6g rad", job.location(field), robot.joint_names[3], choice.q[3])
         solved.append(WaypointSolution(choice.q, result.method, result.position_error, result.rotation_error,
                                        choice.solutions, waypoint.target, result.matched, waypoint.config,
-                                       choice.branch, choice.changed))
+                                       choice.branch, choice.changed, wrist_singular=singular))
         previous, previous_branch = choice.q, choice.branch
     return solved
 

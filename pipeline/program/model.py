@@ -39,7 +39,8 @@ class WaypointSolution:
     its errors [m, rad], the number of in-limit solutions it chose from, the target kind and the
     components matched, the configuration asked for, the branch kept and whether that is a change from
     the previous pose waypoint's (None for joint waypoints); ``controller_config`` (vendor, its text) when
-    the waypoint named its solution by a controller's configuration data."""
+    the waypoint named its solution by a controller's configuration data; ``wrist_singular``: the pose has the
+    wrist at its singularity, so q4 was kept at the previous waypoint's (``branches.wrist_singular``)."""
 
     q: np.ndarray
     method: str | None = None
@@ -52,6 +53,7 @@ class WaypointSolution:
     branch: str | None = None
     branch_changed: bool | None = None
     controller_config: tuple[str, str] | None = None
+    wrist_singular: bool | None = None
 
     def to_dict(self) -> dict:
         return {"q": self.q.tolist(), "given_as": "joints" if self.method is None else "pose",
@@ -59,6 +61,7 @@ class WaypointSolution:
                 "rotation_error_rad": self.rotation_error, "solutions": self.solutions, "target": self.target,
                 "matched": None if self.matched is None else list(self.matched), "config": self.config,
                 "branch": self.branch or None, "branch_changed": self.branch_changed,
+                "wrist_singular": self.wrist_singular,
                 "controller_config": None if self.controller_config is None else dict([self.controller_config])}
 
 

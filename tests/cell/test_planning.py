@@ -92,3 +92,41 @@ def test_a_shortcut_skips_what_a_free_edge_skips_and_keeps_the_rest():
 
     vertices = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [2.0, 1.0], [2.0, 0.0], [3.0, 0.0]])
     np.testing.assert_array_equal(planning.shortcut_path(Walls(), vertices), vertices[[0, 2, 3, 5]])
+
+
+class _Limits:
+    qd_max, qdd_max = np.array([1.0, 1.0]), None
+
+
+def test_smoothing_by_time_shortcuts_between_points_along_edges_and_keeps_them_free():
+    class Walls:                                             # a wall x in (1.4, 1.6) from y = -1 to y = 0.5
+        def polyline(self, vertices):
+            dense = np.vstack([a + np.linspace(0, 1, 200)[:, None] * (b - a) for a, b in zip(vertices[:-1], vertices[1:])])
+            return not np.any((dense[:, 0] > 1.4) & (dense[:, 0] < 1.6) & (dense[:, 1] < 0.5))
+
+    vertices = np.array([[0.0, 0.0], [0.0, 2.0], [3.0, 2.0], [3.0, 0.0]])   # a detour far above the wall
+    smooth = planning.smoothed_path(Walls(), _Limits, vertices, seed=0)
+    assert planning.path_time(_Limits, smooth) < 0.6 * planning.path_time(_Limits, vertices)
+    assert np.array_equal(smooth[0], vertices[0]) and np.array_equal(smooth[-1], vertices[-1])
+    assert Walls().polyline(smooth)
+    np.testing.assert_array_equal(smooth, planning.smoothed_path(Walls(), _Limits, vertices, seed=0))
+
+
+def test_a_planned_cubby_to_cubby_move_retreats_along_the_tool_and_goes_in_along_it():
+    """The GP7 from a lower cubby of the demo shelf to the upper cubby across (the board between them blocks the
+    straight joint move): the TCP's first and last 50 mm run along the tool axis (out, then in)."""
+    from pipeline.bench.plan import dense_polyline
+    from pipeline.bench.plan_sets import X_FT
+
+    model = set_model("cubbies")
+    query = next(q for q in problem_set("cubbies", model).queries
+                 if q.start_region == "cubby_0" and q.goal_region == "cubby_5")
+    plan = planning.plan_joint_path(model, query.start, query.goal, seed=1)
+    assert plan.planner != "direct"
+    Q = dense_polyline(plan.waypoints, 0.002)
+    X = np.array([model.robot.fk(q) @ X_FT for q in Q])
+    P = X[:, :3, 3]
+    out = P[np.argmax(np.linalg.norm(P - P[0], axis=1) > 0.05)] - P[0]
+    into = P[-1] - P[len(P) - 1 - np.argmax(np.linalg.norm(P - P[-1], axis=1)[::-1] > 0.05)]
+    assert -out @ X[0, :3, 2] > 0.9 * np.linalg.norm(out)
+    assert into @ X[-1, :3, 2] > 0.9 * np.linalg.norm(into)

@@ -164,3 +164,20 @@ def test_bad_input_is_a_typed_error(gp7):
         target_branches(gp7, np.eye(3))
     with pytest.raises(ConfigurationError):
         target_branches(gp7, gp7.fk(Q0), q_reference=[0.0, 1.0])
+
+
+def test_a_drag_through_a_singular_wrist_keeps_axes_4_and_6(gp7):
+    """Dragging the target along a line with axes 4 and 6 aligned (each target a rounding away from the
+    singularity: turned by 5e-8 rad, a 7-digit quaternion's rounding): each step's nearest branch keeps q4 and q6
+    where the arm was (the rule of pose waypoints)."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(4)
+    q = np.radians([0.0, 20.0, -10.0, 30.0, 0.0, -20.0])
+    for step in range(10):
+        X = gp7.fk(q + np.r_[0.02 * step, 0.01 * step, 0.0, 0.0, 0.0, 0.0])
+        turn = rng.normal(size=3)
+        X[:3, :3] = Rotation.from_rotvec(turn / np.linalg.norm(turn) * 5e-8).as_matrix() @ X[:3, :3]
+        nearest = target_branches(gp7, X, q_reference=q).branches[0].q
+        assert np.abs(nearest[[3, 5]] - q[[3, 5]]).max() < 0.1
+        q = nearest

@@ -14,6 +14,12 @@ unless allowed), explained by ``branch_change_reason``: either no in-limit solut
 previous branch (the joint whose limit rules it out is named), or staying on it would swing a joint
 further (typically the wrist through q5 = 0: staying "noflip" turns J4 and J6 by half a turn).
 Preferring the old branch instead would make exactly that swing silently.
+
+At a wrist singularity (axes 4 and 6 aligned: ``wrist_singular``) a pose fixes only q4 +- q6: the closed form
+keeps q4 at the seed's (the previous waypoint's) and turns q6 by the rest, also for a pose a rounding away from
+it (``closed_form.WRIST_SINGULAR_TOLERANCE``), so consecutive targets there do not swing the wrist. Such a
+configuration is on both wrist branches (flip or not is the sign of a q5 rounding decides): it keeps the
+previous pose's wrist branch, and leaving it for either is no branch change.
 """
 
 from __future__ import annotations
@@ -22,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...files.branch_names import FAMILY_TITLES, SPHERICAL_WRIST, matches
+from ...files.branch_names import FAMILY_TITLES, SPHERICAL_WRIST, label_parts, matches
 from .analytic import analytic_solver_for, closest_limit_violation, configuration_labels_of, solve_branches
+from .closed_form import WRIST_SINGULAR_TOLERANCE
 from .result import IkResult, wrap_into_limits
 
 
@@ -33,6 +40,15 @@ def configuration_family(robot) -> tuple[str, str]:
     ``choose_solution`` says so)."""
     solver = analytic_solver_for(robot)
     return (solver.family if solver.applicable else SPHERICAL_WRIST), robot.name
+
+
+def wrist_singular(robot, q: np.ndarray) -> bool:
+    """Whether q has a spherical wrist at its singularity: axes 4 and 6 aligned within
+    ``WRIST_SINGULAR_TOLERANCE`` (the sine of their angle), where the closed form keeps q4 at its seed's."""
+    if analytic_solver_for(robot).family != SPHERICAL_WRIST or robot.dof != 6:
+        return False
+    axes = robot.jacobian(q)[3:]
+    return float(np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]))) < WRIST_SINGULAR_TOLERANCE
 
 
 def configuration_labels(robot, Q) -> list[str]:
@@ -68,6 +84,8 @@ def choose_solution(robot, result: IkResult, previous_q: np.ndarray, previous_br
     raw = [s.q for s in result.solutions] or [result.q]
     Q = np.array([wrap_into_limits(q, revolute, limits.q_min, limits.q_max, previous_q) for q in raw])
     labels = configuration_labels(robot, Q)
+    if previous_branch:
+        labels = [_wrist_as(previous_branch, label) if wrist_singular(robot, q) else label for q, label in zip(Q, labels)]
     allowed = [k for k, label in enumerate(labels) if not config or matches(label, config)]
     if not allowed:
         named = ", ".join(f"{k} {v}" for k, v in config.items())
@@ -78,10 +96,20 @@ def choose_solution(robot, result: IkResult, previous_q: np.ndarray, previous_br
         return BranchChoice(None, "", previous_branch, False, len(Q), reason=reason)
     distance = np.linalg.norm(Q - previous_q, axis=1)
     k = min(allowed, key=lambda i: distance[i])
-    changed = bool(previous_branch) and labels[k] != previous_branch
+    before = _wrist_as(labels[k], previous_branch) if wrist_singular(robot, previous_q) else previous_branch
+    changed = bool(previous_branch) and labels[k] != before
     same = [i for i, label in enumerate(labels) if label == previous_branch]
     stay = Q[min(same, key=lambda i: distance[i])] if changed and same else None
     return BranchChoice(Q[k], labels[k], previous_branch, changed, len(Q), stay)
+
+
+def _wrist_as(model: str, label: str) -> str:
+    """``label`` with the wrist part of ``model`` (a singular wrist, axes 4 and 6 aligned, is on both wrist
+    branches: it keeps the one it came from, or takes the one it goes to)."""
+    parts, wrist = label_parts(label), label_parts(model).get("wrist")
+    if "wrist" not in parts or wrist is None:
+        return label
+    return ", ".join(f"{key} {wrist if key == 'wrist' else value}" for key, value in parts.items())
 
 
 def branch_change_reason(robot, choice: BranchChoice, X_target: np.ndarray, previous_q: np.ndarray) -> str:

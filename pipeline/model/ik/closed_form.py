@@ -46,6 +46,13 @@ from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERA
 
 #: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
 SINGULAR_TOLERANCE = 1e-9
+#: Below this sine of the angle between axes 4 and 6 the wrist is taken as singular: q4 is kept at the seed's
+#: and q6 takes up the rest [1]. Keeping q4 (instead of the split the pose gives) turns the end frame by at most
+#: twice this (8e-7 rad < ROTATION_TOLERANCE; < POSITION_TOLERANCE up to 1.25 m from the wrist centre), so a
+#: pose a rounding away from the singularity (a quaternion to 7 digits: the solved q5 is up to 5 times the
+#: rounding) keeps the wrist where the seed (the previous waypoint) has it, not at a split the rounding decides,
+#: up to half a turn away.
+WRIST_SINGULAR_TOLERANCE = 4e-7
 #: How far past +-1 a cosine may go through rounding before the target counts as out of reach.
 REACH_SLACK = 1e-9
 #: A value this close outside a limit is on it [rad or m].
@@ -301,7 +308,7 @@ def _arm(geometry, after1, p_prime, q1, q3):
     beta = (c45 * _dot(d, w4) - _dot(w5, w6)) / (c45 ** 2 - 1.0)
     gamma = math.sqrt(max((1.0 - alpha ** 2 - beta ** 2 - 2.0 * alpha * beta * c45) / n45_squared, 0.0))
     w4d = cross(w4, d)
-    singular = math.sqrt(_dot(w4d, w4d)) < SINGULAR_TOLERANCE
+    singular = math.sqrt(_dot(w4d, w4d)) < WRIST_SINGULAR_TOLERANCE
     return ((_wrap(q1), _wrap(q2), _wrap(q3)), d, m, _add(_scale(alpha, w4), _scale(beta, w5)), _scale(gamma, n45),
             singular)
 
