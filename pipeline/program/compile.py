@@ -162,8 +162,8 @@ def solve_waypoints(job: Job, scene=None) -> list[WaypointSolution]:
                         choice.branch)
         singular = wrist_singular(robot, choice.q)
         if singular:
-            log.info("%s: the wrist is at its singularity (axes 4 and 6 aligned): %s kept at the previous "
-                     "waypoint's %.6g rad", job.location(field), robot.joint_names[3], choice.q[3])
+            log.info("%s: the wrist is at its singularity (axes 4 and 6 aligned): %s and %s kept nearest the "
+                     "previous waypoint's", job.location(field), robot.joint_names[3], robot.joint_names[5])
         solved.append(WaypointSolution(choice.q, result.method, result.position_error, result.rotation_error,
                                        choice.solutions, waypoint.target, result.matched, waypoint.config,
                                        choice.branch, choice.changed, wrist_singular=singular))

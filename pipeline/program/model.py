@@ -40,7 +40,7 @@ class WaypointSolution:
     components matched, the configuration asked for, the branch kept and whether that is a change from
     the previous pose waypoint's (None for joint waypoints); ``controller_config`` (vendor, its text) when
     the waypoint named its solution by a controller's configuration data; ``wrist_singular``: the pose has the
-    wrist at its singularity, so q4 was kept at the previous waypoint's (``branches.wrist_singular``)."""
+    wrist at its singularity, so q4 and q6 were kept nearest the previous waypoint's (``branches.wrist_singular``)."""
 
     q: np.ndarray
     method: str | None = None

@@ -16,7 +16,7 @@ further (typically the wrist through q5 = 0: staying "noflip" turns J4 and J6 by
 Preferring the old branch instead would make exactly that swing silently.
 
 At a wrist singularity (axes 4 and 6 aligned: ``wrist_singular``) a pose fixes only q4 +- q6: the closed form
-keeps q4 at the seed's (the previous waypoint's) and turns q6 by the rest, also for a pose a rounding away from
+splits the change of q4 +- q6 from the seed (the previous waypoint) evenly between them, also for a pose a rounding away from
 it (``closed_form.WRIST_SINGULAR_TOLERANCE``), so consecutive targets there do not swing the wrist. Such a
 configuration is on both wrist branches (flip or not is the sign of a q5 rounding decides): it keeps the
 previous pose's wrist branch, and leaving it for either is no branch change.
@@ -44,7 +44,7 @@ def configuration_family(robot) -> tuple[str, str]:
 
 def wrist_singular(robot, q: np.ndarray) -> bool:
     """Whether q has a spherical wrist at its singularity: axes 4 and 6 aligned within
-    ``WRIST_SINGULAR_TOLERANCE`` (the sine of their angle), where the closed form keeps q4 at its seed's."""
+    ``WRIST_SINGULAR_TOLERANCE`` (the sine of their angle), where the closed form keeps q4 and q6 nearest its seed's."""
     if analytic_solver_for(robot).family != SPHERICAL_WRIST or robot.dof != 6:
         return False
     axes = robot.jacobian(q)[3:]
