@@ -101,7 +101,8 @@ class _Limits:
 def test_smoothing_by_time_shortcuts_between_points_along_edges_and_keeps_them_free():
     class Walls:                                             # a wall x in (1.4, 1.6) from y = -1 to y = 0.5
         def polyline(self, vertices):
-            dense = np.vstack([a + np.linspace(0, 1, 200)[:, None] * (b - a) for a, b in zip(vertices[:-1], vertices[1:])])
+            dense = np.vstack([a + np.linspace(0, 1, 200)[:, None] * (b - a)
+                               for a, b in zip(vertices[:-1], vertices[1:])])
             return not np.any((dense[:, 0] > 1.4) & (dense[:, 0] < 1.6) & (dense[:, 1] < 0.5))
 
     vertices = np.array([[0.0, 0.0], [0.0, 2.0], [3.0, 2.0], [3.0, 0.0]])   # a detour far above the wall

@@ -16,8 +16,8 @@ further (typically the wrist through q5 = 0: staying "noflip" turns J4 and J6 by
 Preferring the old branch instead would make exactly that swing silently.
 
 At a wrist singularity (axes 4 and 6 aligned: ``wrist_singular``) a pose fixes only q4 +- q6: the closed form
-splits the change of q4 +- q6 from the seed (the previous waypoint) evenly between them, also for a pose a rounding away from
-it (``closed_form.WRIST_SINGULAR_TOLERANCE``), so consecutive targets there do not swing the wrist. Such a
+splits its change from the seed (the previous waypoint) evenly between q4 and q6, also for a pose a rounding
+away from it (``closed_form.WRIST_SINGULAR_TOLERANCE``), so consecutive targets there do not swing the wrist. Such a
 configuration is on both wrist branches (flip or not is the sign of a q5 rounding decides): it keeps the
 previous pose's wrist branch, and leaving it for either is no branch change.
 """
@@ -85,7 +85,8 @@ def choose_solution(robot, result: IkResult, previous_q: np.ndarray, previous_br
     Q = np.array([wrap_into_limits(q, revolute, limits.q_min, limits.q_max, previous_q) for q in raw])
     labels = configuration_labels(robot, Q)
     if previous_branch:
-        labels = [_wrist_as(previous_branch, label) if wrist_singular(robot, q) else label for q, label in zip(Q, labels)]
+        labels = [_wrist_as(previous_branch, label) if wrist_singular(robot, q) else label
+                  for q, label in zip(Q, labels)]
     allowed = [k for k, label in enumerate(labels) if not config or matches(label, config)]
     if not allowed:
         named = ", ".join(f"{k} {v}" for k, v in config.items())
