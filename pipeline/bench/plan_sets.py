@@ -23,6 +23,18 @@ distance), so the arm keeps its configuration from target to target as a program
   SET_NAMES; a draw is repeated in its region until it is kept (at most MAX_DRAWS_PER_TARGET times). Query i
   goes from kept target i to kept target i + 1 (``count`` queries from ``count + 1`` targets). The tool-down
   reference is q = 0 with the wrist bent so the tool points down (GP7 q5 = -90 deg, IRB 1600 q5 = +90 deg).
+* Our own scenes (not after MotionBenchMaker: cells a user would bring), drawn the same way, for both robots:
+  ``rack`` (a parts rack of 3 x 3 slots 180 mm wide and high, turned -45 deg about the vertical so its front
+  is not square to the robot, two stored parts at the back; targets 40-120 mm inside each slot, tool pointing
+  in, turned up to 10 deg about the vertical and rolled up to 30 deg; each slot after one of another row and
+  column), ``machine_door`` (machine tending: an enclosure in front with a door opening 500 x 450 mm, a chuck
+  facing the door inside, a table outside to the left; targets in front of the chuck, tool pointing in
+  through the door, and on the table, tool down, tilted up to 15 deg: chuck, table, chuck, other half of the
+  table) and ``tote`` (bin picking from three totes 180 mm deep, on a table in front, on a stand to the left,
+  on a pallet to the front right; targets 20-60 mm above each bottom, tool down, tilted up to 10 deg: tote to
+  tote). A region may name its own reference (the door's table: down) and a heading: its box is in the cell
+  frame turned by it about the vertical (the turned rack's slots, the totes) and its reference configuration
+  has joint 1 turned by it (the arm faces the region; the tool "in" points along the heading).
 
 The regions are given at the GP7's scale [mm] and multiplied by the robot's SCALE, as the cells are (every
 length of an ``irb1600_`` cell but the gripper's is 1.3 times its ``gp7_`` twin's).
