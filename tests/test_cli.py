@@ -166,8 +166,9 @@ def test_a_job_names_a_demo_cell_from_any_directory(tmp_path, monkeypatch):
     doc = {"cell": "gp7_wall_cell", "angle_unit": "deg", "waypoints": [[0, 0, 0, 0, -90, 0], [10, 0, 0, 0, -90, 0]]}
     job = parse_job(doc, "job.yaml", base_dir=tmp_path)
     assert job.cell.name == "gp7_wall_cell" and job.robot.name == "gp7"
-    with pytest.raises(JobFileError, match=r"job.yaml:.*cell: .*demo cells: gp7_bookshelf, gp7_box, gp7_shelf_cell, "
-                                           r"gp7_table_clutter, gp7_wall_cell, irb1600_"):
+    with pytest.raises(JobFileError, match=r"job.yaml:.*cell: .*demo cells: gp7_bookshelf, gp7_box, gp7_machine_door, "
+                                           r"gp7_rack, gp7_shelf_cell, gp7_table_clutter, gp7_tote, "
+                                           r"gp7_wall_cell, irb1600_"):
         parse_job({**doc, "cell": "gp7_wal"}, "job.yaml", base_dir=tmp_path)
 
 

@@ -23,6 +23,18 @@ distance), so the arm keeps its configuration from target to target as a program
   SET_NAMES; a draw is repeated in its region until it is kept (at most MAX_DRAWS_PER_TARGET times). Query i
   goes from kept target i to kept target i + 1 (``count`` queries from ``count + 1`` targets). The tool-down
   reference is q = 0 with the wrist bent so the tool points down (GP7 q5 = -90 deg, IRB 1600 q5 = +90 deg).
+* Our own scenes (not after MotionBenchMaker: cells a user would bring), drawn the same way, for both robots:
+  ``rack`` (a parts rack of 3 x 3 slots 180 mm wide and high, turned -45 deg about the vertical so its front
+  is not square to the robot, two stored parts at the back; targets 40-120 mm inside each slot, tool pointing
+  in, turned up to 10 deg about the vertical and rolled up to 30 deg; each slot after one of another row and
+  column), ``machine_door`` (machine tending: an enclosure in front with a door opening 500 x 450 mm, a chuck
+  facing the door inside, a table outside to the left; targets in front of the chuck, tool pointing in
+  through the door, and on the table, tool down, tilted up to 15 deg: chuck, table, chuck, other half of the
+  table) and ``tote`` (bin picking from three totes 180 mm deep, on a table in front, on a stand to the left,
+  on a pallet to the front right; targets 20-60 mm above each bottom, tool down, tilted up to 10 deg: tote to
+  tote). A region may name its own reference (the door's table: down) and a heading: its box is in the cell
+  frame turned by it about the vertical (the turned rack's slots, the totes) and its reference configuration
+  has joint 1 turned by it (the arm faces the region; the tool "in" points along the heading).
 
 The regions are given at the GP7's scale [mm] and multiplied by the robot's SCALE, as the cells are (every
 length of an ``irb1600_`` cell but the gripper's is 1.3 times its ``gp7_`` twin's).
@@ -90,9 +102,11 @@ class ProblemSet:
 
 @dataclass(frozen=True)
 class Region:
-    """Where targets are drawn: the TCP position uniform in the box ``lo``..``hi`` (GP7 scale [mm], cell frame);
-    the orientation is the reference's turned by up to ``roll_deg`` about the tool axis, tilted by up to
-    ``tilt_deg`` about a random horizontal axis and turned by up to ``yaw_deg`` about the vertical [deg]."""
+    """Where targets are drawn: the TCP position uniform in the box ``lo``..``hi`` (GP7 scale [mm]) of the cell
+    frame turned by ``heading_deg`` about the vertical; the orientation is the region's reference (``reference``
+    "in" | "down", "" for the scene's, taken with joint 1 turned by ``heading_deg``: the arm faces the region)
+    turned by up to ``roll_deg`` about the tool axis, tilted by up to ``tilt_deg`` about a random horizontal
+    axis and turned by up to ``yaw_deg`` about the vertical [deg]."""
 
     name: str
     lo: tuple[float, float, float]
@@ -100,12 +114,14 @@ class Region:
     tilt_deg: float = 0.0
     yaw_deg: float = 0.0
     roll_deg: float = 0.0
+    reference: str = ""
+    heading_deg: float = 0.0
 
 
 @dataclass(frozen=True)
 class Scene:
-    """A drawn set's layout (its cell is ``<robot>_<scene>``): the reference ("in" | "down") and the regions in
-    the order they are visited."""
+    """A drawn set's layout (its cell is ``<robot>_<scene>``): the reference of its regions ("in" | "down"; a
+    region may name its own) and the regions in the order they are visited."""
 
     reference: str
     regions: tuple[Region, ...]
@@ -138,9 +154,54 @@ def _shelf_regions() -> tuple[Region, ...]:
             level("low_right", 255, right), level("middle_left", 525, left), level("high", 810, wide))
 
 
-SCENES = {"table_clutter": Scene("down", _table_regions()), "box": Scene("down", _box_regions()),
-          "bookshelf": Scene("in", _shelf_regions())}
-SET_NAMES: tuple[str, ...] = ("cubbies", *(f"{robot}_{scene}" for robot in SCALE for scene in SCENES))
+def _rack_regions() -> tuple[Region, ...]:
+    """The rack's nine slots (in the rack's frame, the cell frame turned -45 deg: front face at x' = 560 mm,
+    rows z 380-560, 580-760, 780-960 mm, columns y' 360-540, 160-340, -40-140 mm), each after a slot of another
+    row and another column; TCP 40-120 mm inside the front face, within 40 mm of the slot's middle."""
+    rows, columns = (("low", 470), ("middle", 670), ("high", 870)), (("left", 450), ("middle", 250), ("right", 50))
+
+    def slot(row, column):
+        (level, z), (side, y) = rows[row], columns[column]
+        return Region(f"{level}_{side}", (600, y - 40, z - 40), (680, y + 40, z + 40), yaw_deg=10, roll_deg=30,
+                      heading_deg=-45)
+
+    return tuple(slot(k % 3, (k + k // 3) % 3) for k in range(9))
+
+
+def _door_regions() -> tuple[Region, ...]:
+    """The chuck inside the machine (its face at x = 800 mm, centre z = 700 mm; TCP 20-70 mm in front of it, tool
+    pointing in through the door) and the two halves of the table outside to the left (top at z = 400 mm; in
+    the cell frame turned 90 deg, TCP 400-700 mm out, 20-80 mm above the top, tool down), in turn."""
+    def table(name, y):
+        return Region(name, (400, y[0], 420), (700, y[1], 480), tilt_deg=15, yaw_deg=90, reference="down",
+                      heading_deg=90)
+
+    chuck = Region("chuck", (730, -50, 650), (780, 50, 750), yaw_deg=10, roll_deg=30)
+    return chuck, table("table_back", (40, 300)), chuck, table("table_front", (-300, -40))
+
+
+def _tote_regions() -> tuple[Region, ...]:
+    """The three totes' insides (each in the cell frame turned to face it: the table's in front, bottom at
+    z = 315 mm; the stand's turned 90 deg, 465 mm; the pallet's turned -60 deg, 135 mm), 60 mm from the walls,
+    TCP 20-60 mm above the bottom, in turn."""
+    def tote(name, x, bottom, heading):
+        return Region(name, (x[0] + 60, -90, bottom + 20), (x[1] - 60, 90, bottom + 60), tilt_deg=10, yaw_deg=90,
+                      heading_deg=heading)
+
+    return (tote("tote_table", (420, 820), 315, 0), tote("tote_stand", (320, 720), 465, 90),
+            tote("tote_pallet", (460, 860), 135, -60))
+
+
+#: The MotionBenchMaker-style scenes.
+MBM_SCENES = {"table_clutter": Scene("down", _table_regions()), "box": Scene("down", _box_regions()),
+              "bookshelf": Scene("in", _shelf_regions())}
+#: Our own scenes (unseen-style cells a user would bring).
+OWN_SCENES = {"rack": Scene("in", _rack_regions()), "machine_door": Scene("in", _door_regions()),
+              "tote": Scene("down", _tote_regions())}
+SCENES = {**MBM_SCENES, **OWN_SCENES}
+#: The sets (each drawn set's seed stream is its place here: new sets go last).
+SET_NAMES: tuple[str, ...] = ("cubbies", *(f"{robot}_{scene}" for scenes in (MBM_SCENES, OWN_SCENES)
+                                           for robot in SCALE for scene in scenes))
 #: The cubby targets' TCP positions (gp7_shelf_cell) [m]: levels z 300, 600 mm, y -250, 0, 250 mm, x 650 mm.
 CUBBY_POSITIONS = tuple((0.650, y, z) for z in (0.300, 0.600) for y in (-0.250, 0.0, 0.250))
 
@@ -198,6 +259,15 @@ def solve_target(model, X_WT: np.ndarray, q_ref: np.ndarray) -> np.ndarray | Non
     return min(free, key=lambda q: float(np.linalg.norm(q - q_ref)))
 
 
+def region_reference(name: str, model, region: Region) -> tuple[np.ndarray, np.ndarray]:
+    """The reference configuration q_ref (dof,) [rad] of a drawn set's region (its reference with joint 1
+    turned by the region's heading) and its TCP orientation R_ref (3, 3)."""
+    robot, scene = _split(name)
+    q_ref = np.array(REFERENCES[robot][region.reference or scene.reference])
+    q_ref[0] += math.radians(region.heading_deg)
+    return q_ref, tcp_pose(model, q_ref)[:3, :3]
+
+
 def draw_pose(region: Region, scale: float, R_ref: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """A TCP pose (4, 4) [m] in ``region`` (see Region) at ``scale``, around the reference orientation R_ref."""
     p = 1e-3 * scale * (np.array(region.lo) + (np.array(region.hi) - np.array(region.lo)) * rng.random(3))
@@ -205,18 +275,19 @@ def draw_pose(region: Region, scale: float, R_ref: np.ndarray, rng: np.random.Ge
     heading = rng.uniform(0.0, 2.0 * math.pi)
     tilt_axis = np.array([math.cos(heading), math.sin(heading), 0.0])
     turn = Rotation.from_rotvec([0.0, 0.0, yaw]) * Rotation.from_rotvec(abs(tilt) * tilt_axis)    # in the cell frame
-    return make_pose(turn.as_matrix() @ R_ref @ Rotation.from_rotvec([0.0, 0.0, roll]).as_matrix(), p)
+    p_cell = Rotation.from_rotvec([0.0, 0.0, math.radians(region.heading_deg)]).apply(p)
+    return make_pose(turn.as_matrix() @ R_ref @ Rotation.from_rotvec([0.0, 0.0, roll]).as_matrix(), p_cell)
 
 
 def _draw_targets(name: str, model, count: int, seed: int) -> tuple[list[tuple[str, np.ndarray]],
                                                                    tuple[tuple[str, int, int], ...]]:
     """``count`` kept targets [(region name, q)] of a drawn set, and the per-region (name, kept, draws)."""
     robot, scene = _split(name)
-    q_ref = np.array(REFERENCES[robot][scene.reference])
-    R_ref = tcp_pose(model, q_ref)[:3, :3]
+    references = {region: region_reference(name, model, region) for region in scene.regions}
     rng = np.random.default_rng((seed, SET_NAMES.index(name)))
     kept, tally = [], {region.name: [0, 0] for region in scene.regions}
     for region in itertools.islice(itertools.cycle(scene.regions), count):
+        q_ref, R_ref = references[region]
         for _ in range(MAX_DRAWS_PER_TARGET):
             tally[region.name][1] += 1
             q = solve_target(model, draw_pose(region, SCALE[robot], R_ref, rng), q_ref)

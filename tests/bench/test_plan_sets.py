@@ -13,6 +13,8 @@ import pytest
 from pipeline.bench.plan_sets import (
     ARM_CONFIGURATION,
     CUBBY_POSITIONS,
+    MBM_SCENES,
+    SCALE,
     SCENES,
     SET_NAMES,
     X_FT,
@@ -60,7 +62,11 @@ def test_the_scene_cells_are_installed_and_load(cell):
     assert [(s.name, s.kind, s.size) for s in loaded.tool_shapes] == [("gripper", "cylinder", (0.035, 0.120))]
     assert "floor" in [s.name for s in loaded.objects]
     text = resource.read_text()
-    assert "Copyright (c) 2021, Rice University" in text and "BSD 3-Clause" in text
+    if cell.split("_", 1)[1] in MBM_SCENES:
+        assert "Copyright (c) 2021, Rice University" in text and "BSD 3-Clause" in text
+    else:
+        assert text.startswith("# Our own planning scene (not after a MotionBenchMaker scene)")
+        assert "Rice University" not in text
 
 
 def test_set_names_and_cells():
@@ -127,15 +133,49 @@ def test_drawn_queries_chain_targets_of_different_regions(sets, name):
     assert sum(kept for _, kept, _ in problems.draws) == COUNT + 1
 
 
+def _regions(name: str) -> tuple:
+    """A drawn set's scene and its regions by name."""
+    scene = SCENES[name.split("_", 1)[1]]
+    return scene, {region.name: region for region in scene.regions}
+
+
 @pytest.mark.parametrize("name", DRAWN)
-def test_the_tool_points_down_or_in_as_the_scene_says(sets, name):
+def test_the_tool_points_down_or_in_as_the_region_says(sets, name):
     _, problems = sets(name)
-    axes = np.array([q.X_start[:3, 2] for q in problems.queries])
-    if SCENES[name.split("_", 1)[1]].reference == "down":
-        assert np.all(axes[:, 2] <= -np.cos(np.radians(20.0)) + AXIS_TOLERANCE)   # tilted at most 20 deg
-    else:
-        np.testing.assert_allclose(axes[:, 2], 0.0, atol=AXIS_TOLERANCE)          # horizontal, into the shelf
-        assert np.all(axes[:, 0] >= np.cos(np.radians(15.0)) - AXIS_TOLERANCE)
+    scene, regions = _regions(name)
+    for query in problems.queries:
+        for label, X in ((query.start_region, query.X_start), (query.goal_region, query.X_goal)):
+            region, axis = regions[label], X[:3, 2]
+            if (region.reference or scene.reference) == "down":
+                assert axis[2] <= -np.cos(np.radians(region.tilt_deg)) + AXIS_TOLERANCE
+            else:           # horizontal, into the fixture: along the region's heading, turned up to its yaw
+                heading, yaw = np.radians([region.heading_deg, region.yaw_deg])
+                assert region.tilt_deg == 0 and abs(axis[2]) <= AXIS_TOLERANCE
+                assert axis @ [np.cos(heading), np.sin(heading), 0.0] >= np.cos(yaw) - AXIS_TOLERANCE
+
+
+@pytest.mark.parametrize("name", DRAWN)
+def test_the_targets_are_in_their_regions(sets, name):
+    _, problems = sets(name)
+    _, regions = _regions(name)
+    scale = SCALE[name.split("_", 1)[0]]
+    for query in problems.queries:
+        for label, X in ((query.start_region, query.X_start), (query.goal_region, query.X_goal)):
+            region = regions[label]
+            c, s = np.cos(np.radians(region.heading_deg)), np.sin(np.radians(region.heading_deg))
+            x, y, z = X[:3, 3] * 1e3 / scale
+            p = np.array([c * x + s * y, -s * x + c * y, z])        # in the region's frame (turned by its heading)
+            assert np.all(np.array(region.lo) - 1e-6 <= p) and np.all(p <= np.array(region.hi) + 1e-6)
+
+
+def test_the_new_scenes_face_their_fixtures():
+    """The rack's slots and the totes are drawn in frames turned toward them, the door's table to the left."""
+    assert {region.heading_deg for region in SCENES["rack"].regions} == {-45.0}
+    assert len({(region.lo[1], region.lo[2]) for region in SCENES["rack"].regions}) == 9
+    assert [region.heading_deg for region in SCENES["tote"].regions] == [0.0, 90.0, -60.0]
+    door = SCENES["machine_door"].regions
+    assert [(region.name, region.reference or "in", region.heading_deg) for region in door] == [
+        ("chuck", "in", 0.0), ("table_back", "down", 90.0), ("chuck", "in", 0.0), ("table_front", "down", 90.0)]
 
 
 @pytest.mark.parametrize("name", DRAWN)
