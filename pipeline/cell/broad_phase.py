@@ -32,6 +32,7 @@ from numba import njit
 
 from ..model.chain.compiled import base_pose, inner, moved_pose
 from ..model.chain.geometry import link_capsules
+from .cell_file import Shape
 from .collision import SELF_CLEARANCE_M
 
 #: What every lower bound must exceed its padding by [m]: Drake computes capsule-box, capsule-capsule and
@@ -47,8 +48,10 @@ OBSTACLE_COLUMNS = 17
 #: Columns of a primitive row: frame (0: B, i: after joint i), p (3), r (3), radius, half length, and the
 #: number of rows from this one that contain the same shape (1 for a capsule; a tool shape's first row has
 #: one per TOOL_SHORTENING, the rows after it 0): a pair is clear when one of them is.
-PRIMITIVE_COLUMNS = 10
-FRAME, RADIUS, HALF, ALTERNATIVES = 0, 7, 8, 9
+#: Then the row of its box in the tool boxes (a tool cylinder's containing box, a tool box itself; -1: none), which
+#: bounds its distance to link capsules too.
+PRIMITIVE_COLUMNS = 11
+FRAME, RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 0, 7, 8, 9, 10
 #: A tool cylinder's or box's containing capsules: its axis (the box's longest) shortened at each end by
 #: these fractions of its half width w (never past its middle), radius sqrt(w^2 + shortening^2).
 TOOL_SHORTENING = (0.0, 0.5, 1.0)
@@ -59,7 +62,7 @@ _PARALLEL = 1e-12
 
 
 # -- distances (squared, between cores) -------------------------------------------------------------
-@inner(inline="always")
+@inner()
 def _point_segment_sq(px, py, pz, ax, ay, az, dx, dy, dz):
     """Squared distance from point p to the segment a + t d, t in [0, 1]."""
     wx, wy, wz = px - ax, py - ay, pz - az
@@ -71,41 +74,45 @@ def _point_segment_sq(px, py, pz, ax, ay, az, dx, dy, dz):
     return ex * ex + ey * ey + ez * ez
 
 
-@inner(inline="always")
+@inner()
 def _segment_segment_sq(s, i, u, j):
-    """Squared distance between segment rows s[i] and u[j] (p: columns 0-2, r: 3-5): the least of the four
-    endpoint-to-segment distances and, unless the segments are parallel, the closest interior pair."""
+    """Squared distance between segment rows s[i] and u[j] (p: columns 0-2, r: 3-5): the closest pair of
+    Ericson's Real-Time Collision Detection 5.1.9 (the parameter of one segment clamped, the other's best for
+    it, clamped, and the first's again), or for parallel segments (or points) the least of the four
+    endpoint-to-segment distances."""
     ax, ay, az = s[i, 0], s[i, 1], s[i, 2]
     dx, dy, dz = s[i, 3] - ax, s[i, 4] - ay, s[i, 5] - az
     bx, by, bz = u[j, 0], u[j, 1], u[j, 2]
     ex, ey, ez = u[j, 3] - bx, u[j, 4] - by, u[j, 5] - bz
-    best = min(_point_segment_sq(ax, ay, az, bx, by, bz, ex, ey, ez),
-               _point_segment_sq(ax + dx, ay + dy, az + dz, bx, by, bz, ex, ey, ez),
-               _point_segment_sq(bx, by, bz, ax, ay, az, dx, dy, dz),
-               _point_segment_sq(bx + ex, by + ey, bz + ez, ax, ay, az, dx, dy, dz))
     a = dx * dx + dy * dy + dz * dz
     e = ex * ex + ey * ey + ez * ez
     b = dx * ex + dy * ey + dz * ez
     denom = a * e - b * b
-    if denom > _PARALLEL * a * e:
-        rx, ry, rz = ax - bx, ay - by, az - bz
-        c, f = dx * rx + dy * ry + dz * rz, ex * rx + ey * ry + ez * rz
-        s_ = (b * f - c * e) / denom
-        t_ = (a * f - b * c) / denom
-        if 0.0 < s_ < 1.0 and 0.0 < t_ < 1.0:
-            wx, wy, wz = rx + s_ * dx - t_ * ex, ry + s_ * dy - t_ * ey, rz + s_ * dz - t_ * ez
-            best = min(best, wx * wx + wy * wy + wz * wz)
-    return best
+    if not denom > _PARALLEL * a * e:
+        return min(_point_segment_sq(ax, ay, az, bx, by, bz, ex, ey, ez),
+                   _point_segment_sq(ax + dx, ay + dy, az + dz, bx, by, bz, ex, ey, ez),
+                   _point_segment_sq(bx, by, bz, ax, ay, az, dx, dy, dz),
+                   _point_segment_sq(bx + ex, by + ey, bz + ez, ax, ay, az, dx, dy, dz))
+    rx, ry, rz = ax - bx, ay - by, az - bz
+    c, f = dx * rx + dy * ry + dz * rz, ex * rx + ey * ry + ez * rz
+    s_ = min(max((b * f - c * e) / denom, 0.0), 1.0)
+    t_ = (b * s_ + f) / e
+    if t_ < 0.0:
+        t_, s_ = 0.0, min(max(-c / a, 0.0), 1.0)
+    elif t_ > 1.0:
+        t_, s_ = 1.0, min(max((b - c) / a, 0.0), 1.0)
+    wx, wy, wz = rx + s_ * dx - t_ * ex, ry + s_ * dy - t_ * ey, rz + s_ * dz - t_ * ez
+    return wx * wx + wy * wy + wz * wz
 
 
-@inner(inline="always")
+@inner()
 def _box_excess_sq(cx, cy, cz, hx, hy, hz):
     """Squared distance from the point c (box frame) to the box of half sides h."""
     ex, ey, ez = max(abs(cx) - hx, 0.0), max(abs(cy) - hy, 0.0), max(abs(cz) - hz, 0.0)
     return ex * ex + ey * ey + ez * ez
 
 
-@inner(inline="always")
+@inner()
 def _segment_box_sq(c, d, h, breaks):
     """Squared distance from the segment c + t d, t in [0, 1] (c, d (3,) in the box frame) to the box of half
     sides h (3,): the convex piecewise quadratic in t is minimised on each piece between the parameters where
@@ -146,7 +153,7 @@ def _segment_box_sq(c, d, h, breaks):
     return best
 
 
-@inner(inline="always")
+@inner()
 def _to_obstacle(ob, o, x, y, z):
     """The point (x, y, z) in B expressed in obstacle o's frame."""
     x, y, z = x - ob[o, 1], y - ob[o, 2], z - ob[o, 3]
@@ -154,7 +161,7 @@ def _to_obstacle(ob, o, x, y, z):
             ob[o, 6] * x + ob[o, 9] * y + ob[o, 12] * z)
 
 
-@inner(inline="always")
+@inner()
 def _pair_clear(seg, i, half, ob, o, threshold, local, breaks):
     """Primitive i's core segment (row of ``seg``, in B; ``half`` its half length) keeps more than
     ``threshold`` (its radius, the padding and the tolerance) from obstacle o's core (a sphere's or
@@ -205,14 +212,24 @@ def _place(x, prims, first, stop, seg):
 
 
 @inner(inline="always")
-def _segments(chain, prims, starts, q, seg):
-    """seg (P, 9) = the primitives' core segments in B (and midpoints) at q (primitives sorted by frame; ``starts`` (dof + 2,):
-    the first primitive of each frame)."""
+def _segments(chain, prims, starts, boxes, q, seg, moved):
+    """seg (P, 9) = the primitives' core segments in B and their midpoints at q (primitives sorted by frame;
+    ``starts`` (dof + 2,): the first primitive of each frame); moved (T, OBSTACLE_COLUMNS) = the tool boxes
+    ``boxes`` (obstacle rows in the end frame) in B."""
     _place((1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0), prims, starts[0], starts[1], seg)
     x = base_pose(chain)
     for j in range(q.shape[0]):
         x = moved_pose(chain, x, q, j, j + 1)
         _place(x, prims, starts[j + 1], starts[j + 2], seg)
+    for t in range(boxes.shape[0]):
+        moved[t, 0], moved[t, 13], moved[t, 14], moved[t, 15], moved[t, 16] = boxes[t, 0], boxes[t, 13], \
+            boxes[t, 14], boxes[t, 15], boxes[t, 16]
+        for row in range(3):
+            moved[t, 1 + row] = (x[4 * row] * boxes[t, 1] + x[4 * row + 1] * boxes[t, 2]
+                                 + x[4 * row + 2] * boxes[t, 3] + x[4 * row + 3])
+            for col in range(3):
+                moved[t, 4 + 3 * row + col] = (x[4 * row] * boxes[t, 4 + col] + x[4 * row + 1] * boxes[t, 7 + col]
+                                               + x[4 * row + 2] * boxes[t, 10 + col])
 
 
 @inner(inline="always")
@@ -232,9 +249,9 @@ def _env_clear(seg, prims, i, ob, o, padding, local, breaks):
 
 
 @inner(inline="always")
-def _self_clear(seg, prims, i, j, padding):
-    """Primitives i and j keep more than their radii plus ``padding`` apart (one containing row of each; their
-    bounding spheres first)."""
+def _capsules_clear(seg, prims, i, j, padding):
+    """One containing capsule of primitive i and one of j keep more than their radii plus ``padding`` apart
+    (bounding spheres first)."""
     for a in range(i, i + int(prims[i, ALTERNATIVES])):
         for b in range(j, j + int(prims[j, ALTERNATIVES])):
             threshold = prims[a, RADIUS] + prims[b, RADIUS] + padding
@@ -246,80 +263,98 @@ def _self_clear(seg, prims, i, j, padding):
     return False
 
 
-@inner(inline="always")
-def _config_free(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding, q, seg, local, breaks):
+@inner()
+def _self_clear(seg, prims, i, j, padding, moved, local, breaks):
+    """Primitives i and j keep more than their radii plus ``padding`` apart: a link capsule by a tool shape's
+    box (``moved``: the tighter bound at the shape's flat ends, tried first), or by their containing capsules."""
+    for a, b in ((i, j), (j, i)):
+        box = int(prims[b, TOOL_BOX])
+        if box >= 0 and prims[a, TOOL_BOX] < 0.0:
+            threshold = prims[a, RADIUS] + padding
+            gx, gy, gz = seg[a, 6] - moved[box, 1], seg[a, 7] - moved[box, 2], seg[a, 8] - moved[box, 3]
+            around = threshold + prims[a, HALF] + moved[box, 16]
+            if gx * gx + gy * gy + gz * gz > around * around or _pair_clear(
+                    seg, a, prims[a, HALF], moved, box, threshold, local, breaks):
+                return True
+    return _capsules_clear(seg, prims, i, j, padding)
+
+
+@inner()
+def _config_free(model, q, work):
     """True when q is certainly free: every robot-obstacle and link-link pair beyond its padding (with the
-    tolerance: ``env_padding``, ``self_padding``)."""
-    _segments(chain, prims, starts, q, seg)
+    tolerance: ``env_padding``, ``self_padding``). ``model``: BroadPhase._model; ``work``: _scratch's."""
+    chain, prims, starts, boxes, obstacles, env, env_padding, pairs, self_padding = model
+    seg, moved, local, breaks = work
+    _segments(chain, prims, starts, boxes, q, seg, moved)
     for k in range(env.shape[0]):
         if not _env_clear(seg, prims, env[k, 0], obstacles, env[k, 1], env_padding[k], local, breaks):
             return False
     for k in range(pairs.shape[0]):
-        if not _self_clear(seg, prims, pairs[k, 0], pairs[k, 1], self_padding[k]):
+        if not _self_clear(seg, prims, pairs[k, 0], pairs[k, 1], self_padding[k], moved, local, breaks):
             return False
     return True
 
 
 @njit(cache=True)
-def _scratch(count):
-    return np.empty((count, 9)), np.empty((5, 6)), np.empty(8)
+def _scratch(model):
+    """Work arrays of the kernels: segments, moved tool boxes, local rows, breaks."""
+    return (np.empty((model[1].shape[0], 9)), np.empty((model[3].shape[0], OBSTACLE_COLUMNS)), np.empty((5, 6)),
+            np.empty(8))
 
 
 @njit(cache=True)
-def free_into(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding, Q, out):
+def free_into(model, Q, out):
     """out[k] = configuration Q[k] is certainly free (see BroadPhase.free)."""
-    seg, local, breaks = _scratch(prims.shape[0])
+    work = _scratch(model)
     for k in range(Q.shape[0]):
-        out[k] = _config_free(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding, Q[k],
-                              seg, local, breaks)
+        out[k] = _config_free(model, Q[k], work)
 
 
 @njit(cache=True)
-def pair_counts_into(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding, Q, env_count,
-                     self_count):
+def pair_counts_into(model, Q, env_count, self_count):
     """env_count[k] (self_count[k]) += the configurations of Q at which robot-obstacle (link-link) pair k is not
     certainly clear."""
-    seg, local, breaks = _scratch(prims.shape[0])
+    chain, prims, starts, boxes, obstacles, env, env_padding, pairs, self_padding = model
+    seg, moved, local, breaks = _scratch(model)
     for n in range(Q.shape[0]):
-        _segments(chain, prims, starts, Q[n], seg)
+        _segments(chain, prims, starts, boxes, Q[n], seg, moved)
         for k in range(env.shape[0]):
             if not _env_clear(seg, prims, env[k, 0], obstacles, env[k, 1], env_padding[k], local, breaks):
                 env_count[k] += 1
         for k in range(pairs.shape[0]):
-            if not _self_clear(seg, prims, pairs[k, 0], pairs[k, 1], self_padding[k]):
+            if not _self_clear(seg, prims, pairs[k, 0], pairs[k, 1], self_padding[k], moved, local, breaks):
                 self_count[k] += 1
 
 
 @njit(cache=True)
-def segments_into(chain, prims, starts, Q, out):
-    """out (k, P, 9) = the primitives' core segments (p, r) in B, and midpoints, at each configuration Q[k]."""
+def segments_into(model, Q, out):
+    """out (k, P, 9) = the primitives' core segments (p, r) in B and their midpoints at each configuration Q[k]."""
+    chain, prims, starts, boxes = model[0], model[1], model[2], model[3]
+    moved = np.empty((boxes.shape[0], OBSTACLE_COLUMNS))
     for k in range(Q.shape[0]):
-        _segments(chain, prims, starts, Q[k], out[k])
+        _segments(chain, prims, starts, boxes, Q[k], out[k], moved)
 
 
 @njit(cache=True)
-def edges_free_into(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding, A, B, step, out):
+def edges_free_into(model, A, B, step, out):
     """out[k] = every configuration Drake's CheckEdgeCollisionFree checks on the edge A[k] -> B[k] at edge
     step ``step`` is certainly free: B[k], then A[k] (1 - s/n) + B[k] s/n for s = 0..n-1, n = max(1,
     ceil(|B[k] - A[k]| / step)) (Drake's LinearDistanceAndInterpolationProvider, weights 1)."""
-    seg, local, breaks = _scratch(prims.shape[0])
+    work = _scratch(model)
     q = np.empty(A.shape[1])
     for k in range(A.shape[0]):
         a, b = A[k], B[k]
-        free = _config_free(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding, b,
-                            seg, local, breaks)
+        free = _config_free(model, b, work)
         if free:
             squares = 0.0
             for j in range(q.shape[0]):
                 squares += (b[j] - a[j]) ** 2
-            distance = math.sqrt(squares)
-            n = int(max(1.0, math.ceil(distance / step)))
+            n = int(max(1.0, math.ceil(math.sqrt(squares) / step)))
             for s in range(n):
                 ratio = s / n
                 for j in range(q.shape[0]):
                     q[j] = a[j] * (1.0 - ratio) + b[j] * ratio
-                if not _config_free(chain, prims, starts, obstacles, env, env_padding, pairs, self_padding,
-                                    q, seg, local, breaks):
+                if not _config_free(model, q, work):
                     free = False
                     break
         out[k] = free
@@ -347,6 +382,14 @@ def tool_capsules(shape) -> list[tuple[np.ndarray, np.ndarray, float]]:
         core = R[:, axis] * (half - shortening)
         out.append((centre - core, centre + core, math.hypot(width, shortening)))
     return out
+
+
+def _containing_box(shape):
+    """A box shape: the box itself, or the one containing a cylinder (same pose)."""
+    if shape.kind == "box":
+        return shape
+    radius, length = shape.size
+    return Shape(shape.name, "box", (2.0 * radius, 2.0 * radius, length), shape.X)
 
 
 def _obstacle_row(shape, X_BW: np.ndarray) -> np.ndarray:
@@ -380,7 +423,7 @@ class BroadPhase:
         self._chain = robot._chain
         plant = model.plant
         # primitives: (frame, p, r, radius, Drake body index), frames 0 (B) .. dof (the end frame)
-        rows = []
+        rows, boxes = [], []
         after = [robot._K[0]]                          # x_i(0) = K_0 K_1 ... K_i in B (M_i(0) = I)
         for K in robot._K[1:]:
             after.append(after[-1] @ K)
@@ -392,16 +435,21 @@ class BroadPhase:
             else:
                 C = np.linalg.inv(after[c.body - 1]) @ X_BD[c.body]       # DH frame i in x_i: constant
                 p, r = C[:3, :3] @ c.p + C[:3, 3], C[:3, :3] @ c.r + C[:3, 3]
-            rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}"))
+            rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}", -1))
         if model.tool_shapes:
             tool = int(plant.GetBodyByName("tool").index())
             for shape in model.tool_shapes:
                 capsules = tool_capsules(shape)
-                rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name)
+                box = -1
+                if shape.kind in ("box", "cylinder"):
+                    box = len(boxes)
+                    boxes.append(_obstacle_row(_containing_box(shape), np.eye(4)))
+                rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box)
                          for n, (p, r, radius) in enumerate(capsules)]
         rows.sort(key=lambda row: row[0])              # stable: the capsules keep their order
-        self._prims = np.array([[f, *p, *r, radius, np.linalg.norm(r - p) / 2.0, alternatives]
-                                for f, p, r, radius, alternatives, *_ in rows], dtype=float)
+        self._prims = np.array([[f, *p, *r, radius, np.linalg.norm(r - p) / 2.0, alternatives, box]
+                                for f, p, r, radius, alternatives, _, _, box in rows], dtype=float)
+        self._boxes = np.array(boxes, dtype=float).reshape(-1, OBSTACLE_COLUMNS)
         #: Each primitive's Drake geometry name (``capsule<k>`` or the tool shape's), in kernel order.
         self.names = [row[6] for row in rows]
         frames = np.array([row[0] for row in rows])
@@ -437,14 +485,14 @@ class BroadPhase:
         often first: a colliding configuration is refused after fewer pairs."""
         env_count, self_count = np.zeros(len(self._env)), np.zeros(len(self._pairs))
         Q = robot.random_configurations(np.random.default_rng(0), ORDER_SAMPLES)
-        pair_counts_into(*self._model, Q, env_count, self_count)
+        pair_counts_into(self._model, Q, env_count, self_count)
         env, pairs = np.argsort(-env_count, kind="stable"), np.argsort(-self_count, kind="stable")
         self._env, self._env_padding = np.ascontiguousarray(self._env[env]), self._env_padding[env]
         self._pairs, self._self_padding = np.ascontiguousarray(self._pairs[pairs]), self._self_padding[pairs]
 
     @property
     def _model(self):
-        return (self._chain, self._prims, self._starts, self._obstacles, self._env, self._env_padding,
+        return (self._chain, self._prims, self._starts, self._boxes, self._obstacles, self._env, self._env_padding,
                 self._pairs, self._self_padding)
 
     def _batch(self, Q) -> np.ndarray:
@@ -458,7 +506,7 @@ class BroadPhase:
         certainly finds it free (bool (k,)); False: maybe colliding, ask Drake."""
         Q = self._batch(Q)
         out = np.empty(len(Q), dtype=np.bool_)
-        free_into(*self._model, Q, out)
+        free_into(self._model, Q, out)
         return out
 
     def edges_free(self, A, B, step: float | None = None) -> np.ndarray:
@@ -472,7 +520,7 @@ class BroadPhase:
         if not step > 0.0:
             raise ValueError(f"edge step must be positive, got {step!r}")
         out = np.empty(len(A), dtype=np.bool_)
-        edges_free_into(*self._model, A, B, step, out)
+        edges_free_into(self._model, A, B, step, out)
         return out
 
     def edge_free(self, q_a, q_b, step: float | None = None) -> bool:
@@ -484,5 +532,5 @@ class BroadPhase:
         """The primitives' core segments (k, P, 2, 3) in the robot base frame B [m] at configurations Q."""
         Q = self._batch(Q)
         out = np.empty((len(Q), len(self._prims), 9))
-        segments_into(self._chain, self._prims, self._starts, Q, out)
+        segments_into(self._model, Q, out)
         return out[:, :, :6].reshape(len(Q), len(self._prims), 2, 3)
