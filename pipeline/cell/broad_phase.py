@@ -55,6 +55,8 @@ FRAME, RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 0, 7, 8, 9, 10
 #: A tool cylinder's or box's containing capsules: its axis (the box's longest) shortened at each end by
 #: these fractions of its half width w (never past its middle), radius sqrt(w^2 + shortening^2).
 TOOL_SHORTENING = (0.0, 0.5, 1.0)
+#: Pair kinds (the first column of a pair row): robot-obstacle (primitive, obstacle), link-link (two primitives).
+ENV, SELF = 0, 1
 #: Seeded random configurations that order the pairs (most often not clear first).
 ORDER_SAMPLES = 500
 #: Segments whose directions' cross product is below this fraction of their lengths' product are parallel.
@@ -162,20 +164,11 @@ def _to_obstacle(ob, o, x, y, z):
 
 
 @inner()
-def _pair_clear(seg, i, half, ob, o, threshold, local, breaks):
-    """Primitive i's core segment (row of ``seg``, in B; ``half`` its half length) keeps more than
-    ``threshold`` (its radius, the padding and the tolerance) from obstacle o's core (a sphere's or
-    capsule's radius is added here). The segment lies within ``half`` of its midpoint (``seg[i, 6:9]``): a
-    midpoint farther than ``threshold + half`` from the obstacle's (containing) box clears it at once (the
-    caller has tried the bounding spheres)."""
-    reach = threshold + half
+def _pair_clear(seg, i, ob, o, threshold, local, breaks):
+    """Primitive i's core segment (row of ``seg``, in B) keeps more than ``threshold`` (its radius, the padding
+    and the tolerance) from obstacle o's core (a sphere's or capsule's radius is added here): exact (a
+    cylinder: the larger of two lower bounds)."""
     kind = int(ob[o, 0])
-    if kind == BOX or kind == CYLINDER:                # the midpoint against the (containing) box
-        m = _to_obstacle(ob, o, seg[i, 6], seg[i, 7], seg[i, 8])
-        side = ob[o, 13]
-        if _box_excess_sq(m[0], m[1], m[2], side, side if kind == CYLINDER else ob[o, 14],
-                          ob[o, 14] if kind == CYLINDER else ob[o, 15]) > reach * reach:
-            return True
     p = _to_obstacle(ob, o, seg[i, 0], seg[i, 1], seg[i, 2])
     r = _to_obstacle(ob, o, seg[i, 3], seg[i, 4], seg[i, 5])
     if kind != BOX:                                    # sphere, capsule: exact; cylinder: its capsule
@@ -233,17 +226,35 @@ def _segments(chain, prims, starts, boxes, q, seg, moved):
 
 
 @inner(inline="always")
+def _near_clear(seg, i, half, ob, o, threshold):
+    """The quick tests of ``_pair_clear``: primitive i's segment lies within ``half`` of its midpoint
+    (``seg[i, 6:9]``), so a midpoint farther than ``threshold + half`` from obstacle o's bounding sphere, or
+    from its (containing) box, clears it."""
+    reach = threshold + half
+    gx, gy, gz = seg[i, 6] - ob[o, 1], seg[i, 7] - ob[o, 2], seg[i, 8] - ob[o, 3]
+    around = reach + ob[o, 16]
+    if gx * gx + gy * gy + gz * gz > around * around:
+        return True
+    kind = ob[o, 0]
+    if kind != BOX and kind != CYLINDER:
+        return False
+    m = _to_obstacle(ob, o, seg[i, 6], seg[i, 7], seg[i, 8])
+    side = ob[o, 13]
+    if kind == CYLINDER:
+        return _box_excess_sq(m[0], m[1], m[2], side, side, ob[o, 14]) > reach * reach
+    return _box_excess_sq(m[0], m[1], m[2], side, ob[o, 14], ob[o, 15]) > reach * reach
+
+
+@inner(inline="always")
 def _env_clear(seg, prims, i, ob, o, padding, local, breaks):
     """One of primitive i's containing rows keeps more than its radius plus ``padding`` from obstacle o (their
-    bounding spheres apart, tried here for all of them first: most pairs stop there)."""
+    quick tests tried for all of them first: most pairs stop there)."""
     alternatives = int(prims[i, ALTERNATIVES])
     for a in range(i, i + alternatives):
-        gx, gy, gz = seg[a, 6] - ob[o, 1], seg[a, 7] - ob[o, 2], seg[a, 8] - ob[o, 3]
-        around = prims[a, RADIUS] + padding + prims[a, HALF] + ob[o, 16]
-        if gx * gx + gy * gy + gz * gz > around * around:
+        if _near_clear(seg, a, prims[a, HALF], ob, o, prims[a, RADIUS] + padding):
             return True
     for a in range(i, i + alternatives):
-        if _pair_clear(seg, a, prims[a, HALF], ob, o, prims[a, RADIUS] + padding, local, breaks):
+        if _pair_clear(seg, a, ob, o, prims[a, RADIUS] + padding, local, breaks):
             return True
     return False
 
@@ -271,10 +282,8 @@ def _self_clear(seg, prims, i, j, padding, moved, local, breaks):
         box = int(prims[b, TOOL_BOX])
         if box >= 0 and prims[a, TOOL_BOX] < 0.0:
             threshold = prims[a, RADIUS] + padding
-            gx, gy, gz = seg[a, 6] - moved[box, 1], seg[a, 7] - moved[box, 2], seg[a, 8] - moved[box, 3]
-            around = threshold + prims[a, HALF] + moved[box, 16]
-            if gx * gx + gy * gy + gz * gz > around * around or _pair_clear(
-                    seg, a, prims[a, HALF], moved, box, threshold, local, breaks):
+            if _near_clear(seg, a, prims[a, HALF], moved, box, threshold) or _pair_clear(
+                    seg, a, moved, box, threshold, local, breaks):
                 return True
     return _capsules_clear(seg, prims, i, j, padding)
 
@@ -282,17 +291,29 @@ def _self_clear(seg, prims, i, j, padding, moved, local, breaks):
 @inner()
 def _config_free(model, q, work):
     """True when q is certainly free: every robot-obstacle and link-link pair beyond its padding (with the
-    tolerance: ``env_padding``, ``self_padding``). ``model``: BroadPhase._model; ``work``: _scratch's."""
-    chain, prims, starts, boxes, obstacles, env, env_padding, pairs, self_padding = model
-    seg, moved, local, breaks = work
-    _segments(chain, prims, starts, boxes, q, seg, moved)
-    for k in range(env.shape[0]):
-        if not _env_clear(seg, prims, env[k, 0], obstacles, env[k, 1], env_padding[k], local, breaks):
-            return False
-    for k in range(pairs.shape[0]):
-        if not _self_clear(seg, prims, pairs[k, 0], pairs[k, 1], self_padding[k], moved, local, breaks):
+    tolerance: ``padding``). ``model``: BroadPhase._model; ``work``: _scratch's."""
+    seg, moved = work[0], work[1]
+    _segments(model[0], model[1], model[2], model[3], q, seg, moved)
+    rows, spheres = model[7], model[8]
+    for k in range(rows.shape[0]):                     # bounding spheres apart: most pairs stop here
+        a, b = rows[k, 0], rows[k, 1]
+        if b < 0:
+            gx, gy, gz = seg[a, 6] - spheres[k, 0], seg[a, 7] - spheres[k, 1], seg[a, 8] - spheres[k, 2]
+        else:
+            gx, gy, gz = seg[a, 6] - seg[b, 6], seg[a, 7] - seg[b, 7], seg[a, 8] - seg[b, 8]
+        if gx * gx + gy * gy + gz * gz <= spheres[k, 3] and not _clear(model, k, work):
             return False
     return True
+
+
+@inner(inline="always")
+def _clear(model, k, work):
+    """Pair k (``pairs`` row: SELF or ENV, primitive, primitive or obstacle) is certainly clear."""
+    prims, obstacles, pairs, padding = model[1], model[4], model[5], model[6]
+    seg, moved, local, breaks = work
+    if pairs[k, 0] == ENV:
+        return _env_clear(seg, prims, pairs[k, 1], obstacles, pairs[k, 2], padding[k], local, breaks)
+    return _self_clear(seg, prims, pairs[k, 1], pairs[k, 2], padding[k], moved, local, breaks)
 
 
 @njit(cache=True)
@@ -311,19 +332,14 @@ def free_into(model, Q, out):
 
 
 @njit(cache=True)
-def pair_counts_into(model, Q, env_count, self_count):
-    """env_count[k] (self_count[k]) += the configurations of Q at which robot-obstacle (link-link) pair k is not
-    certainly clear."""
-    chain, prims, starts, boxes, obstacles, env, env_padding, pairs, self_padding = model
-    seg, moved, local, breaks = _scratch(model)
+def pair_counts_into(model, Q, count):
+    """count[k] += the configurations of Q at which pair k is not certainly clear."""
+    work = _scratch(model)
     for n in range(Q.shape[0]):
-        _segments(chain, prims, starts, boxes, Q[n], seg, moved)
-        for k in range(env.shape[0]):
-            if not _env_clear(seg, prims, env[k, 0], obstacles, env[k, 1], env_padding[k], local, breaks):
-                env_count[k] += 1
-        for k in range(pairs.shape[0]):
-            if not _self_clear(seg, prims, pairs[k, 0], pairs[k, 1], self_padding[k], moved, local, breaks):
-                self_count[k] += 1
+        _segments(model[0], model[1], model[2], model[3], Q[n], work[0], work[1])
+        for k in range(model[5].shape[0]):
+            if not _clear(model, k, work):
+                count[k] += 1
 
 
 @njit(cache=True)
@@ -461,39 +477,62 @@ class BroadPhase:
         self._obstacles = np.array([_obstacle_row(s, X_BW) for s in objects], dtype=float).reshape(-1, OBSTACLE_COLUMNS)
         obstacle_bodies = [int(b.index()) for b in model.obstacles]
         filtered, padding = checker.GetFilteredCollisionMatrix(), checker.GetPaddingMatrix()
-        env, env_padding = [], []
+        pairs, pair_padding = [], []
         for i in shapes:
             for o, b in enumerate(obstacle_bodies):
                 if filtered[prim_bodies[i], b] == 0:
-                    env.append((i, o))
-                    env_padding.append(padding[prim_bodies[i], b] + DRAKE_TOLERANCE_M)
-        pairs, self_padding = [], []
+                    pairs.append((ENV, i, o))
+                    pair_padding.append(padding[prim_bodies[i], b] + DRAKE_TOLERANCE_M)
         for i in shapes:
             for j in shapes:
                 a, b = prim_bodies[i], prim_bodies[j]
                 if i < j and a != b and filtered[a, b] == 0:
-                    pairs.append((i, j))
-                    self_padding.append(padding[a, b] + DRAKE_TOLERANCE_M)
-        self._env = np.array(env, dtype=np.int64).reshape(-1, 2)
-        self._env_padding = np.array(env_padding, dtype=float)
-        self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
-        self._self_padding = np.array(self_padding, dtype=float)
+                    pairs.append((SELF, i, j))
+                    pair_padding.append(padding[a, b] + DRAKE_TOLERANCE_M)
+        self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 3)
+        self._padding = np.array(pair_padding, dtype=float)
         self._order_pairs(robot)
 
     def _order_pairs(self, robot) -> None:
         """Sort the pairs by how often they are not clear at ORDER_SAMPLES seeded random configurations, most
         often first: a colliding configuration is refused after fewer pairs."""
-        env_count, self_count = np.zeros(len(self._env)), np.zeros(len(self._pairs))
+        count = np.zeros(len(self._pairs))
+        self._spheres_of_pairs()
         Q = robot.random_configurations(np.random.default_rng(0), ORDER_SAMPLES)
-        pair_counts_into(self._model, Q, env_count, self_count)
-        env, pairs = np.argsort(-env_count, kind="stable"), np.argsort(-self_count, kind="stable")
-        self._env, self._env_padding = np.ascontiguousarray(self._env[env]), self._env_padding[env]
-        self._pairs, self._self_padding = np.ascontiguousarray(self._pairs[pairs]), self._self_padding[pairs]
+        pair_counts_into(self._model, Q, count)
+        order = np.argsort(-count, kind="stable")
+        self._pairs, self._padding = np.ascontiguousarray(self._pairs[order]), self._padding[order]
+        self._spheres_of_pairs()
+
+    def _spheres_of_pairs(self) -> None:
+        """Per pair, its bounding-sphere test: the rows (primitive, primitive or -1) whose midpoints it takes,
+        a fixed centre (an obstacle's) and the squared distance the midpoints must exceed. A tool shape takes
+        the containing capsule of the smallest radius plus half length (any of them clear clears the pair)."""
+        prims = self._prims
+
+        def tightest(i):
+            rows = range(i, i + int(prims[i, ALTERNATIVES]))
+            return min(rows, key=lambda a: prims[a, RADIUS] + prims[a, HALF])
+
+        self._sphere_rows = np.empty((len(self._pairs), 2), dtype=np.int64)
+        self._spheres = np.zeros((len(self._pairs), 4))
+        for k, ((kind, i, j), padding) in enumerate(zip(self._pairs, self._padding)):
+            a = tightest(i)
+            around = prims[a, RADIUS] + prims[a, HALF] + padding
+            if kind == ENV:
+                self._sphere_rows[k] = a, -1
+                self._spheres[k, :3] = self._obstacles[j, 1:4]
+                around += self._obstacles[j, 16]
+            else:
+                b = tightest(j)
+                self._sphere_rows[k] = a, b
+                around += prims[b, RADIUS] + prims[b, HALF]
+            self._spheres[k, 3] = around * around
 
     @property
     def _model(self):
-        return (self._chain, self._prims, self._starts, self._boxes, self._obstacles, self._env, self._env_padding,
-                self._pairs, self._self_padding)
+        return (self._chain, self._prims, self._starts, self._boxes, self._obstacles, self._pairs, self._padding,
+                self._sphere_rows, self._spheres)
 
     def _batch(self, Q) -> np.ndarray:
         Q = np.ascontiguousarray(Q, dtype=float)
