@@ -1,22 +1,28 @@
 """A compiled (Numba) broad phase for the planner's collision checks: conservative, Drake stays the judge.
 
-``BroadPhase(model, extra_m, self_m)`` answers "certainly free" for many configurations per compiled call,
-with the paddings of ``CollisionModel.padded_checker(extra_m, self_m)`` (or of the plain checker for
-``(0, SELF_CLEARANCE_M)``). True means every checked pair's distance has a lower bound above its padding
-plus DRAKE_TOLERANCE_M, so Drake's checker with those paddings finds the configuration free; False means
-"maybe colliding: ask Drake".
+``BroadPhase(model, checker)`` (made by ``CollisionModel.broad_phase(extra_m, self_m)``, for the checker of
+``padded_checker(extra_m, self_m)``, or the plain one) answers "certainly free" for many configurations per
+compiled call: True means every pair that checker checks has a distance whose lower bound exceeds the pair's
+padding plus DRAKE_TOLERANCE_M, so the checker finds the configuration free; False means "maybe colliding:
+ask Drake".
 
 The geometry, all in the robot's base frame B (obstacles moved there once):
 
-* robot primitives: the link capsules (``link_capsules``), exact; the tool shapes on the last link by a
-  capsule containing each (a cylinder: its axis, its radius; a box: its longest axis, the half diagonal of
-  the other two sides; a sphere or capsule: itself). Each is a core segment (p, r) fixed in a frame of the
-  chain and a radius.
+* robot primitives: the link capsules (``link_capsules``), exact; each tool shape on the last link by the
+  capsules containing it (a sphere or capsule: itself; a cylinder or box: one per TOOL_SHORTENING along its
+  axis, the box's longest; a pair is clear when one of them is) and, against link capsules, also by its box
+  (a box itself, a cylinder's containing box: exact at the flat ends, where a capsule bulges). Each
+  primitive is a core segment (p, r) fixed in a frame of the chain and a radius.
 * obstacles: box (exact segment-to-box distance: the squared distance is a convex piecewise quadratic in the
   segment parameter, minimised piece by piece), sphere and capsule (exact), cylinder (the larger of the
   distances to the capsule and to the box containing it: both are lower bounds).
 * pairs and paddings from Drake itself: a robot body pair or robot-obstacle pair is checked when the
   checker's ``GetFilteredCollisionMatrix()`` has 0 for it, against its ``GetPaddingMatrix()`` entry.
+
+Per configuration: the chain, then one pass over every pair's bounding spheres (most pairs stop there), the
+others tested exactly, in the order of how often each pair was not clear at ORDER_SAMPLES seeded random
+configurations (a colliding configuration stops early). Edges: the configurations Drake's
+``CheckEdgeCollisionFree`` checks (``edges_free_into``).
 
 The link frames come from the chain of ``pipeline.model.chain.compiled`` (``moved_pose``): after joint i
 the chain is at ``x_i = K_0 M_1 K_1 ... M_i K_i``, a constant transform from link i's body frame (DH frame
@@ -33,7 +39,6 @@ from numba import njit
 from ..model.chain.compiled import base_pose, inner, moved_pose
 from ..model.chain.geometry import link_capsules
 from .cell_file import Shape
-from .collision import SELF_CLEARANCE_M
 
 #: What every lower bound must exceed its padding by [m]: Drake computes capsule-box, capsule-capsule and
 #: capsule-cylinder distances with FCL's GJK (``distance_tolerance`` 1e-6), whose errors its own
@@ -51,7 +56,7 @@ OBSTACLE_COLUMNS = 17
 #: Then the row of its box in the tool boxes (a tool cylinder's containing box, a tool box itself; -1: none), which
 #: bounds its distance to link capsules too.
 PRIMITIVE_COLUMNS = 11
-FRAME, RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 0, 7, 8, 9, 10
+RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 7, 8, 9, 10
 #: A tool cylinder's or box's containing capsules: its axis (the box's longest) shortened at each end by
 #: these fractions of its half width w (never past its middle), radius sqrt(w^2 + shortening^2).
 TOOL_SHORTENING = (0.0, 0.5, 1.0)
@@ -59,7 +64,7 @@ TOOL_SHORTENING = (0.0, 0.5, 1.0)
 ENV, SELF = 0, 1
 #: Seeded random configurations that order the pairs (most often not clear first).
 ORDER_SAMPLES = 500
-#: Segments whose directions' cross product is below this fraction of their lengths' product are parallel.
+#: Segments d, e with |d x e|^2 at most this fraction of |d|^2 |e|^2 are parallel (or points).
 _PARALLEL = 1e-12
 
 
@@ -424,45 +429,49 @@ def _obstacle_row(shape, X_BW: np.ndarray) -> np.ndarray:
     return row
 
 
-class BroadPhase:
-    """The conservative compiled check of a CollisionModel's robot with the paddings of
-    ``model.padded_checker(extra_m, self_m)`` (the plain checker's for ``extra_m = 0``, ``self_m =
-    SELF_CLEARANCE_M``): ``free(Q)`` and ``edge_free(q_a, q_b, step)`` / ``edges_free(A, B, step)``."""
+def _primitive_rows(model) -> tuple[list[tuple], list[np.ndarray]]:
+    """The robot's primitives, sorted by frame (0: B, i: after joint i, dof: the end frame), each (frame, p, r
+    in that frame, radius, alternatives, Drake body index, Drake geometry name, tool box row or -1), and the
+    tool boxes' obstacle rows in the end frame."""
+    robot = model.robot
+    after = [robot._K[0]]                              # x_i(0) = K_0 K_1 ... K_i in B (M_i(0) = I)
+    for K in robot._K[1:]:
+        after.append(after[-1] @ K)
+    X_BD = robot.fk_all(np.zeros(robot.dof))           # DH frames at q = 0
+    rows, boxes = [], []
+    for k, c in enumerate(link_capsules(robot)):
+        p, r = c.p, c.r
+        if c.body > 0:
+            C = np.linalg.inv(after[c.body]) @ X_BD[c.body]              # DH frame i in x_i: constant
+            p, r = C[:3, :3] @ p + C[:3, 3], C[:3, :3] @ r + C[:3, 3]
+        rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}", -1))
+    if model.tool_shapes:
+        tool = int(model.plant.GetBodyByName("tool").index())
+        for shape in model.tool_shapes:
+            capsules = tool_capsules(shape)
+            box = -1
+            if shape.kind in ("box", "cylinder"):
+                box = len(boxes)
+                boxes.append(_obstacle_row(_containing_box(shape), np.eye(4)))
+            rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box)
+                     for n, (p, r, radius) in enumerate(capsules)]
+    rows.sort(key=lambda row: row[0])                  # stable: the capsules keep their order
+    return rows, boxes
 
-    def __init__(self, model, extra_m: float = 0.0, self_m: float = SELF_CLEARANCE_M):
-        plain = extra_m == 0.0 and self_m == SELF_CLEARANCE_M
-        self.checker = checker = model.checker if plain else model.padded_checker(extra_m, self_m)
+
+class BroadPhase:
+    """The conservative compiled check of a CollisionModel's robot against ``checker`` (``model.checker`` or a
+    ``model.padded_checker``: its filtered pairs and paddings): ``free(Q)``, ``edge_free(q_a, q_b, step)`` and
+    ``edges_free(A, B, step)``."""
+
+    def __init__(self, model, checker):
+        self.checker = checker
         #: Drake's edge step of that checker [rad]: ``edge_free``'s default.
         self.step = float(checker.edge_step_size())
         robot = model.robot
         self.dof = robot.dof
         self._chain = robot._chain
-        plant = model.plant
-        # primitives: (frame, p, r, radius, Drake body index), frames 0 (B) .. dof (the end frame)
-        rows, boxes = [], []
-        after = [robot._K[0]]                          # x_i(0) = K_0 K_1 ... K_i in B (M_i(0) = I)
-        for K in robot._K[1:]:
-            after.append(after[-1] @ K)
-        after = after[1:]
-        X_BD = robot.fk_all(np.zeros(robot.dof))                          # DH frames at q = 0
-        for k, c in enumerate(link_capsules(robot)):
-            if c.body == 0:
-                p, r = c.p, c.r
-            else:
-                C = np.linalg.inv(after[c.body - 1]) @ X_BD[c.body]       # DH frame i in x_i: constant
-                p, r = C[:3, :3] @ c.p + C[:3, 3], C[:3, :3] @ c.r + C[:3, 3]
-            rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}", -1))
-        if model.tool_shapes:
-            tool = int(plant.GetBodyByName("tool").index())
-            for shape in model.tool_shapes:
-                capsules = tool_capsules(shape)
-                box = -1
-                if shape.kind in ("box", "cylinder"):
-                    box = len(boxes)
-                    boxes.append(_obstacle_row(_containing_box(shape), np.eye(4)))
-                rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box)
-                         for n, (p, r, radius) in enumerate(capsules)]
-        rows.sort(key=lambda row: row[0])              # stable: the capsules keep their order
+        rows, boxes = _primitive_rows(model)
         self._prims = np.array([[f, *p, *r, radius, np.linalg.norm(r - p) / 2.0, alternatives, box]
                                 for f, p, r, radius, alternatives, _, _, box in rows], dtype=float)
         self._boxes = np.array(boxes, dtype=float).reshape(-1, OBSTACLE_COLUMNS)

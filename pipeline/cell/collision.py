@@ -232,13 +232,14 @@ class CollisionModel:
         return self._padded[key]
 
     def broad_phase(self, extra_m: float = 0.0, self_m: float = SELF_CLEARANCE_M):
-        """The compiled conservative check (``pipeline.cell.broad_phase.BroadPhase``) with the paddings of
+        """The compiled conservative check (``pipeline.cell.broad_phase.BroadPhase``) of the checker of
         ``padded_checker(extra_m, self_m)`` (of the plain checker for the defaults), made once per pair."""
         key = (extra_m, self_m)
         if key not in self._broad:
             from .broad_phase import BroadPhase
 
-            self._broad[key] = BroadPhase(self, extra_m, self_m)
+            plain = extra_m == 0.0 and self_m == SELF_CLEARANCE_M
+            self._broad[key] = BroadPhase(self, self.checker if plain else self.padded_checker(extra_m, self_m))
         return self._broad[key]
 
     def why_not_free(self, q) -> str:
