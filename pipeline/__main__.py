@@ -539,9 +539,9 @@ def cmd_bench(args) -> int:
         report = run_plan_benchmark(pairs=args.pairs, seed=args.seed, count=args.count or 100,
                                     sets=None if args.sets is None else _names(args.sets, ()))
     elif args.suite == "broad-phase":
-        from .bench.broad_phase import demo_cells, run_broad_phase_benchmark
+        from .bench.broad_phase import run_broad_phase_benchmark
 
-        report = run_broad_phase_benchmark(None if args.cells is None else _names(args.cells, demo_cells()),
+        report = run_broad_phase_benchmark(None if args.cells is None else _names(args.cells, ()),
                                            count=args.count or 1_000_000, seed=args.seed)
     elif args.suite == "cycle":
         from .bench.cycle import CELLS, run_cycle_benchmark

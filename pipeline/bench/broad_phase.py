@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cell.cell_file import DEMO_CELLS
+from ..cell.cell_file import cell_names
 from ..cell.collision import SELF_CLEARANCE_M
 from ..cell.planning import PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M
 from ..outputs.versions import version_table
@@ -37,11 +37,6 @@ CHECKERS = {"plain": (0.0, SELF_CLEARANCE_M), "planner": (PLANNING_MARGIN_M, SEL
 CHUNK = 10_000
 RATE_GOAL = 20.0
 FREE_FRACTION_GOAL = 0.9
-
-
-def demo_cells() -> tuple[str, ...]:
-    """The demo cells' names (the GP7's and the IRB 1600's), sorted."""
-    return tuple(sorted(path.stem for path in DEMO_CELLS.glob("*.yaml")))
 
 
 @dataclass(frozen=True)
@@ -111,7 +106,7 @@ class BroadPhaseBenchReport(GoalReport):
 def run_broad_phase_benchmark(cells: tuple[str, ...] | None = None, count: int = 1_000_000,
                               seed: int = 0) -> BroadPhaseBenchReport:
     """The benchmark (see the module docstring) on ``cells`` (None: every demo cell)."""
-    names = demo_cells() if cells is None else tuple(cells)
+    names = tuple(cell_names()) if cells is None else tuple(cells)
     rows = [row for k, name in enumerate(names) for row in measure_broad_phase(name, count, seed, k)]
     false_free = sum(r.false_free for r in rows)
     slowest = min(rows, key=lambda r: r.ratio)

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from numba import njit
 
-from pipeline.bench.broad_phase import CHECKERS, demo_cells
+from pipeline.bench.broad_phase import CHECKERS
 from pipeline.bench.plan_sets import cell_model
 from pipeline.cell import broad_phase as bp
-from pipeline.cell.cell_file import load_cell
+from pipeline.cell.cell_file import cell_names, load_cell
 from pipeline.cell.collision import CollisionModel
 
 #: A cell with every obstacle kind and a tool box beside the gripper cylinder (mm, deg).
@@ -167,7 +167,7 @@ def test_bad_configurations_are_refused(shelf):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", demo_cells())
+@pytest.mark.parametrize("name", cell_names())
 def test_never_free_where_drake_collides_in_every_demo_cell(name):
     result = _compare(cell_model(name), 20_000, 8)
     assert all(false == 0 for false, _ in result.values()), result
