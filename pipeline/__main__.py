@@ -536,8 +536,13 @@ def cmd_bench(args) -> int:
     elif args.suite == "plan":
         from .bench.plan import run_plan_benchmark
 
-        report = run_plan_benchmark(pairs=args.pairs, seed=args.seed, count=args.count,
+        report = run_plan_benchmark(pairs=args.pairs, seed=args.seed, count=args.count or 100,
                                     sets=None if args.sets is None else _names(args.sets, ()))
+    elif args.suite == "broad-phase":
+        from .bench.broad_phase import run_broad_phase_benchmark
+
+        report = run_broad_phase_benchmark(None if args.cells is None else _names(args.cells, ()),
+                                           count=args.count or 1_000_000, seed=args.seed)
     elif args.suite == "cycle":
         from .bench.cycle import CELLS, run_cycle_benchmark
 
@@ -873,7 +878,7 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                   "peers of the kinematics and IK suites come with the bench extra: pip install -e .[bench]).",
                   ["kinematics --robot gp7", "timing --robots gp7 --paths 2 --out timing.json"])
     bench.add_argument("suite", choices=["kinematics", "ik", "timing", "cartesian", "plan", "cycle", "written", "scale",
-                                         "job", "ui"])
+                                         "job", "ui", "broad-phase"])
     bench.add_argument("--robot", default=None, help="kinematics: the robot (default gp7); scale: default irb1600")
     bench.add_argument("--robots", help="ik, timing: comma-separated robots (default gp7,lrmate200id,irb1600,arm6); "
                        "cartesian: default gp7,irb1600")
@@ -888,11 +893,13 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
                        help="plan only: seeded random start/goal pairs per cell (default 100)")
     bench.add_argument("--sets", metavar="NAMES", help="plan only: comma-separated problem sets that need a search "
                        "(default: all; cubbies, gp7_box, ...: pipeline.bench.plan_sets.SET_NAMES)")
-    bench.add_argument("--count", type=POSITIVE, default=100, metavar="N",
-                       help="plan only: queries per problem set (default 100; cubbies has its 30 always)")
+    bench.add_argument("--count", type=POSITIVE, default=None, metavar="N",
+                       help="plan: queries per problem set (default 100; cubbies has its 30 always); broad-phase: "
+                       "random configurations per cell (default 1,000,000)")
     bench.add_argument("--programs", type=POSITIVE, default=None, metavar="N",
                        help="cycle, written: seeded random pick-and-place programs per cell (default 20; written: 5)")
-    bench.add_argument("--cells", help="cycle, written: comma-separated demo cells (default gp7_wall_cell,"
+    bench.add_argument("--cells", help="broad-phase: comma-separated demo cells (default: all); "
+                       "cycle, written: comma-separated demo cells (default gp7_wall_cell,"
                        "gp7_shelf_cell,irb1600_wall_cell)")
     bench.add_argument("--jobs", help="job only: comma-separated job files (default: the demo jobs with a cell)")
     bench.add_argument("--repeats", type=POSITIVE, default=5, metavar="N",

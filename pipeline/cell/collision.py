@@ -78,7 +78,7 @@ class CollisionModel:
         self.bodies = [base, *links]
         capsules = link_capsules(robot)
         self._add_capsules(capsules)
-        tool_shapes = tool.shapes if tool is not None else () if cell is None else cell.tool_shapes
+        tool_shapes = self.tool_shapes = tool.shapes if tool is not None else () if cell is None else cell.tool_shapes
         self.tool_reach = max((np.linalg.norm(s.X[:3, 3]) + s.bounding_radius for s in tool_shapes), default=0.0)
         if tool_shapes:
             self._add_tool(instance, tool_shapes)
@@ -96,6 +96,7 @@ class CollisionModel:
             self.checker = SceneGraphCollisionChecker(params)
         self.filtered_pairs = joined + self._filter_mounts(X_WB) + self._filter_always_touching()
         self._padded = {}
+        self._broad = {}
 
     # -- geometry ---------------------------------------------------------------------------------
     def _add_capsules(self, capsules) -> None:
@@ -229,6 +230,17 @@ class CollisionModel:
             checker.set_edge_step_size(min(EDGE_STEP_RAD, 2.0 * extra_m / float(np.linalg.norm(self.lever_arms))))
             self._padded[key] = checker
         return self._padded[key]
+
+    def broad_phase(self, extra_m: float = 0.0, self_m: float = SELF_CLEARANCE_M):
+        """The compiled conservative check (``pipeline.cell.broad_phase.BroadPhase``) of the checker of
+        ``padded_checker(extra_m, self_m)`` (of the plain checker for the defaults), made once per pair."""
+        key = (extra_m, self_m)
+        if key not in self._broad:
+            from .broad_phase import BroadPhase
+
+            plain = extra_m == 0.0 and self_m == SELF_CLEARANCE_M
+            self._broad[key] = BroadPhase(self, self.checker if plain else self.padded_checker(extra_m, self_m))
+        return self._broad[key]
 
     def why_not_free(self, q) -> str:
         """The closest pair of q and its distance, in words (for error messages)."""

@@ -1,0 +1,584 @@
+"""A compiled (Numba) broad phase for the planner's collision checks: conservative, Drake stays the judge.
+
+``BroadPhase(model, checker)`` (made by ``CollisionModel.broad_phase(extra_m, self_m)``, for the checker of
+``padded_checker(extra_m, self_m)``, or the plain one) answers "certainly free" for many configurations per
+compiled call: True means every pair that checker checks has a distance whose lower bound exceeds the pair's
+padding plus DRAKE_TOLERANCE_M, so the checker finds the configuration free; False means "maybe colliding:
+ask Drake".
+
+The geometry, all in the robot's base frame B (obstacles moved there once):
+
+* robot primitives: the link capsules (``link_capsules``), exact; each tool shape on the last link by the
+  capsules containing it (a sphere or capsule: itself; a cylinder or box: one per TOOL_SHORTENING along its
+  axis, the box's longest; a pair is clear when one of them is) and, against link capsules, also by its box
+  (a box itself, a cylinder's containing box: exact at the flat ends, where a capsule bulges). Each
+  primitive is a core segment (p, r) fixed in a frame of the chain and a radius.
+* obstacles: box (exact segment-to-box distance: the squared distance is a convex piecewise quadratic in the
+  segment parameter, minimised piece by piece), sphere and capsule (exact), cylinder (the larger of the
+  distances to the capsule and to the box containing it: both are lower bounds).
+* pairs and paddings from Drake itself: a robot body pair or robot-obstacle pair is checked when the
+  checker's ``GetFilteredCollisionMatrix()`` has 0 for it, against its ``GetPaddingMatrix()`` entry.
+
+Per configuration: the chain, then one pass over every pair's bounding spheres (most pairs stop there), the
+others tested exactly, in the order of how often each pair was not clear at ORDER_SAMPLES seeded random
+configurations (a colliding configuration stops early). Edges: the configurations Drake's
+``CheckEdgeCollisionFree`` checks (``edges_free_into``).
+
+The link frames come from the chain of ``pipeline.model.chain.compiled`` (``moved_pose``): after joint i
+the chain is at ``x_i = K_0 M_1 K_1 ... M_i K_i``, a constant transform from link i's body frame (DH frame
+i), so each capsule is stored in the frame x_i (the base's in B, the tool's in the end frame x_n).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..model.chain.compiled import base_pose, inner, moved_pose
+from ..model.chain.geometry import link_capsules
+from .cell_file import Shape
+
+#: What every lower bound must exceed its padding by [m]: Drake computes capsule-box, capsule-capsule and
+#: capsule-cylinder distances with FCL's GJK (``distance_tolerance`` 1e-6), whose errors its own
+#: characterisation test bounds by 2e-5 m (geometry/proximity/test/distance_to_shape_characterize_test.cc).
+DRAKE_TOLERANCE_M = 1e-4
+#: Obstacle kinds as the kernels take them.
+BOX, SPHERE, CAPSULE, CYLINDER = 0, 1, 2, 3
+_KINDS = {"box": BOX, "sphere": SPHERE, "capsule": CAPSULE, "cylinder": CYLINDER}
+#: Columns of an obstacle row: kind, centre (3), rotation R_BO row by row (9), half sizes (3: a box's half
+#: sides; a sphere's radius; a capsule's or cylinder's radius and half length), bounding radius.
+OBSTACLE_COLUMNS = 17
+#: Columns of a primitive row: frame (0: B, i: after joint i), p (3), r (3), radius, half length, and the
+#: number of rows from this one that contain the same shape (1 for a capsule; a tool shape's first row has
+#: one per TOOL_SHORTENING, the rows after it 0): a pair is clear when one of them is.
+#: Then the row of its box in the tool boxes (a tool cylinder's containing box, a tool box itself; -1: none), which
+#: bounds its distance to link capsules too.
+PRIMITIVE_COLUMNS = 11
+RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 7, 8, 9, 10
+#: A tool cylinder's or box's containing capsules: its axis (the box's longest) shortened at each end by
+#: these fractions of its half width w (never past its middle), radius sqrt(w^2 + shortening^2).
+TOOL_SHORTENING = (0.0, 0.5, 1.0)
+#: Pair kinds (the first column of a pair row): robot-obstacle (primitive, obstacle), link-link (two primitives).
+ENV, SELF = 0, 1
+#: Seeded random configurations that order the pairs (most often not clear first).
+ORDER_SAMPLES = 500
+#: Segments d, e with |d x e|^2 at most this fraction of |d|^2 |e|^2 are parallel (or points).
+_PARALLEL = 1e-12
+
+
+# -- distances (squared, between cores) -------------------------------------------------------------
+@inner()
+def _point_segment_sq(px, py, pz, ax, ay, az, dx, dy, dz):
+    """Squared distance from point p to the segment a + t d, t in [0, 1]."""
+    wx, wy, wz = px - ax, py - ay, pz - az
+    dd = dx * dx + dy * dy + dz * dz
+    t = 0.0
+    if dd > 0.0:
+        t = min(max((wx * dx + wy * dy + wz * dz) / dd, 0.0), 1.0)
+    ex, ey, ez = wx - t * dx, wy - t * dy, wz - t * dz
+    return ex * ex + ey * ey + ez * ez
+
+
+@inner()
+def _segment_segment_sq(s, i, u, j):
+    """Squared distance between segment rows s[i] and u[j] (p: columns 0-2, r: 3-5): the closest pair of
+    Ericson's Real-Time Collision Detection 5.1.9 (the parameter of one segment clamped, the other's best for
+    it, clamped, and the first's again), or for parallel segments (or points) the least of the four
+    endpoint-to-segment distances."""
+    ax, ay, az = s[i, 0], s[i, 1], s[i, 2]
+    dx, dy, dz = s[i, 3] - ax, s[i, 4] - ay, s[i, 5] - az
+    bx, by, bz = u[j, 0], u[j, 1], u[j, 2]
+    ex, ey, ez = u[j, 3] - bx, u[j, 4] - by, u[j, 5] - bz
+    a = dx * dx + dy * dy + dz * dz
+    e = ex * ex + ey * ey + ez * ez
+    b = dx * ex + dy * ey + dz * ez
+    denom = a * e - b * b
+    if not denom > _PARALLEL * a * e:
+        return min(_point_segment_sq(ax, ay, az, bx, by, bz, ex, ey, ez),
+                   _point_segment_sq(ax + dx, ay + dy, az + dz, bx, by, bz, ex, ey, ez),
+                   _point_segment_sq(bx, by, bz, ax, ay, az, dx, dy, dz),
+                   _point_segment_sq(bx + ex, by + ey, bz + ez, ax, ay, az, dx, dy, dz))
+    rx, ry, rz = ax - bx, ay - by, az - bz
+    c, f = dx * rx + dy * ry + dz * rz, ex * rx + ey * ry + ez * rz
+    s_ = min(max((b * f - c * e) / denom, 0.0), 1.0)
+    t_ = (b * s_ + f) / e
+    if t_ < 0.0:
+        t_, s_ = 0.0, min(max(-c / a, 0.0), 1.0)
+    elif t_ > 1.0:
+        t_, s_ = 1.0, min(max((b - c) / a, 0.0), 1.0)
+    wx, wy, wz = rx + s_ * dx - t_ * ex, ry + s_ * dy - t_ * ey, rz + s_ * dz - t_ * ez
+    return wx * wx + wy * wy + wz * wz
+
+
+@inner()
+def _box_excess_sq(cx, cy, cz, hx, hy, hz):
+    """Squared distance from the point c (box frame) to the box of half sides h."""
+    ex, ey, ez = max(abs(cx) - hx, 0.0), max(abs(cy) - hy, 0.0), max(abs(cz) - hz, 0.0)
+    return ex * ex + ey * ey + ez * ez
+
+
+@inner()
+def _segment_box_sq(c, d, h, breaks):
+    """Squared distance from the segment c + t d, t in [0, 1] (c, d (3,) in the box frame) to the box of half
+    sides h (3,): the convex piecewise quadratic in t is minimised on each piece between the parameters where
+    a coordinate crosses a face plane (``breaks``: scratch of 8)."""
+    n = 0
+    breaks[n] = 0.0
+    n += 1
+    for k in range(3):
+        if d[k] != 0.0:
+            for side in (-h[k], h[k]):
+                t = (side - c[k]) / d[k]
+                if 0.0 < t < 1.0:
+                    m = n                              # insertion sort
+                    while m > 0 and breaks[m - 1] > t:
+                        breaks[m] = breaks[m - 1]
+                        m -= 1
+                    breaks[m] = t
+                    n += 1
+    breaks[n] = 1.0
+    n += 1
+    best = _box_excess_sq(c[0] + d[0], c[1] + d[1], c[2] + d[2], h[0], h[1], h[2])
+    for piece in range(n - 1):
+        t0, t1 = breaks[piece], breaks[piece + 1]
+        mid = 0.5 * (t0 + t1)
+        num, den = 0.0, 0.0                            # the piece's quadratic: sum over active k of (e_k + d_k t)^2
+        for k in range(3):
+            x = c[k] + mid * d[k]
+            if x > h[k]:
+                num += (c[k] - h[k]) * d[k]
+                den += d[k] * d[k]
+            elif x < -h[k]:
+                num += (c[k] + h[k]) * d[k]
+                den += d[k] * d[k]
+        t = t0
+        if den > 0.0:
+            t = min(max(-num / den, t0), t1)
+        best = min(best, _box_excess_sq(c[0] + t * d[0], c[1] + t * d[1], c[2] + t * d[2], h[0], h[1], h[2]))
+    return best
+
+
+@inner()
+def _to_obstacle(ob, o, x, y, z):
+    """The point (x, y, z) in B expressed in obstacle o's frame."""
+    x, y, z = x - ob[o, 1], y - ob[o, 2], z - ob[o, 3]
+    return (ob[o, 4] * x + ob[o, 7] * y + ob[o, 10] * z, ob[o, 5] * x + ob[o, 8] * y + ob[o, 11] * z,
+            ob[o, 6] * x + ob[o, 9] * y + ob[o, 12] * z)
+
+
+@inner()
+def _pair_clear(seg, i, ob, o, threshold, local, breaks):
+    """Primitive i's core segment (row of ``seg``, in B) keeps more than ``threshold`` (its radius, the padding
+    and the tolerance) from obstacle o's core (a sphere's or capsule's radius is added here): exact (a
+    cylinder: the larger of two lower bounds)."""
+    kind = int(ob[o, 0])
+    p = _to_obstacle(ob, o, seg[i, 0], seg[i, 1], seg[i, 2])
+    r = _to_obstacle(ob, o, seg[i, 3], seg[i, 4], seg[i, 5])
+    if kind != BOX:                                    # sphere, capsule: exact; cylinder: its capsule
+        core = threshold + ob[o, 13]
+        local[0, 0], local[0, 1], local[0, 2] = p
+        local[0, 3], local[0, 4], local[0, 5] = r
+        local[1, 0], local[1, 1], local[1, 2] = 0.0, 0.0, -ob[o, 14]
+        local[1, 3], local[1, 4], local[1, 5] = 0.0, 0.0, ob[o, 14]
+        if _segment_segment_sq(local, 0, local, 1) > core * core:
+            return True
+        if kind != CYLINDER:
+            return False
+        local[2, 0], local[2, 1], local[2, 2] = ob[o, 13], ob[o, 13], ob[o, 14]
+    else:
+        local[2, 0], local[2, 1], local[2, 2] = ob[o, 13], ob[o, 14], ob[o, 15]
+    local[3, 0], local[3, 1], local[3, 2] = p
+    local[4, 0], local[4, 1], local[4, 2] = r[0] - p[0], r[1] - p[1], r[2] - p[2]
+    return _segment_box_sq(local[3], local[4], local[2], breaks) > threshold * threshold
+
+
+# -- the chain: every primitive's core segment in B -------------------------------------------------
+@inner(inline="always")
+def _place(x, prims, first, stop, seg):
+    """seg rows first..stop-1 = primitives first..stop-1 (given in the frame of the Pose x) in B: p, r and
+    their midpoint."""
+    for i in range(first, stop):
+        for e in range(2):
+            px, py, pz = prims[i, 1 + 3 * e], prims[i, 2 + 3 * e], prims[i, 3 + 3 * e]
+            seg[i, 3 * e] = x[0] * px + x[1] * py + x[2] * pz + x[3]
+            seg[i, 3 * e + 1] = x[4] * px + x[5] * py + x[6] * pz + x[7]
+            seg[i, 3 * e + 2] = x[8] * px + x[9] * py + x[10] * pz + x[11]
+        for k in range(3):
+            seg[i, 6 + k] = 0.5 * (seg[i, k] + seg[i, 3 + k])
+
+
+@inner(inline="always")
+def _segments(chain, prims, starts, boxes, q, seg, moved):
+    """seg (P, 9) = the primitives' core segments in B and their midpoints at q (primitives sorted by frame;
+    ``starts`` (dof + 2,): the first primitive of each frame); moved (T, OBSTACLE_COLUMNS) = the tool boxes
+    ``boxes`` (obstacle rows in the end frame) in B."""
+    _place((1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0), prims, starts[0], starts[1], seg)
+    x = base_pose(chain)
+    for j in range(q.shape[0]):
+        x = moved_pose(chain, x, q, j, j + 1)
+        _place(x, prims, starts[j + 1], starts[j + 2], seg)
+    for t in range(boxes.shape[0]):
+        moved[t, 0], moved[t, 13], moved[t, 14], moved[t, 15], moved[t, 16] = boxes[t, 0], boxes[t, 13], \
+            boxes[t, 14], boxes[t, 15], boxes[t, 16]
+        for row in range(3):
+            moved[t, 1 + row] = (x[4 * row] * boxes[t, 1] + x[4 * row + 1] * boxes[t, 2]
+                                 + x[4 * row + 2] * boxes[t, 3] + x[4 * row + 3])
+            for col in range(3):
+                moved[t, 4 + 3 * row + col] = (x[4 * row] * boxes[t, 4 + col] + x[4 * row + 1] * boxes[t, 7 + col]
+                                               + x[4 * row + 2] * boxes[t, 10 + col])
+
+
+@inner(inline="always")
+def _near_clear(seg, i, half, ob, o, threshold):
+    """The quick tests of ``_pair_clear``: primitive i's segment lies within ``half`` of its midpoint
+    (``seg[i, 6:9]``), so a midpoint farther than ``threshold + half`` from obstacle o's bounding sphere, or
+    from its (containing) box, clears it."""
+    reach = threshold + half
+    gx, gy, gz = seg[i, 6] - ob[o, 1], seg[i, 7] - ob[o, 2], seg[i, 8] - ob[o, 3]
+    around = reach + ob[o, 16]
+    if gx * gx + gy * gy + gz * gz > around * around:
+        return True
+    kind = ob[o, 0]
+    if kind != BOX and kind != CYLINDER:
+        return False
+    m = _to_obstacle(ob, o, seg[i, 6], seg[i, 7], seg[i, 8])
+    side = ob[o, 13]
+    if kind == CYLINDER:
+        return _box_excess_sq(m[0], m[1], m[2], side, side, ob[o, 14]) > reach * reach
+    return _box_excess_sq(m[0], m[1], m[2], side, ob[o, 14], ob[o, 15]) > reach * reach
+
+
+@inner(inline="always")
+def _env_clear(seg, prims, i, ob, o, padding, local, breaks):
+    """One of primitive i's containing rows keeps more than its radius plus ``padding`` from obstacle o (their
+    quick tests tried for all of them first: most pairs stop there)."""
+    alternatives = int(prims[i, ALTERNATIVES])
+    for a in range(i, i + alternatives):
+        if _near_clear(seg, a, prims[a, HALF], ob, o, prims[a, RADIUS] + padding):
+            return True
+    for a in range(i, i + alternatives):
+        if _pair_clear(seg, a, ob, o, prims[a, RADIUS] + padding, local, breaks):
+            return True
+    return False
+
+
+@inner(inline="always")
+def _capsules_clear(seg, prims, i, j, padding):
+    """One containing capsule of primitive i and one of j keep more than their radii plus ``padding`` apart
+    (bounding spheres first)."""
+    for a in range(i, i + int(prims[i, ALTERNATIVES])):
+        for b in range(j, j + int(prims[j, ALTERNATIVES])):
+            threshold = prims[a, RADIUS] + prims[b, RADIUS] + padding
+            gx, gy, gz = seg[a, 6] - seg[b, 6], seg[a, 7] - seg[b, 7], seg[a, 8] - seg[b, 8]
+            around = threshold + prims[a, HALF] + prims[b, HALF]
+            if gx * gx + gy * gy + gz * gz > around * around or \
+                    _segment_segment_sq(seg, a, seg, b) > threshold * threshold:
+                return True
+    return False
+
+
+@inner()
+def _self_clear(seg, prims, i, j, padding, moved, local, breaks):
+    """Primitives i and j keep more than their radii plus ``padding`` apart: a link capsule by a tool shape's
+    box (``moved``: the tighter bound at the shape's flat ends, tried first), or by their containing capsules."""
+    for a, b in ((i, j), (j, i)):
+        box = int(prims[b, TOOL_BOX])
+        if box >= 0 and prims[a, TOOL_BOX] < 0.0:
+            threshold = prims[a, RADIUS] + padding
+            if _near_clear(seg, a, prims[a, HALF], moved, box, threshold) or _pair_clear(
+                    seg, a, moved, box, threshold, local, breaks):
+                return True
+    return _capsules_clear(seg, prims, i, j, padding)
+
+
+@inner()
+def _config_free(model, q, work):
+    """True when q is certainly free: every robot-obstacle and link-link pair beyond its padding (with the
+    tolerance: ``padding``). ``model``: BroadPhase._model; ``work``: _scratch's."""
+    seg, moved = work[0], work[1]
+    _segments(model[0], model[1], model[2], model[3], q, seg, moved)
+    rows, spheres = model[7], model[8]
+    for k in range(rows.shape[0]):                     # bounding spheres apart: most pairs stop here
+        a, b = rows[k, 0], rows[k, 1]
+        if b < 0:
+            gx, gy, gz = seg[a, 6] - spheres[k, 0], seg[a, 7] - spheres[k, 1], seg[a, 8] - spheres[k, 2]
+        else:
+            gx, gy, gz = seg[a, 6] - seg[b, 6], seg[a, 7] - seg[b, 7], seg[a, 8] - seg[b, 8]
+        if gx * gx + gy * gy + gz * gz <= spheres[k, 3] and not _clear(model, k, work):
+            return False
+    return True
+
+
+@inner(inline="always")
+def _clear(model, k, work):
+    """Pair k (``pairs`` row: SELF or ENV, primitive, primitive or obstacle) is certainly clear."""
+    prims, obstacles, pairs, padding = model[1], model[4], model[5], model[6]
+    seg, moved, local, breaks = work
+    if pairs[k, 0] == ENV:
+        return _env_clear(seg, prims, pairs[k, 1], obstacles, pairs[k, 2], padding[k], local, breaks)
+    return _self_clear(seg, prims, pairs[k, 1], pairs[k, 2], padding[k], moved, local, breaks)
+
+
+@njit(cache=True)
+def _scratch(model):
+    """Work arrays of the kernels: segments, moved tool boxes, local rows, breaks."""
+    return (np.empty((model[1].shape[0], 9)), np.empty((model[3].shape[0], OBSTACLE_COLUMNS)), np.empty((5, 6)),
+            np.empty(8))
+
+
+@njit(cache=True)
+def free_into(model, Q, out):
+    """out[k] = configuration Q[k] is certainly free (see BroadPhase.free)."""
+    work = _scratch(model)
+    for k in range(Q.shape[0]):
+        out[k] = _config_free(model, Q[k], work)
+
+
+@njit(cache=True)
+def pair_counts_into(model, Q, count):
+    """count[k] += the configurations of Q at which pair k is not certainly clear."""
+    work = _scratch(model)
+    for n in range(Q.shape[0]):
+        _segments(model[0], model[1], model[2], model[3], Q[n], work[0], work[1])
+        for k in range(model[5].shape[0]):
+            if not _clear(model, k, work):
+                count[k] += 1
+
+
+@njit(cache=True)
+def segments_into(model, Q, out):
+    """out (k, P, 9) = the primitives' core segments (p, r) in B and their midpoints at each configuration Q[k]."""
+    chain, prims, starts, boxes = model[0], model[1], model[2], model[3]
+    moved = np.empty((boxes.shape[0], OBSTACLE_COLUMNS))
+    for k in range(Q.shape[0]):
+        _segments(chain, prims, starts, boxes, Q[k], out[k], moved)
+
+
+@njit(cache=True)
+def edges_free_into(model, A, B, step, out):
+    """out[k] = every configuration Drake's CheckEdgeCollisionFree checks on the edge A[k] -> B[k] at edge
+    step ``step`` is certainly free: B[k], then A[k] (1 - s/n) + B[k] s/n for s = 0..n-1, n = max(1,
+    ceil(|B[k] - A[k]| / step)) (Drake's LinearDistanceAndInterpolationProvider, weights 1)."""
+    work = _scratch(model)
+    q = np.empty(A.shape[1])
+    for k in range(A.shape[0]):
+        a, b = A[k], B[k]
+        free = _config_free(model, b, work)
+        if free:
+            squares = 0.0
+            for j in range(q.shape[0]):
+                squares += (b[j] - a[j]) ** 2
+            n = int(max(1.0, math.ceil(math.sqrt(squares) / step)))
+            for s in range(n):
+                ratio = s / n
+                for j in range(q.shape[0]):
+                    q[j] = a[j] * (1.0 - ratio) + b[j] * ratio
+                if not _config_free(model, q, work):
+                    free = False
+                    break
+        out[k] = free
+
+
+# -- the model in arrays --------------------------------------------------------------------------
+def tool_capsules(shape) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Capsules each containing a tool shape: their segments (p, r) in the shape's parent frame [m] and radii
+    [m] (a sphere or capsule: itself; a cylinder or box: one per TOOL_SHORTENING)."""
+    R, centre = shape.X[:3, :3], shape.X[:3, 3]
+    if shape.kind == "sphere":
+        return [(centre, centre, shape.size[0])]
+    if shape.kind == "capsule":
+        radius, length = shape.size
+        return [(centre - R[:, 2] * length / 2.0, centre + R[:, 2] * length / 2.0, radius)]
+    if shape.kind == "box":
+        sides = np.asarray(shape.size, dtype=float)
+        axis = int(np.argmax(sides))
+        width, half = float(np.linalg.norm(np.delete(sides, axis))) / 2.0, sides[axis] / 2.0
+    else:
+        axis, (width, half) = 2, (shape.size[0], shape.size[1] / 2.0)
+    out = []
+    for fraction in TOOL_SHORTENING:
+        shortening = min(fraction * width, half)
+        core = R[:, axis] * (half - shortening)
+        out.append((centre - core, centre + core, math.hypot(width, shortening)))
+    return out
+
+
+def _containing_box(shape):
+    """A box shape: the box itself, or the one containing a cylinder (same pose)."""
+    if shape.kind == "box":
+        return shape
+    radius, length = shape.size
+    return Shape(shape.name, "box", (2.0 * radius, 2.0 * radius, length), shape.X)
+
+
+def _obstacle_row(shape, X_BW: np.ndarray) -> np.ndarray:
+    """One obstacle as a kernel row (see OBSTACLE_COLUMNS), its pose moved into B."""
+    X = X_BW @ shape.X
+    row = np.zeros(OBSTACLE_COLUMNS)
+    row[0], row[1:4], row[4:13] = _KINDS[shape.kind], X[:3, 3], X[:3, :3].ravel()
+    size = np.asarray(shape.size, dtype=float)
+    if shape.kind == "box":
+        row[13:16] = size / 2.0
+    elif shape.kind == "sphere":
+        row[13] = size[0]
+    else:
+        row[13], row[14] = size[0], size[1] / 2.0
+    row[16] = shape.bounding_radius
+    return row
+
+
+def _primitive_rows(model) -> tuple[list[tuple], list[np.ndarray]]:
+    """The robot's primitives, sorted by frame (0: B, i: after joint i, dof: the end frame), each (frame, p, r
+    in that frame, radius, alternatives, Drake body index, Drake geometry name, tool box row or -1), and the
+    tool boxes' obstacle rows in the end frame."""
+    robot = model.robot
+    after = [robot._K[0]]                              # x_i(0) = K_0 K_1 ... K_i in B (M_i(0) = I)
+    for K in robot._K[1:]:
+        after.append(after[-1] @ K)
+    X_BD = robot.fk_all(np.zeros(robot.dof))           # DH frames at q = 0
+    rows, boxes = [], []
+    for k, c in enumerate(link_capsules(robot)):
+        p, r = c.p, c.r
+        if c.body > 0:
+            C = np.linalg.inv(after[c.body]) @ X_BD[c.body]              # DH frame i in x_i: constant
+            p, r = C[:3, :3] @ p + C[:3, 3], C[:3, :3] @ r + C[:3, 3]
+        rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}", -1))
+    if model.tool_shapes:
+        tool = int(model.plant.GetBodyByName("tool").index())
+        for shape in model.tool_shapes:
+            capsules = tool_capsules(shape)
+            box = -1
+            if shape.kind in ("box", "cylinder"):
+                box = len(boxes)
+                boxes.append(_obstacle_row(_containing_box(shape), np.eye(4)))
+            rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box)
+                     for n, (p, r, radius) in enumerate(capsules)]
+    rows.sort(key=lambda row: row[0])                  # stable: the capsules keep their order
+    return rows, boxes
+
+
+class BroadPhase:
+    """The conservative compiled check of a CollisionModel's robot against ``checker`` (``model.checker`` or a
+    ``model.padded_checker``: its filtered pairs and paddings): ``free(Q)``, ``edge_free(q_a, q_b, step)`` and
+    ``edges_free(A, B, step)``."""
+
+    def __init__(self, model, checker):
+        self.checker = checker
+        #: Drake's edge step of that checker [rad]: ``edge_free``'s default.
+        self.step = float(checker.edge_step_size())
+        robot = model.robot
+        self.dof = robot.dof
+        self._chain = robot._chain
+        rows, boxes = _primitive_rows(model)
+        self._prims = np.array([[f, *p, *r, radius, np.linalg.norm(r - p) / 2.0, alternatives, box]
+                                for f, p, r, radius, alternatives, _, _, box in rows], dtype=float)
+        self._boxes = np.array(boxes, dtype=float).reshape(-1, OBSTACLE_COLUMNS)
+        #: Each primitive's Drake geometry name (``capsule<k>`` or the tool shape's), in kernel order.
+        self.names = [row[6] for row in rows]
+        frames = np.array([row[0] for row in rows])
+        self._starts = np.searchsorted(frames, np.arange(robot.dof + 2)).astype(np.int64)
+        prim_bodies = [row[5] for row in rows]
+        shapes = [i for i, row in enumerate(rows) if row[4] > 0]     # each shape's first row
+        X_BW = np.linalg.inv(np.eye(4) if model.cell is None else model.cell.X_WB)
+        objects = () if model.cell is None else model.cell.objects
+        self._obstacles = np.array([_obstacle_row(s, X_BW) for s in objects], dtype=float).reshape(-1, OBSTACLE_COLUMNS)
+        obstacle_bodies = [int(b.index()) for b in model.obstacles]
+        filtered, padding = checker.GetFilteredCollisionMatrix(), checker.GetPaddingMatrix()
+        pairs, pair_padding = [], []
+        for i in shapes:
+            for o, b in enumerate(obstacle_bodies):
+                if filtered[prim_bodies[i], b] == 0:
+                    pairs.append((ENV, i, o))
+                    pair_padding.append(padding[prim_bodies[i], b] + DRAKE_TOLERANCE_M)
+        for i in shapes:
+            for j in shapes:
+                a, b = prim_bodies[i], prim_bodies[j]
+                if i < j and a != b and filtered[a, b] == 0:
+                    pairs.append((SELF, i, j))
+                    pair_padding.append(padding[a, b] + DRAKE_TOLERANCE_M)
+        self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 3)
+        self._padding = np.array(pair_padding, dtype=float)
+        self._order_pairs(robot)
+
+    def _order_pairs(self, robot) -> None:
+        """Sort the pairs by how often they are not clear at ORDER_SAMPLES seeded random configurations, most
+        often first: a colliding configuration is refused after fewer pairs."""
+        count = np.zeros(len(self._pairs))
+        self._spheres_of_pairs()
+        Q = robot.random_configurations(np.random.default_rng(0), ORDER_SAMPLES)
+        pair_counts_into(self._model, Q, count)
+        order = np.argsort(-count, kind="stable")
+        self._pairs, self._padding = np.ascontiguousarray(self._pairs[order]), self._padding[order]
+        self._spheres_of_pairs()
+
+    def _spheres_of_pairs(self) -> None:
+        """Per pair, its bounding-sphere test: the rows (primitive, primitive or -1) whose midpoints it takes,
+        a fixed centre (an obstacle's) and the squared distance the midpoints must exceed. A tool shape takes
+        the containing capsule of the smallest radius plus half length (any of them clear clears the pair)."""
+        prims = self._prims
+
+        def tightest(i):
+            rows = range(i, i + int(prims[i, ALTERNATIVES]))
+            return min(rows, key=lambda a: prims[a, RADIUS] + prims[a, HALF])
+
+        self._sphere_rows = np.empty((len(self._pairs), 2), dtype=np.int64)
+        self._spheres = np.zeros((len(self._pairs), 4))
+        for k, ((kind, i, j), padding) in enumerate(zip(self._pairs, self._padding)):
+            a = tightest(i)
+            around = prims[a, RADIUS] + prims[a, HALF] + padding
+            if kind == ENV:
+                self._sphere_rows[k] = a, -1
+                self._spheres[k, :3] = self._obstacles[j, 1:4]
+                around += self._obstacles[j, 16]
+            else:
+                b = tightest(j)
+                self._sphere_rows[k] = a, b
+                around += prims[b, RADIUS] + prims[b, HALF]
+            self._spheres[k, 3] = around * around
+
+    @property
+    def _model(self):
+        return (self._chain, self._prims, self._starts, self._boxes, self._obstacles, self._pairs, self._padding,
+                self._sphere_rows, self._spheres)
+
+    def _batch(self, Q) -> np.ndarray:
+        Q = np.ascontiguousarray(Q, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.dof or not np.isfinite(Q).all():
+            raise ValueError(f"configurations must be finite, shape (k, {self.dof}), got shape {Q.shape}")
+        return Q
+
+    def free(self, Q) -> np.ndarray:
+        """Per configuration of Q (k, dof) [rad]: True only when Drake's checker with the same paddings
+        certainly finds it free (bool (k,)); False: maybe colliding, ask Drake."""
+        Q = self._batch(Q)
+        out = np.empty(len(Q), dtype=np.bool_)
+        free_into(self._model, Q, out)
+        return out
+
+    def edges_free(self, A, B, step: float | None = None) -> np.ndarray:
+        """Per edge A[k] -> B[k] ((k, dof) each [rad]): True only when every configuration Drake's
+        CheckEdgeCollisionFree checks on it at edge step ``step`` [rad] (default: the checker's) is
+        certainly free (bool (k,))."""
+        A, B = self._batch(A), self._batch(B)
+        if A.shape != B.shape:
+            raise ValueError(f"edge ends of shapes {A.shape} and {B.shape}")
+        step = self.step if step is None else float(step)
+        if not step > 0.0:
+            raise ValueError(f"edge step must be positive, got {step!r}")
+        out = np.empty(len(A), dtype=np.bool_)
+        edges_free_into(self._model, A, B, step, out)
+        return out
+
+    def edge_free(self, q_a, q_b, step: float | None = None) -> bool:
+        """One edge q_a -> q_b (see ``edges_free``)."""
+        return bool(self.edges_free(np.asarray(q_a, dtype=float)[None], np.asarray(q_b, dtype=float)[None],
+                                    step)[0])
+
+    def segments(self, Q) -> np.ndarray:
+        """The primitives' core segments (k, P, 2, 3) in the robot base frame B [m] at configurations Q."""
+        Q = self._batch(Q)
+        out = np.empty((len(Q), len(self._prims), 9))
+        segments_into(self._model, Q, out)
+        return out[:, :, :6].reshape(len(Q), len(self._prims), 2, 3)

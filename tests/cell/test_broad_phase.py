@@ -1,0 +1,174 @@
+"""The compiled broad phase: its link capsules are Drake's, its distances lower bounds, and it never calls free
+a configuration or an edge Drake's checker (with the same paddings) finds colliding."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+
+from pipeline.bench.broad_phase import CHECKERS
+from pipeline.bench.plan_sets import cell_model
+from pipeline.cell import broad_phase as bp
+from pipeline.cell.cell_file import cell_names, load_cell
+from pipeline.cell.collision import CollisionModel
+
+#: A cell with every obstacle kind and a tool box beside the gripper cylinder (mm, deg).
+ALL_KINDS_CELL = """\
+name: all_kinds
+length_unit: mm
+angle_unit: deg
+robot: gp7
+clearance: 10
+objects:
+  - {name: table, box: [800, 1200, 40], xyz: [650, 0, -20], rpy: [0, 0, 10]}
+  - {name: post, cylinder: [50, 900], xyz: [400, 300, 450], rpy: [20, 0, 0]}
+  - {name: disc, cylinder: [200, 30], xyz: [500, -300, 300]}
+  - {name: ball, sphere: 60, xyz: [300, -400, 200]}
+  - {name: rail, capsule: [20, 500], xyz: [300, 0, 700], quaternion: [0.7071068, 0.7071068, 0, 0]}
+tool_shapes:
+  - {name: gripper, cylinder: [35, 120], xyz: [0, 0, 60]}
+  - {name: camera, box: [40, 60, 90], xyz: [0, 70, 30], rpy: [0, 0, 30]}
+"""
+
+
+@pytest.fixture(scope="module")
+def shelf():
+    return cell_model("gp7_bookshelf")
+
+
+@pytest.fixture(scope="module")
+def irb():
+    return cell_model("irb1600_box")
+
+
+def _drake_free(checker, Q) -> np.ndarray:
+    return np.array([checker.CheckConfigCollisionFree(q) for q in Q])
+
+
+def _compare(model, count: int, seed: int) -> dict[str, tuple[int, float]]:
+    """Per checker of the benchmark: (false frees, fraction of Drake's free configurations called free)."""
+    Q = model.robot.random_configurations(np.random.default_rng(seed), count)
+    out = {}
+    for name, (extra_m, self_m) in CHECKERS.items():
+        broad = model.broad_phase(extra_m, self_m)
+        ours, drake = broad.free(Q), _drake_free(broad.checker, Q)
+        out[name] = (int((ours & ~drake).sum()), float((ours & drake).sum() / max(drake.sum(), 1)))
+    return out
+
+
+@pytest.mark.parametrize("which", ["shelf", "irb"])
+def test_the_capsules_are_drakes_in_the_world(which, request):
+    model = request.getfixturevalue(which)
+    broad = model.broad_phase()
+    Q = model.robot.random_configurations(np.random.default_rng(1), 10)
+    segments = broad.segments(Q) @ model.cell.X_WB[:3, :3].T + model.cell.X_WB[:3, 3]
+    context = model.diagram.CreateDefaultContext()
+    plant_context = model.plant.GetMyContextFromRoot(context)
+    checked = 0
+    for q, ours in zip(Q, segments):
+        model.plant.SetPositions(plant_context, q)
+        query = model.plant.get_geometry_query_input_port().Eval(plant_context)
+        inspector = query.inspector()
+        ids = {inspector.GetName(g).split("::")[-1]: g for g in inspector.GetAllGeometryIds()}
+        for k, name in enumerate(broad.names):
+            if not name.startswith("capsule"):
+                continue
+            shape = inspector.GetShape(ids[name])
+            half = shape.length() / 2.0 if hasattr(shape, "length") else 0.0
+            X = query.GetPoseInWorld(ids[name])
+            np.testing.assert_allclose(ours[k], [X.multiply([0, 0, -half]), X.multiply([0, 0, half])], atol=1e-9)
+            checked += 1
+    assert checked >= 10 * 6
+
+
+@njit
+def _distances(segments, boxes, halves):
+    """Per row: (segment-segment squared distance of segments[k] and segments[k + 1], segment-box squared
+    distance of segments[k] and the box of half sides halves[k])."""
+    out = np.empty((segments.shape[0] - 1, 2))
+    breaks = np.empty(8)
+    for k in range(segments.shape[0] - 1):
+        out[k, 0] = bp._segment_segment_sq(segments, k, segments, k + 1)
+        out[k, 1] = bp._segment_box_sq(segments[k, :3], segments[k, 3:] - segments[k, :3], halves[k], breaks)
+    return out
+
+
+def test_the_distances_are_exact_within_sampling():
+    rng = np.random.default_rng(2)
+    segments = rng.normal(size=(150, 6)) * 0.3
+    segments[::7, 3:] = segments[::7, :3]                                # points among them
+    segments[1::9, 3:] = segments[1::9, :3] + (segments[2::9, 3:] - segments[2::9, :3])[:len(segments[1::9])]  # parallels
+    halves = rng.uniform(0.01, 0.3, size=(150, 3))
+    ours = np.sqrt(_distances(segments, None, halves))
+    t = np.linspace(0.0, 1.0, 101)[:, None]
+    for k in range(len(segments) - 1):
+        a = segments[k, :3] + t * (segments[k, 3:] - segments[k, :3])
+        b = segments[k + 1, :3] + t * (segments[k + 1, 3:] - segments[k + 1, :3])
+        sampled = np.linalg.norm(a[:, None] - b[None], axis=2).min()
+        assert ours[k, 0] <= sampled + 1e-12 and ours[k, 0] >= sampled - 0.01
+        to_box = np.linalg.norm(np.maximum(np.abs(a) - halves[k], 0.0), axis=1).min()
+        assert ours[k, 1] <= to_box + 1e-12 and ours[k, 1] >= to_box - 0.01
+
+
+def test_never_free_where_drake_collides(shelf, irb):
+    shelf_result, irb_result = _compare(shelf, 2000, 3), _compare(irb, 2000, 4)
+    assert all(false == 0 for false, _ in [*shelf_result.values(), *irb_result.values()])
+    assert shelf_result["plain"][1] > 0.9 and shelf_result["planner"][1] > 0.9 and irb_result["plain"][1] > 0.9
+
+
+def test_the_irb1600_wrist_keeps_exactly_the_planner_self_margin_from_the_gripper(irb):
+    # Link 4's capsule ends at the wrist centre (radius 60 mm), the gripper's flat face is 65 mm beyond it on the
+    # flange axis at every configuration: 5 mm, the planner's SELF_PLANNING_MARGIN_M. Drake computes 5 mm plus
+    # about 1e-8 and calls it free; the broad phase cannot prove more than 5 mm and leaves every configuration
+    # to Drake with the planner's paddings.
+    clearance = irb.clearance(np.zeros(6))
+    assert clearance.self_pair == ("link4", "tool") and clearance.self == pytest.approx(0.005, abs=1e-6)
+    extra_m, self_m = CHECKERS["planner"]
+    assert self_m == pytest.approx(0.005)
+    assert not irb.broad_phase(extra_m, self_m).free(irb.robot.random_configurations(np.random.default_rng(5), 200)).any()
+
+
+def test_an_edge_called_free_is_free_for_drake(shelf):
+    extra_m, self_m = CHECKERS["planner"]
+    broad = shelf.broad_phase(extra_m, self_m)
+    rng = np.random.default_rng(6)
+    A = shelf.robot.random_configurations(rng, 150)
+    B = A + rng.normal(scale=0.15, size=A.shape)
+    ours = broad.edges_free(A, B)
+    drake = np.array([broad.checker.CheckEdgeCollisionFree(a, b) for a, b in zip(A, B)])
+    assert not (ours & ~drake).any()
+    assert ours.sum() > 0.8 * drake.sum() > 0
+    assert broad.edge_free(A[0], B[0]) == ours[0]
+    assert broad.edges_free(A[:20], B[:20], step=0.5).sum() >= ours[:20].sum()   # fewer steps: never stricter
+
+
+def test_every_obstacle_kind_and_a_tool_box(tmp_path):
+    path = tmp_path / "all_kinds.yaml"
+    path.write_text(ALL_KINDS_CELL)
+    cell = load_cell(path)
+    model = CollisionModel(cell.load_robot(), cell)
+    broad = model.broad_phase()
+    assert broad.names.count("camera") == len(bp.TOOL_SHORTENING) and len(broad._boxes) == 2
+    result = _compare(model, 2000, 7)
+    assert all(false == 0 for false, _ in result.values())
+    assert all(found > 0.8 for _, found in result.values())
+
+
+def test_bad_configurations_are_refused(shelf):
+    broad = shelf.broad_phase()
+    with pytest.raises(ValueError):
+        broad.free(np.zeros((3, 5)))
+    with pytest.raises(ValueError):
+        broad.free(np.full((1, 6), np.nan))
+    with pytest.raises(ValueError):
+        broad.edges_free(np.zeros((1, 6)), np.zeros((1, 6)), step=0.0)
+    assert shelf.broad_phase() is broad
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", cell_names())
+def test_never_free_where_drake_collides_in_every_demo_cell(name):
+    result = _compare(cell_model(name), 20_000, 8)
+    assert all(false == 0 for false, _ in result.values()), result
+    assert result["plain"][1] > 0.9, result
