@@ -64,6 +64,10 @@ TOOL_SHORTENING = (0.0, 0.5, 1.0)
 ENV, SELF = 0, 1
 #: Seeded random configurations that order the pairs (most often not clear first).
 ORDER_SAMPLES = 500
+#: Golden-section steps of the segment-to-cylinder distance (the bracket shrinks to 0.618^40 = 4e-9 of the
+#: segment), and the golden ratio's fraction.
+GOLDEN_STEPS = 40
+GOLDEN = 0.6180339887498949
 #: Segments d, e with |d x e|^2 at most this fraction of |d|^2 |e|^2 are parallel (or points).
 _PARALLEL = 1e-12
 
@@ -160,6 +164,34 @@ def _segment_box_sq(c, d, h, breaks):
     return best
 
 
+@inner(inline="always")
+def _point_cylinder(c, d, t, radius, half):
+    """Distance from the point c + t d (cylinder frame) to the cylinder of ``radius`` and ``half`` length along z."""
+    x, y, z = c[0] + t * d[0], c[1] + t * d[1], c[2] + t * d[2]
+    out, over = max(math.sqrt(x * x + y * y) - radius, 0.0), max(abs(z) - half, 0.0)
+    return math.sqrt(out * out + over * over)
+
+
+@inner()
+def _segment_cylinder_lower(c, d, radius, half):
+    """A lower bound of the distance from the segment c + t d, t in [0, 1] (c, d (3,) in the cylinder frame) to
+    the cylinder: the distance is convex in t, GOLDEN_STEPS of golden-section search bracket its minimum, and
+    |d| (its Lipschitz constant) times the bracket's width bounds what the bracket hides."""
+    a, b = 0.0, 1.0
+    x1, x2 = b - GOLDEN * (b - a), a + GOLDEN * (b - a)
+    f1, f2 = _point_cylinder(c, d, x1, radius, half), _point_cylinder(c, d, x2, radius, half)
+    for _ in range(GOLDEN_STEPS):
+        if f1 <= f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - GOLDEN * (b - a)
+            f1 = _point_cylinder(c, d, x1, radius, half)
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + GOLDEN * (b - a)
+            f2 = _point_cylinder(c, d, x2, radius, half)
+    return min(f1, f2) - math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * (b - a)
+
+
 @inner()
 def _to_obstacle(ob, o, x, y, z):
     """The point (x, y, z) in B expressed in obstacle o's frame."""
@@ -172,7 +204,7 @@ def _to_obstacle(ob, o, x, y, z):
 def _pair_clear(seg, i, ob, o, threshold, local, breaks):
     """Primitive i's core segment (row of ``seg``, in B) keeps more than ``threshold`` (its radius, the padding
     and the tolerance) from obstacle o's core (a sphere's or capsule's radius is added here): exact (a
-    cylinder: the larger of two lower bounds)."""
+    cylinder: its capsule, its box, then ``_segment_cylinder_lower``)."""
     kind = int(ob[o, 0])
     p = _to_obstacle(ob, o, seg[i, 0], seg[i, 1], seg[i, 2])
     r = _to_obstacle(ob, o, seg[i, 3], seg[i, 4], seg[i, 5])
@@ -191,7 +223,9 @@ def _pair_clear(seg, i, ob, o, threshold, local, breaks):
         local[2, 0], local[2, 1], local[2, 2] = ob[o, 13], ob[o, 14], ob[o, 15]
     local[3, 0], local[3, 1], local[3, 2] = p
     local[4, 0], local[4, 1], local[4, 2] = r[0] - p[0], r[1] - p[1], r[2] - p[2]
-    return _segment_box_sq(local[3], local[4], local[2], breaks) > threshold * threshold
+    if _segment_box_sq(local[3], local[4], local[2], breaks) > threshold * threshold:
+        return True
+    return kind == CYLINDER and _segment_cylinder_lower(local[3], local[4], ob[o, 13], ob[o, 14]) > threshold
 
 
 # -- the chain: every primitive's core segment in B -------------------------------------------------
@@ -405,14 +439,6 @@ def tool_capsules(shape) -> list[tuple[np.ndarray, np.ndarray, float]]:
     return out
 
 
-def _containing_box(shape):
-    """A box shape: the box itself, or the one containing a cylinder (same pose)."""
-    if shape.kind == "box":
-        return shape
-    radius, length = shape.size
-    return Shape(shape.name, "box", (2.0 * radius, 2.0 * radius, length), shape.X)
-
-
 def _obstacle_row(shape, X_BW: np.ndarray) -> np.ndarray:
     """One obstacle as a kernel row (see OBSTACLE_COLUMNS), its pose moved into B."""
     X = X_BW @ shape.X
@@ -452,7 +478,7 @@ def _primitive_rows(model) -> tuple[list[tuple], list[np.ndarray]]:
             box = -1
             if shape.kind in ("box", "cylinder"):
                 box = len(boxes)
-                boxes.append(_obstacle_row(_containing_box(shape), np.eye(4)))
+                boxes.append(_obstacle_row(shape, np.eye(4)))
             rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box)
                      for n, (p, r, radius) in enumerate(capsules)]
     rows.sort(key=lambda row: row[0])                  # stable: the capsules keep their order

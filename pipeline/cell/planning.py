@@ -7,17 +7,20 @@
    or towards the base; the flange straight out along the tool, across and in; a change of IK branch
    out in the open), best first by the time along them, at most MAX_DETOUR_CHECKS of them checked;
 3. the cell's lazy roadmap (``pipeline.cell.roadmap``: made once per cell and process, its edges checked
-   when a query needs them and remembered), its route shortcut (``shortcut_path``);
+   when a query needs them and remembered), its route shortcut (``shortcut_path``) and smoothed by time
+   (``smoothed_path``: partial shortcuts kept when the path gets quicker), unless a detour is quicker;
 4. a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``:
    a continuous joint searches half a turn beyond its start and goal values), then OMPL's
-   ``PathSimplifier`` (vertex reduction, then rope shortcutting at ROPE_STEP), its generator seeded per
-   plan (``seeded``).
+   ``PathSimplifier`` (vertex reduction, then rope shortcutting at ROPE_STEP) and ``smoothed_path``, its
+   generator seeded per plan (``seeded``).
 
-Every state is checked by Drake's checker and every edge by a coarse pass (the middle first, then by
-halves) before Drake's edge check, with obstacles kept PLANNING_MARGIN_M farther than the clearance and
+Every state and every edge is checked with obstacles kept PLANNING_MARGIN_M farther than the clearance and
 links SELF_PLANNING_MARGIN_M apart (the edges from a start or goal closer than that keep the clearance
-alone), with edge steps fine enough that no point dips by the margin between them, so the smooth path the
-timing draws through the vertices keeps the clearance the certificate then proves. With a tilt limit
+alone), at the configurations Drake's padded checker visits on an edge (steps fine enough that no point dips
+by the margin between them, so the smooth path the timing draws through the vertices keeps the clearance
+the certificate then proves): by the compiled broad phase first (``pipeline.cell.broad_phase``, conservative:
+it clears only what Drake's checker clears), by Drake's checker for the configurations it cannot clear;
+the path returned is then judged by Drake's checker alone, edge by edge. With a tilt limit
 (``pipeline.cell.tilt``) every state and edge step keeps the tool level too (the roadmap is then skipped: its
 verdicts hold for the unconstrained robot). Steps 1-3 are deterministic; the search is too when it ends
 within its budget.
@@ -25,7 +28,6 @@ within its budget.
 
 from __future__ import annotations
 
-import functools
 import heapq
 import time
 from dataclasses import dataclass
@@ -38,9 +40,11 @@ from ..model.ik import solve_analytic_unchecked
 from ..timing.joint_path import PathError, make_path
 from .roadmap import roadmap_of
 
-#: Extra distance to obstacles (beyond the clearance) and between links kept while planning [m].
+#: Extra distance to obstacles (beyond the clearance) and between links kept while planning [m]. Links: 4 mm,
+#: under the 5.0 mm the IRB 1600's link 4 capsule keeps from the demo cells' gripper at most configurations (with
+#: 5 mm that pair's verdict was the round-off of Drake's distance, and no bound can clear it).
 PLANNING_MARGIN_M = 0.01
-SELF_PLANNING_MARGIN_M = 0.005
+SELF_PLANNING_MARGIN_M = 0.004
 #: The step of OMPL's rope shortcutting [rad]: 1 (its default) shortens the demo cell's planned paths to
 #: 0.55 of the raw length in 56 ms median, 3 to 0.74 in 27 ms, vertex reduction alone to 0.87 in 11 ms
 #: (30 seeded pairs per demo cell, GP7, this machine kind).
@@ -65,12 +69,11 @@ MAX_QUICKER_CHECKS = 20
 TIME_DECIMALS = 6
 #: The tilt kept below a move's limit while planning [rad] (the timed spline departs from the edges).
 TILT_PLANNING_MARGIN_RAD = np.radians(2.0)
-#: Configurations along a detour's spline are checked this far apart [rad], every COARSE_STRIDE-th first
-#: (the program checks the spline it times again, and the certificate proves its clearance); an edge's
-#: coarse pass steps COARSE_STEP_RAD, the tilt along an edge TILT_STEP_RAD [rad].
+#: Configurations along a detour's spline are checked this far apart [rad] (the program checks the spline it
+#: times again, and the certificate proves its clearance); the tilt along an edge TILT_STEP_RAD apart [rad].
 CURVE_STEP_RAD = 0.03
-COARSE_STRIDE = 4
-COARSE_STEP_RAD = 0.08
+#: An edge's configurations are checked every EDGE_STRIDE-th first, then the rest.
+EDGE_STRIDE = 8
 TILT_STEP_RAD = 0.01
 #: Partial shortcuts tried on a roadmap's or a search's path, and the least time one must save to be kept [s].
 SMOOTH_ROUNDS = 40
@@ -115,14 +118,19 @@ class _Checks:
     TILT_PLANNING_MARGIN_RAD (or within the more tilted end's tilt, when larger) at every state and edge
     step. An end (start or goal) that keeps the clearance but not the margins is still a valid state, and
     the edges from it are checked against the clearance alone: the rest of the path keeps the margins.
-    Edge verdicts are remembered (a detour's offsets share edges)."""
+
+    Each configuration goes to the compiled broad phase first (``CollisionModel.broad_phase``: certainly free
+    or not), and only those it cannot clear to Drake's checker, so every verdict is Drake's checker's at the
+    configurations it would check itself (an edge's: those of its ``CheckEdgeCollisionFree``). Edge verdicts
+    are remembered (a detour's offsets share edges). ``judge`` checks a returned path with Drake alone."""
 
     def __init__(self, model, ends: tuple[np.ndarray, ...], tilt=None):
         self.model, self.tilt = model, tilt
         if tilt is not None:
             self.tilt_bound = max(tilt.max_rad - TILT_PLANNING_MARGIN_RAD, float(tilt.angles(model.robot, ends).max()))
         self.padded = model.padded_checker(PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M)
-        self.tight = [end for end in ends if not self.padded.CheckConfigCollisionFree(end)]
+        self.broad = model.broad_phase(PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M)
+        self.tight = [end for end in ends if not self._free(self.broad, self.padded, end[None])]
         self._edges: dict[tuple, bool] = {}
 
     def _is_tight(self, q: np.ndarray) -> bool:
@@ -131,56 +139,70 @@ class _Checks:
     def _level(self, Q: np.ndarray) -> bool:
         return self.tilt is None or bool(np.all(self.tilt.angles(self.model.robot, Q) <= self.tilt_bound))
 
+    @staticmethod
+    def _free(broad, checker, Q: np.ndarray) -> bool:
+        """Every configuration of Q (k, dof) free for ``checker``: the broad phase's, then Drake's checks of
+        those it cannot clear (in order; the first that collides ends it)."""
+        maybe = Q[~broad.free(Q)]
+        return all(checker.CheckConfigCollisionFree(q) for q in maybe)
+
+    def _checkers(self, q_a: np.ndarray, q_b: np.ndarray):
+        """(broad phase, Drake checker) of an edge: the plain ones from or to a tight end, else the padded."""
+        if self._is_tight(q_a) or self._is_tight(q_b):
+            return self.model.broad_phase(), self.model.checker
+        return self.broad, self.padded
+
     def state(self, q: np.ndarray) -> bool:
-        return (bool(self.padded.CheckConfigCollisionFree(q)) or self._is_tight(q)) and self._level(q)
+        return (self._free(self.broad, self.padded, q[None]) or self._is_tight(q)) and self._level(q[None])
 
     def states(self, Q: np.ndarray) -> bool:
-        """Every configuration of Q (k, dof) valid: every COARSE_STRIDE-th first (a collision usually
-        shows there), then the rest (one by one: Drake's parallel batch costs more per configuration
-        than it saves on this machine kind)."""
-        coarse = np.zeros(len(Q), dtype=bool)
-        coarse[::COARSE_STRIDE] = True
-        return self._level(Q) and all(self.state(q) for part in (Q[coarse], Q[~coarse]) for q in part)
+        """Every configuration of Q (k, dof) valid (an end of the query may be tight)."""
+        tight = np.array([self._is_tight(q) for q in Q], dtype=bool)
+        return self._level(Q) and self._free(self.broad, self.padded, Q[~tight])
 
-    def coarse(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        """The edge's configurations COARSE_STEP_RAD apart free, the middle one first and
-        then by halves (a collision anywhere shows after few checks)."""
-        checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
-        length = float(np.linalg.norm(q_b - q_a))
-        inner = q_a + halving_order(int(np.ceil(length / COARSE_STEP_RAD)))[:, None] * (q_b - q_a)
-        return all(checker.CheckConfigCollisionFree(q) for q in inner)
+    def valid(self, Q: np.ndarray) -> np.ndarray:
+        """Per configuration of Q (k, dof), whether it keeps the planning margins (bool (k,))."""
+        free = self.broad.free(Q)
+        free[~free] = [bool(self.padded.CheckConfigCollisionFree(q)) for q in Q[~free]]
+        return free
 
-    def full(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        """Drake's edge check at its full resolution (serial: its parallel check is 5x slower on a busy
-        2-core machine) and the tilt at TILT_STEP_RAD steps."""
-        checker = self.model.checker if self._is_tight(q_a) or self._is_tight(q_b) else self.padded
+    def _edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
+        """The configurations Drake's edge check visits free (``edge_configurations``, every EDGE_STRIDE-th
+        first: a blocked edge shows there) and the tool level at TILT_STEP_RAD steps."""
+        broad, checker = self._checkers(q_a, q_b)
+        Q = edge_configurations(q_a, q_b, broad.step)
+        coarse = np.arange(len(Q)) % EDGE_STRIDE == 0
+        free = self._free(broad, checker, Q[coarse]) and self._free(broad, checker, Q[~coarse])
         steps = np.linspace(0.0, 1.0, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / TILT_STEP_RAD)) + 1)
-        return bool(checker.CheckEdgeCollisionFree(q_a, q_b)) and self._level(q_a + steps[:, None] * (q_b - q_a))
-
-    def _remembered(self, check, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        key = (check.__name__, q_a.tobytes(), q_b.tobytes())
-        if key not in self._edges:
-            self._edges[key] = check(q_a, q_b)
-        return self._edges[key]
+        return free and self._level(q_a + steps[:, None] * (q_b - q_a))
 
     def edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        """The straight edge free: its coarse check, then its full one (each remembered)."""
-        return self._remembered(self.coarse, q_a, q_b) and self._remembered(self.full, q_a, q_b)
+        """The straight edge free (remembered)."""
+        key = (q_a.tobytes(), q_b.tobytes())
+        if key not in self._edges:
+            self._edges[key] = self._edge(q_a, q_b)
+        return self._edges[key]
 
     def polyline(self, vertices: np.ndarray) -> bool:
-        """Every edge of the polyline free: the coarse checks of all edges, the longest (the likeliest to
-        collide) first, before any full one."""
+        """Every edge of the polyline free, the longest (the likeliest to collide) first."""
         edges = sorted(zip(vertices[:-1], vertices[1:]), key=lambda e: -float(np.linalg.norm(e[1] - e[0])))
-        return all(self._remembered(self.coarse, a, b) for a, b in edges) and all(
-            self._remembered(self.full, a, b) for a, b in edges)
+        return all(self.edge(a, b) for a, b in edges)
+
+    def judge(self, vertices: np.ndarray) -> None:
+        """Drake's own edge check (``CheckEdgeCollisionFree`` with the cell's clearance, no broad phase) of every
+        edge of a returned path; PlanningError naming the edge if one fails (the broad phase would have passed
+        a collision)."""
+        for k, (q_a, q_b) in enumerate(zip(vertices[:-1], vertices[1:])):
+            if not self.model.checker.CheckEdgeCollisionFree(q_a, q_b):
+                raise PlanningError(f"Drake's checker refuses edge {k} of the planned path from {np.round(q_a, 4)} "
+                                    f"to {np.round(q_b, 4)}, which the broad phase passed: please report it")
 
 
-@functools.lru_cache(maxsize=256)
-def halving_order(count: int) -> np.ndarray:
-    """Fractions in (0, 1) at most 1 / count apart, the middle first, then the middles of the halves,
-    and so on (van der Corput order): a collision anywhere along an edge shows after few checks."""
-    bits = max(1, int(np.ceil(np.log2(max(count, 2)))))
-    return np.array([int(format(k, f"0{bits}b")[::-1], 2) for k in range(1, 2**bits)]) / 2**bits
+def edge_configurations(q_a: np.ndarray, q_b: np.ndarray, step: float) -> np.ndarray:
+    """The configurations Drake's ``CheckEdgeCollisionFree`` visits at edge step ``step`` [rad] (k, dof): q_b, then
+    q_a + (s / n) (q_b - q_a) for s = 0 .. n - 1, n = max(1, ceil(|q_b - q_a| / step))."""
+    n = max(1, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / step)))
+    return np.vstack([q_b, q_a + (np.arange(n) / n)[:, None] * (q_b - q_a)])
 
 
 def _check_endpoint(model, q: np.ndarray, which: str) -> None:
@@ -193,7 +215,8 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
     """A collision-free joint path from ``q_start`` to ``q_goal`` in ``model`` (see the module
     docstring); CollisionError when an end is not free, PlanningError when the planner finds nothing
     within ``time_budget`` [s]. ``seed``: OMPL's seed for this plan (``seeded``), so the same ends give
-    the same path in any process; ``tilt``: a ``pipeline.cell.tilt.TiltLimit`` the path keeps (None: none)."""
+    the same path in any process; ``tilt``: a ``pipeline.cell.tilt.TiltLimit`` the path keeps (None: none).
+    The path found is judged by Drake's checker alone before it is returned (``_Checks.judge``)."""
     if planner not in PLANNERS:
         raise ConfigurationError(f"unknown planner {planner!r}; choose one of {', '.join(PLANNERS)}")
     if not np.isfinite(time_budget) or time_budget <= 0.0:
@@ -207,6 +230,14 @@ def plan_joint_path(model, q_start, q_goal, planner: str = DEFAULT_PLANNER, time
             raise PlanningError(f"the {which} configuration tilts the tool {tilted:.1f} deg from the vertical, beyond "
                                 f"the limit of {np.degrees(tilt.max_rad):g} deg")
     checks = _Checks(model, (q_start, q_goal), tilt)
+    plan = _planned(model, checks, q_start, q_goal, planner, time_budget, seed, tilt)
+    checks.judge(plan.waypoints)
+    return plan
+
+
+def _planned(model, checks: _Checks, q_start, q_goal, planner: str, time_budget: float, seed: int,
+             tilt) -> PlannedPath:
+    """The stages of ``plan_joint_path`` in order (see the module docstring), its path not yet judged."""
     if checks.edge(q_start, q_goal):
         straight = np.array([q_start, q_goal])
         length = path_length(straight)
@@ -240,7 +271,7 @@ def _detour_plan(detour: tuple, began: float) -> PlannedPath:
 def _roadmap_route(model, checks: _Checks, q_start, q_goal, tilt, deadline: float) -> np.ndarray | None:
     """A route through the cell's roadmap (``pipeline.cell.roadmap``; none with a tilt limit): from the ends
     themselves, else from their exits (``_exit``: an end deep in a fixture has no roadmap node in view)."""
-    roadmap = None if tilt is not None else roadmap_of(model, checks.state)
+    roadmap = None if tilt is not None else roadmap_of(model, checks.valid)
     if roadmap is None:
         return None
     route = roadmap.path(q_start, q_goal, checks, deadline)
@@ -629,7 +660,8 @@ def _search(model, checks: _Checks, q_start, q_goal, planner_name, time_budget, 
     simplifier = og.PathSimplifier(info)
     simplifier.reduceVertices(path)
     simplifier.ropeShortcutPath(path, ROPE_STEP)
-    simplify_time = time.perf_counter() - began
     simplified = path_vertices(path, values)
     simplified[0], simplified[-1] = q_start, q_goal
+    simplified = smoothed_path(checks, model.robot.limits, simplified, seed)
+    simplify_time = time.perf_counter() - began
     return PlannedPath(simplified, planner_name, plan_time, simplify_time, path_length(raw), path_length(simplified))

@@ -4,8 +4,7 @@
 ``Roadmap(model)``: ROADMAP_NODES configurations drawn once from a fixed seed (ROADMAP_SEED) in the robot's
 joint limits, kept when they keep the planning margins, each joined to its ROADMAP_NEIGHBOURS nearest in
 time (the slowest joint's step over its top speed). No edge is checked when the roadmap is made: an edge is
-checked when a query's shortest path takes it (a coarse check of every edge of the path first, then the
-full checks), its verdict is kept for every later query, and the shortest path is searched again without
+checked when a query's shortest path takes it (the longest first), its verdict is kept for every later query, and the shortest path is searched again without
 the edges found blocked (SciPy's Dijkstra), until a path is free or none is left. The answer is the
 shortest free path of the roadmap, whatever earlier queries found out, so the same query gives the same path
 in any process. ``roadmap_of(model)`` makes a cell's roadmap once per process (the first query pays for
@@ -34,12 +33,12 @@ ROUTE_SLACK_S = 1.0
 _roadmaps: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def roadmap_of(model, state) -> Roadmap | None:
-    """The roadmap of ``model`` (a CollisionModel), made on first use with ``state(q) -> bool`` (the
-    planning margins); None for an arm with a continuous joint (no box to draw in) or a cell too crowded
+def roadmap_of(model, valid) -> Roadmap | None:
+    """The roadmap of ``model`` (a CollisionModel), made on first use with ``valid(Q) -> bool (k,)`` (the
+    planning margins of configurations Q (k, dof)); None for an arm with a continuous joint (no box to draw in) or a cell too crowded
     to fill one."""
     if model not in _roadmaps:
-        _roadmaps[model] = None if model.robot.limits.continuous.any() else Roadmap.made(model.robot, state)
+        _roadmaps[model] = None if model.robot.limits.continuous.any() else Roadmap.made(model.robot, valid)
     return _roadmaps[model]
 
 
@@ -61,11 +60,12 @@ class Roadmap:
         self.index = {(int(a), int(b)): k for k, (a, b) in enumerate(self.pairs)}
 
     @classmethod
-    def made(cls, robot, state) -> Roadmap | None:
+    def made(cls, robot, valid) -> Roadmap | None:
         rng = np.random.default_rng(ROADMAP_SEED)
         nodes: list[np.ndarray] = []
         for _ in range(MAX_DRAWS_PER_NODE):
-            nodes += [q for q in robot.random_configurations(rng, ROADMAP_NODES) if state(q)]
+            Q = robot.random_configurations(rng, ROADMAP_NODES)
+            nodes += list(Q[valid(Q)])
             if len(nodes) >= ROADMAP_NODES:
                 return cls(np.array(nodes[:ROADMAP_NODES]), robot.limits.qd_max)
         return None
@@ -77,7 +77,7 @@ class Roadmap:
         """The shortest free path from ``q_start`` to ``q_goal`` through the roadmap (k, dof), ends
         included, or None: none shorter than ROUTE_FACTOR times the straight edge plus ROUTE_SLACK_S, or
         none found by ``deadline`` (``time.perf_counter``). ``checks``: the query's
-        ``pipeline.cell.planning._Checks`` (its coarse and full edge checks). Whether a free route exists
+        ``pipeline.cell.planning._Checks`` (its remembered edge checks). Whether a free route exists
         within the limit does not depend on what earlier queries found out: the answer is the same in any
         process, unless the deadline cuts it short."""
         from scipy.sparse import coo_matrix
@@ -106,8 +106,7 @@ class Roadmap:
                     route.append(int(previous[route[-1]]))
                 route.reverse()
                 edges = [index.get((a, b), index.get((b, a))) for a, b in zip(route[:-1], route[1:])]
-                unknown = sorted((k for k in edges if verdicts[k] == 0),
-                                 key=lambda k: (k < len(self.pairs), -weights[k]))
+                unknown = [k for k in edges if verdicts[k] == 0]
                 if _checked(Q, pairs, verdicts, unknown, checks):
                     return Q[route]
             return None
@@ -116,14 +115,8 @@ class Roadmap:
 
 
 def _checked(Q: np.ndarray, pairs: np.ndarray, verdicts: np.ndarray, unknown: list[int], checks) -> bool:
-    """Whether the ``unknown`` edges (indices into ``pairs``; those joining the query's ends first, then
-    the longest: the likeliest to be blocked) are free: the coarse checks of all first, then the full
-    ones, each verdict kept in ``verdicts``."""
-    for stage in (checks.coarse, checks.full):
-        for k in unknown:
-            if verdicts[k] == 0 and not stage(Q[pairs[k, 0]], Q[pairs[k, 1]]):
-                verdicts[k] = -1
-        if any(verdicts[k] < 0 for k in unknown):
-            return False
-    verdicts[unknown] = 1
-    return True
+    """Whether the ``unknown`` edges (indices into ``pairs``) are all free, each checked and its verdict kept
+    in ``verdicts`` (every blocked edge of a route found at once: fewer searches)."""
+    for k in unknown:
+        verdicts[k] = 1 if checks.edge(Q[pairs[k, 0]], Q[pairs[k, 1]]) else -1
+    return all(verdicts[k] > 0 for k in unknown)

@@ -117,16 +117,17 @@ def test_never_free_where_drake_collides(shelf, irb):
     assert shelf_result["plain"][1] > 0.9 and shelf_result["planner"][1] > 0.9 and irb_result["plain"][1] > 0.9
 
 
-def test_the_irb1600_wrist_keeps_exactly_the_planner_self_margin_from_the_gripper(irb):
+def test_the_irb1600_wrist_keeps_more_than_the_planner_self_margin_from_the_gripper(irb):
     # Link 4's capsule ends at the wrist centre (radius 60 mm), the gripper's flat face is 65 mm beyond it on the
-    # flange axis at every configuration: 5 mm, the planner's SELF_PLANNING_MARGIN_M. Drake computes 5 mm plus
-    # about 1e-8 and calls it free; the broad phase cannot prove more than 5 mm and leaves every configuration
-    # to Drake with the planner's paddings.
+    # flange axis at every configuration: 5 mm. The planner keeps links SELF_PLANNING_MARGIN_M = 4 mm apart (with
+    # 5 mm Drake's verdict on that pair was its round-off, and the broad phase could clear no configuration).
     clearance = irb.clearance(np.zeros(6))
     assert clearance.self_pair == ("link4", "tool") and clearance.self == pytest.approx(0.005, abs=1e-6)
     extra_m, self_m = CHECKERS["planner"]
-    assert self_m == pytest.approx(0.005)
-    assert not irb.broad_phase(extra_m, self_m).free(irb.robot.random_configurations(np.random.default_rng(5), 200)).any()
+    assert self_m + 5 * bp.DRAKE_TOLERANCE_M < 0.005
+    Q = irb.robot.random_configurations(np.random.default_rng(5), 200)
+    drake = np.array([irb.padded_checker(extra_m, self_m).CheckConfigCollisionFree(q) for q in Q])
+    assert irb.broad_phase(extra_m, self_m).free(Q[drake]).mean() > 0.9
 
 
 def test_an_edge_called_free_is_free_for_drake(shelf):

@@ -1,5 +1,5 @@
 """The planner (``pipeline.cell.planning``, ``pipeline.cell.roadmap``): each stage gives the same path whatever was
-planned before it and in any process; the stages' building blocks (the halving order, slerp, shortcuts)."""
+planned before it and in any process; the stages' building blocks (slerp, shortcuts, smoothing, the broad phase's edges)."""
 
 from __future__ import annotations
 
@@ -61,12 +61,6 @@ def test_the_roadmap_answers_alike_cold_and_warm(shelf):
         routes.append(planning.plan_joint_path(model, queries[HARD[0]].start, queries[HARD[0]].goal))
     assert routes[0].planner == routes[1].planner == "roadmap"
     assert np.array_equal(routes[0].waypoints, routes[1].waypoints)
-
-
-def test_the_halving_order_visits_every_step_middle_first():
-    order = planning.halving_order(5)
-    assert order[0] == 0.5 and list(order[1:3]) == [0.25, 0.75]
-    assert sorted(order) == list(np.arange(1, 8) / 8)
 
 
 def test_interpolated_poses_turn_as_slerp_does():
