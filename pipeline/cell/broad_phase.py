@@ -10,12 +10,13 @@ The geometry, all in the robot's base frame B (obstacles moved there once):
 
 * robot primitives: the link capsules (``link_capsules``), exact; each tool shape on the last link by the
   capsules containing it (a sphere or capsule: itself; a cylinder or box: one per TOOL_SHORTENING along its
-  axis, the box's longest; a pair is clear when one of them is) and, against link capsules, also by its box
-  (a box itself, a cylinder's containing box: exact at the flat ends, where a capsule bulges). Each
+  axis, the box's longest; a pair is clear when one of them is) and, against link capsules, also by itself
+  (a box or a cylinder, as an obstacle below: exact at the flat ends, where a capsule bulges). Each
   primitive is a core segment (p, r) fixed in a frame of the chain and a radius.
 * obstacles: box (exact segment-to-box distance: the squared distance is a convex piecewise quadratic in the
-  segment parameter, minimised piece by piece), sphere and capsule (exact), cylinder (the larger of the
-  distances to the capsule and to the box containing it: both are lower bounds).
+  segment parameter, minimised piece by piece), sphere and capsule (exact), cylinder (its containing capsule,
+  then its containing box, then the distance to the cylinder itself, convex in the segment parameter:
+  golden-section search less what its last bracket can hide, a lower bound within 1e-8 m).
 * pairs and paddings from Drake itself: a robot body pair or robot-obstacle pair is checked when the
   checker's ``GetFilteredCollisionMatrix()`` has 0 for it, against its ``GetPaddingMatrix()`` entry.
 
@@ -53,7 +54,7 @@ OBSTACLE_COLUMNS = 17
 #: Columns of a primitive row: frame (0: B, i: after joint i), p (3), r (3), radius, half length, and the
 #: number of rows from this one that contain the same shape (1 for a capsule; a tool shape's first row has
 #: one per TOOL_SHORTENING, the rows after it 0): a pair is clear when one of them is.
-#: Then the row of its box in the tool boxes (a tool cylinder's containing box, a tool box itself; -1: none), which
+#: Then the row of its shape in the tool shapes (a tool box or cylinder as an obstacle row; -1: none), which
 #: bounds its distance to link capsules too.
 PRIMITIVE_COLUMNS = 11
 RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 7, 8, 9, 10
