@@ -7,9 +7,11 @@
    or towards the base; the flange straight out along the tool, across and in; a change of IK branch
    out in the open), best first by the time along them, at most MAX_DETOUR_CHECKS of them checked;
 3. the cell's lazy roadmap (``pipeline.cell.roadmap``: made once per cell and process, its edges checked
-   when a query needs them and remembered), its route shortcut (``shortcut_path``) and smoothed by time
+   when a query needs them and remembered; from the ends or from their exits, straight back along the tool,
+   within ROADMAP_SHARE of the time budget), its route shortcut (``shortcut_path``) and smoothed by time
    (``smoothed_path``: partial shortcuts kept when the path gets quicker), unless a detour is quicker;
-4. a search by an OMPL geometric planner (RRTConnect unless named) in the joint box (``planning_box``:
+4. a search by an OMPL geometric planner (RRTConnect unless named; from the ends' longest exits where both
+   have one: the narrow ways out of fixtures are then behind it) in the joint box (``planning_box``:
    a continuous joint searches half a turn beyond its start and goal values), then OMPL's
    ``PathSimplifier`` (vertex reduction, then rope shortcutting at ROPE_STEP) and ``smoothed_path``, its
    generator seeded per plan (``seeded``).
@@ -28,6 +30,7 @@ within its budget.
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import time
 from dataclasses import dataclass
@@ -58,8 +61,10 @@ LOWER_ROUNDS = 3
 #: (more is a change of IK branch).
 STRAIGHT_STEP_M = 0.1
 MAX_STEP_TURN_RAD = 0.5
-#: How far an end's exit from a fixture (straight back along the tool) may go, the shortest that is free [m].
-EXIT_OFFSETS_M = (0.1, 0.2, 0.3)
+#: How far an end's exits from a fixture go (straight back along the tool), while they are free [m].
+EXIT_OFFSETS_M = (0.1, 0.2, 0.3, 0.45, 0.6)
+#: The share of a plan's time budget the roadmap may take before the search (from the ends' longest exits) [1].
+ROADMAP_SHARE = 0.5
 #: Detours checked (best first) before the roadmap takes over; then the next ones checked while they are
 #: quicker than the roadmap's route (by ``path_time``).
 MAX_DETOUR_CHECKS = 40
@@ -247,7 +252,8 @@ def _planned(model, checks: _Checks, q_start, q_goal, planner: str, time_budget:
     detour = detours.next(MAX_DETOUR_CHECKS)
     if detour is not None:
         return _detour_plan(detour, began)
-    route = _roadmap_route(model, checks, q_start, q_goal, tilt, began + time_budget)
+    exits = (_exits(model.robot, checks, q_start), _exits(model.robot, checks, q_goal))
+    route = _roadmap_route(model, checks, q_start, q_goal, exits, tilt, began + ROADMAP_SHARE * time_budget)
     if route is not None:
         search_time = time.perf_counter() - began
         shortcut = smoothed_path(checks, model.robot.limits, shortcut_path(checks, route), seed)
@@ -257,7 +263,13 @@ def _planned(model, checks: _Checks, q_start, q_goal, planner: str, time_budget:
         return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
                            path_length(route), path_length(shortcut))
     budget_left = max(time_budget - (time.perf_counter() - began), 0.01)
-    return _search(model, checks, q_start, q_goal, planner, budget_left, seed)
+    if not (exits[0] and exits[1]):
+        return _search(model, checks, q_start, q_goal, planner, budget_left, seed)
+    out, back = exits[0][-1], exits[1][-1]                        # the longest ways out of the fixtures
+    found = _search(model, checks, out[-1], back[-1], planner, budget_left, seed)
+    vertices = np.vstack([out[:-1], found.waypoints, back[::-1][1:]])
+    return dataclasses.replace(found, waypoints=vertices, length_before=found.length_before + path_length(out)
+                               + path_length(back), length_after=path_length(vertices))
 
 
 def _detour_plan(detour: tuple, began: float) -> PlannedPath:
@@ -268,34 +280,41 @@ def _detour_plan(detour: tuple, began: float) -> PlannedPath:
     return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
 
 
-def _roadmap_route(model, checks: _Checks, q_start, q_goal, tilt, deadline: float) -> np.ndarray | None:
+def _roadmap_route(model, checks: _Checks, q_start, q_goal, exits: tuple, tilt, deadline: float) -> np.ndarray | None:
     """A route through the cell's roadmap (``pipeline.cell.roadmap``; none with a tilt limit): from the ends
-    themselves, else from their exits (``_exit``: an end deep in a fixture has no roadmap node in view)."""
+    themselves, else from their ``exits`` (``_exits`` of each: an end deep in a fixture has no roadmap node in
+    view), the shortest first, each end's longest where the other has longer ones."""
     roadmap = None if tilt is not None else roadmap_of(model, checks.valid)
     if roadmap is None:
         return None
     route = roadmap.path(q_start, q_goal, checks, deadline)
     if route is not None:
         return route
-    out, back = _exit(model.robot, checks, q_start), _exit(model.robot, checks, q_goal)
-    middle = None if out is None or back is None else roadmap.path(out[-1], back[-1], checks, deadline)
-    return None if middle is None else np.vstack([out[:-1], middle, back[::-1][1:]])
+    outs, backs = exits
+    for k in range(max(len(outs), len(backs)) if outs and backs else 0):
+        out, back = outs[min(k, len(outs) - 1)], backs[min(k, len(backs) - 1)]
+        middle = roadmap.path(out[-1], back[-1], checks, deadline)
+        if middle is not None:
+            return np.vstack([out[:-1], middle, back[::-1][1:]])
+    return None
 
 
-def _exit(robot, checks: _Checks, q: np.ndarray) -> np.ndarray | None:
-    """The way out of a fixture from q: the flange straight back along the tool by the first of
-    EXIT_OFFSETS_M whose path is free, through poses STRAIGHT_STEP_M apart (k, dof), q first, its
+def _exits(robot, checks: _Checks, q: np.ndarray) -> list[np.ndarray]:
+    """The ways out of a fixture from q, shortest first: the flange straight back along the tool by each of
+    EXIT_OFFSETS_M while the path is free, through poses STRAIGHT_STEP_M apart (k, dof), q first, its
     orientation kept (``_via``) or, where the arm cannot keep it (a joint at its limit), let free
-    (``_nudged``); None when none is free."""
-    X = robot.fk(q)
+    (``_nudged``)."""
+    X, exits = robot.fk(q), []
     for offset in EXIT_OFFSETS_M:
         count = int(np.ceil(offset / STRAIGHT_STEP_M))
         poses = interpolated_poses(X, _moved(X, -offset * X[:3, 2]), np.arange(1, count + 1) / count)
-        for solve in (_via, _nudged):
-            chain = _chained(robot, poses, q, solve)
-            if chain is not None and checks.polyline(np.array([q, *chain])):
-                return np.array([q, *chain])
-    return None
+        chains = (_chained(robot, poses, q, solve) for solve in (_via, _nudged))
+        way = next((np.array([q, *chain]) for chain in chains
+                    if chain is not None and checks.polyline(np.array([q, *chain]))), None)
+        if way is None:
+            break
+        exits.append(way)
+    return exits
 
 
 def _chained(robot, poses, q: np.ndarray, solve) -> list | None:
