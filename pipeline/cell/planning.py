@@ -590,7 +590,10 @@ def _via(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
         result = robot.ik(X, q_seed=seed)
     if not result.success:
         return None
-    return min((s.q for s in result.solutions), key=lambda q: float(np.linalg.norm(q - seed)), default=result.q)
+    if not result.solutions:
+        return result.q
+    Q = np.array([s.q for s in result.solutions])
+    return Q[int(np.argmin(((Q - seed) ** 2).sum(axis=1)))]
 
 
 def planning_box(limits, q_start: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
