@@ -57,6 +57,7 @@ bench: $(STAMP) $(PREBUILT)
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench timing
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cartesian
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench plan
+	OMP_NUM_THREADS=1 $(PY) -m pipeline bench broad-phase
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench cycle
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench scale
 	OMP_NUM_THREADS=1 $(PY) -m pipeline bench job
