@@ -16,7 +16,8 @@ $(STAMP): pyproject.toml
 
 # The IK kernels built at install (pipeline/model/ik/prebuilt.py): the first IK call then compiles nothing.
 # Rebuilt when the sources they are compiled from change; without a C compiler IK compiles just in time.
-$(PREBUILT): $(STAMP) $(wildcard pipeline/model/chain/*.py pipeline/model/ik/*.py pipeline/files/*.py)
+# The same step compiles the planner's broad phase (pipeline/cell/broad_phase.py) into Numba's cache.
+$(PREBUILT): $(STAMP) $(wildcard pipeline/model/chain/*.py pipeline/model/ik/*.py pipeline/files/*.py) pipeline/cell/broad_phase.py
 	$(PY) -m pipeline build-kernels || true
 
 # Demo: check every preset robot (Drake vs NumPy vs finite differences), print every demo cell

@@ -513,10 +513,15 @@ def _robot_or_cell(name_or_path: str):
 
 
 def cmd_build_kernels(args) -> int:
-    """Build the IK kernels ahead of time (``make`` does it at install); exit 1 with the reason when it cannot."""
+    """Build the IK kernels ahead of time (``make`` does it at install) and compile the planner's broad phase into
+    Numba's cache; exit 1 with the reason when the IK kernels cannot be built."""
+    from .cell.broad_phase import compile_kernels
     from .model.ik.prebuilt import main as build_prebuilt
 
-    return build_prebuilt()
+    status = build_prebuilt()
+    seconds = compile_kernels()
+    print(f"broad phase kernels compiled into Numba's cache in {seconds:.0f} s")
+    return status
 
 
 def cmd_bench(args) -> int:
@@ -918,7 +923,8 @@ def build_parser(prog: str = "python -m pipeline") -> argparse.ArgumentParser:
     build_kernels = _verb(sub, prog, "build-kernels", "build the IK kernels as machine code for this CPU, so "
                           "that no first IK call compiles (make does it at install)",
                           "Compile the IK kernels (both closed forms, single and batch, and damped least squares)\n"
-                          "ahead of time for this CPU into pipeline/model/ik/ (about a minute; needs a C compiler).\n"
+                          "ahead of time for this CPU into pipeline/model/ik/ (about a minute; needs a C compiler),\n"
+                          "and the planner's broad phase into Numba's cache (else its first use compiles, 20-40 s).\n"
                           "A process uses them while its sources, versions and CPU match the build; otherwise IK\n"
                           "compiles just in time (about 15 s on the first call). DH_PIPELINE_PREBUILT=0 switches\n"
                           "them off.", [""])
