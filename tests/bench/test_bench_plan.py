@@ -215,7 +215,7 @@ def test_a_tiny_run_has_every_figure_and_goal_of_a_set():
     for r in s.records:
         for m in (r.ours, r.peer):
             assert m.plan_s > 0.0 and (not m.solved or (m.tcp_ratio >= 1.0 - 1e-9 and m.time_ratio >= 1.0 - 1e-9))
-    assert len(report.goals) == 5 + 3 + 1
+    assert len(report.goals) == 5 + 6 + 1
     text = report.format_table()
     assert f"{s.name} ({s.cell}): {QUERIES} queries" in text and "certified / found" in text
     assert json.loads(json.dumps(report.to_dict()))["sets"][0]["name"] == SEARCH_SET
