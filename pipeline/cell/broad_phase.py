@@ -570,7 +570,9 @@ class BroadPhase:
                 self._sphere_rows, self._spheres)
 
     def _batch(self, Q) -> np.ndarray:
-        Q = np.ascontiguousarray(Q, dtype=float)
+        """Q as the one array type the kernels are compiled for (C-contiguous, writeable float64: a read-only
+        array is another type to Numba, and its first call would compile the kernel again, 5-10 s)."""
+        Q = np.require(Q, dtype=float, requirements=("C", "W"))
         if Q.ndim != 2 or Q.shape[1] != self.dof or not np.isfinite(Q).all():
             raise ValueError(f"configurations must be finite, shape (k, {self.dof}), got shape {Q.shape}")
         return Q

@@ -173,3 +173,12 @@ def test_never_free_where_drake_collides_in_every_demo_cell(name):
     result = _compare(cell_model(name), 20_000, 8)
     assert all(false == 0 for false, _ in result.values()), result
     assert result["plain"][1] > 0.9, result
+
+
+def test_read_only_and_strided_configurations_enter_the_compiled_kernels(shelf):
+    broad = shelf.broad_phase()
+    Q = shelf.robot.random_configurations(np.random.default_rng(8), 4)
+    frozen = Q.copy()
+    frozen.flags.writeable = False
+    assert (broad._batch(frozen).flags.writeable, broad._batch(Q.T.copy().T).flags.c_contiguous) == (True, True)
+    np.testing.assert_array_equal(broad.free(frozen), broad.free(Q))
