@@ -610,19 +610,3 @@ class BroadPhase:
         out = np.empty((len(Q), len(self._prims), 9))
         segments_into(self._model, Q, out)
         return out[:, :, :6].reshape(len(Q), len(self._prims), 2, 3)
-
-
-def compile_kernels() -> float:
-    """Compile the kernels Python calls (``free``, ``edges_free``) into Numba's cache beside this file, for the
-    robot alone (the types are the same in any cell), so that no first plan compiles them; the seconds taken."""
-    import time
-
-    from ..model.robot import load_robot
-    from .collision import CollisionModel
-
-    began = time.perf_counter()
-    broad = CollisionModel(load_robot("gp7")).broad_phase()
-    Q = np.zeros((1, broad.dof))
-    broad.free(Q)
-    broad.edges_free(Q, Q)
-    return time.perf_counter() - began

@@ -266,3 +266,19 @@ def _index(value):
     from pydrake.multibody.tree import BodyIndex
 
     return BodyIndex(int(value))
+
+
+def compile_broad_phase() -> float:
+    """Compile the broad phase's kernels Python calls (``free``, ``edges_free``) into Numba's cache beside
+    ``pipeline/cell/broad_phase.py``, for the GP7 alone (the types are the same in any cell), so that no first
+    plan compiles them; the seconds taken."""
+    import time
+
+    from ..model.robot import load_robot
+
+    began = time.perf_counter()
+    broad = CollisionModel(load_robot("gp7")).broad_phase()
+    Q = np.zeros((1, broad.dof))
+    broad.free(Q)
+    broad.edges_free(Q, Q)
+    return time.perf_counter() - began
