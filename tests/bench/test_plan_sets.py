@@ -14,6 +14,7 @@ from pipeline.bench.plan_sets import (
     ARM_CONFIGURATION,
     CUBBY_POSITIONS,
     MBM_SCENES,
+    OWN_SCENES,
     SCALE,
     SCENES,
     SET_NAMES,
@@ -32,6 +33,15 @@ from pipeline.model.ik.branches import configuration_labels
 #: Queries drawn per set in these tests (the benchmark draws 100).
 COUNT = 10
 DRAWN = tuple(name for name in SET_NAMES if name != "cubbies")
+
+
+def _quick(names) -> list:
+    """``names`` for parametrize, the IRB 1600 twins of our own scenes (their GP7 sets test the same code) in the
+    slow run only: make test stays under 5 minutes."""
+    return [pytest.param(name, marks=pytest.mark.slow)
+            if name.startswith("irb1600_") and name.split("_", 1)[1] in OWN_SCENES else name for name in names]
+
+
 NEW_CELLS = tuple(f"{robot}_{scene}" for robot in ("gp7", "irb1600") for scene in SCENES)
 #: How far a TCP pose may be from the oracle's FK [m or rotation-matrix entries]: round-off of two FK codes.
 FK_TOLERANCE = 1e-9
@@ -82,7 +92,7 @@ def test_a_model_of_another_cell_is_refused(sets):
         problem_set("gp7_bookshelf", model, count=2)
 
 
-@pytest.mark.parametrize("name", SET_NAMES)
+@pytest.mark.parametrize("name", _quick(SET_NAMES))
 def test_every_set_repeats_with_its_seed(sets, name):
     model, problems = sets(name)
     again = problem_set(name, model, count=COUNT, seed=0)
@@ -94,7 +104,7 @@ def test_every_set_repeats_with_its_seed(sets, name):
         assert not np.array_equal([q.start for q in other.queries], [q.start for q in problems.queries])
 
 
-@pytest.mark.parametrize("name", SET_NAMES)
+@pytest.mark.parametrize("name", _quick(SET_NAMES))
 def test_starts_and_goals_are_free_in_limits_and_their_tcp_poses_match_fk(sets, name):
     model, problems = sets(name)
     oracle = DhKinematics(model.robot.spec)
@@ -123,7 +133,7 @@ def test_the_cubbies_are_every_ordered_pair_of_six_targets_tool_pointing_in(sets
     assert positions == {tuple(np.round(p, 6)) for p in CUBBY_POSITIONS}
 
 
-@pytest.mark.parametrize("name", DRAWN)
+@pytest.mark.parametrize("name", _quick(DRAWN))
 def test_drawn_queries_chain_targets_of_different_regions(sets, name):
     _, problems = sets(name)
     assert [q.index for q in problems.queries] == list(range(COUNT))
@@ -139,7 +149,7 @@ def _regions(name: str) -> tuple:
     return scene, {region.name: region for region in scene.regions}
 
 
-@pytest.mark.parametrize("name", DRAWN)
+@pytest.mark.parametrize("name", _quick(DRAWN))
 def test_the_tool_points_down_or_in_as_the_region_says(sets, name):
     _, problems = sets(name)
     scene, regions = _regions(name)
@@ -154,7 +164,7 @@ def test_the_tool_points_down_or_in_as_the_region_says(sets, name):
                 assert axis @ [np.cos(heading), np.sin(heading), 0.0] >= np.cos(yaw) - AXIS_TOLERANCE
 
 
-@pytest.mark.parametrize("name", DRAWN)
+@pytest.mark.parametrize("name", _quick(DRAWN))
 def test_the_targets_are_in_their_regions(sets, name):
     _, problems = sets(name)
     _, regions = _regions(name)
@@ -178,7 +188,7 @@ def test_the_new_scenes_face_their_fixtures():
         ("chuck", "in", 0.0), ("table_back", "down", 90.0), ("chuck", "in", 0.0), ("table_front", "down", 90.0)]
 
 
-@pytest.mark.parametrize("name", DRAWN)
+@pytest.mark.parametrize("name", _quick(DRAWN))
 def test_most_drawn_queries_need_a_search(sets, name):
     model, problems = sets(name)
     assert search_fraction(model, problems) > 0.5
