@@ -46,10 +46,10 @@ call) median <= 10 ms and p95 <= 50 ms over its pairs; the whole job under 1 s (
 certified profile closer than the clearance.
 
 Problem sets that need a search (``pipeline.bench.plan_sets``: "cubbies", the GP7 reaching into the demo
-shelf's cubbies, every ordered pair of its 6 targets; MotionBenchMaker-style scenes and our own rack,
-machine door and totes for the GP7 and the IRB 1600, ``count`` queries each, seeded with ``seed``). Per query the two contestants take turns (ours
-first on even queries), each at the default planning budget (PLAN_TIME_BUDGET_S), after a warm-up of both
-on the set's first query:
+shelf's cubbies, every ordered pair of its 6 targets; MotionBenchMaker-style scenes and our own rack, machine
+door and totes for the GP7 and the IRB 1600, ``count`` queries each, seeded with ``seed``). Per query the two
+contestants take turns (ours first on even queries), each at the default planning budget (PLAN_TIME_BUDGET_S),
+after a warm-up of both on the set's first query:
 
 * ours: ``plan_joint_path(model, start, goal, seed=JOB_MOVE_SEED)``, the whole call timed (wall clock);
   then, untimed, the query as a programmer writes it (``query_document``: the set's cell, a tool with the

@@ -2,13 +2,13 @@
 "Path planning using lazy PRM", ICRA 2000).
 
 ``Roadmap(model)``: ROADMAP_NODES configurations drawn once from a fixed seed (ROADMAP_SEED) in the robot's
-joint limits, kept when they keep the planning margins, each joined to its ROADMAP_NEIGHBOURS nearest in
-time (the slowest joint's step over its top speed). No edge is checked when the roadmap is made: an edge is
-checked when a query's shortest path takes it (the longest first), its verdict is kept for every later query, and the shortest path is searched again without
-the edges found blocked (SciPy's Dijkstra), until a path is free or none is left. The answer is the
-shortest free path of the roadmap, whatever earlier queries found out, so the same query gives the same path
-in any process. ``roadmap_of(model)`` makes a cell's roadmap once per process (the first query pays for
-its nodes: ~1,000 collision checks).
+joint limits, kept when they keep the planning margins, each joined to its ROADMAP_NEIGHBOURS nearest in time
+(the slowest joint's step over its top speed). No edge is checked when the roadmap is made: an edge is checked
+when a query's shortest path takes it (every unchecked edge of that path), its verdict is kept for every later
+query, and the shortest path is searched again without the edges found blocked (SciPy's Dijkstra), until a
+path is free or none is left. The answer is the shortest free path of the roadmap, whatever earlier queries
+found out, so the same query gives the same path in any process. ``roadmap_of(model)`` makes a cell's roadmap
+once per process (the first query pays for its nodes: ~1,000 collision checks).
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ _roadmaps: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def roadmap_of(model, valid) -> Roadmap | None:
     """The roadmap of ``model`` (a CollisionModel), made on first use with ``valid(Q) -> bool (k,)`` (the
-    planning margins of configurations Q (k, dof)); None for an arm with a continuous joint (no box to draw in) or a cell too crowded
-    to fill one."""
+    planning margins of configurations Q (k, dof)); None for an arm with a continuous joint (no box to draw in)
+    or a cell too crowded to fill one."""
     if model not in _roadmaps:
         _roadmaps[model] = None if model.robot.limits.continuous.any() else Roadmap.made(model.robot, valid)
     return _roadmaps[model]

@@ -1,5 +1,6 @@
 """The planner (``pipeline.cell.planning``, ``pipeline.cell.roadmap``): each stage gives the same path whatever was
-planned before it and in any process; the stages' building blocks (slerp, shortcuts, smoothing, the broad phase's edges)."""
+planned before it and in any process; the stages' building blocks (slerp, shortcuts, smoothing, the retreat from a
+cubby)."""
 
 from __future__ import annotations
 

@@ -46,12 +46,12 @@ from .result import MAX_TARGET_COORDINATE_M, POSITION_TOLERANCE, ROTATION_TOLERA
 
 #: Below this, the wrist centre is on axis 1 [m] or axes 4 and 6 are aligned [1].
 SINGULAR_TOLERANCE = 1e-9
-#: Below this sine of the angle between axes 4 and 6 the wrist is taken as singular: the change of q4 +- q6
-#: from the seed's is split evenly between them [1]. That split (instead of the one the pose gives) turns the end frame by at most
-#: twice this (8e-7 rad < ROTATION_TOLERANCE; < POSITION_TOLERANCE up to 1.25 m from the wrist centre), so a
-#: pose a rounding away from the singularity (a quaternion to 7 digits: the solved q5 is up to 5 times the
-#: rounding) keeps the wrist where the seed (the previous waypoint) has it, not at a split the rounding decides,
-#: up to half a turn away.
+#: Below this sine of the angle between axes 4 and 6 the wrist is taken as singular: the change of q4 +- q6 from the
+#: seed's is split evenly between them [1]. That split (instead of the one the pose gives) turns the end frame by at
+#: most twice this (8e-7 rad < ROTATION_TOLERANCE; < POSITION_TOLERANCE up to 1.25 m from the wrist centre), so a
+#: pose a rounding away from the singularity (a quaternion to 7 digits: the solved q5 is up to 5 times the rounding)
+#: keeps the wrist where the seed (the previous waypoint) has it, not at a split the rounding decides, up to half a
+#: turn away.
 WRIST_SINGULAR_TOLERANCE = 4e-7
 #: How far past +-1 a cosine may go through rounding before the target counts as out of reach.
 REACH_SLACK = 1e-9
