@@ -31,6 +31,7 @@ within its budget.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import heapq
 import time
 from dataclasses import dataclass
@@ -252,7 +253,7 @@ def _planned(model, checks: _Checks, q_start, q_goal, planner: str, time_budget:
     detour = detours.next(MAX_DETOUR_CHECKS)
     if detour is not None:
         return _detour_plan(detour, began)
-    exits = (_exits(model.robot, checks, q_start), _exits(model.robot, checks, q_goal))
+    exits = functools.cache(lambda: (_exits(model.robot, checks, q_start), _exits(model.robot, checks, q_goal)))
     route = _roadmap_route(model, checks, q_start, q_goal, exits, tilt, began + ROADMAP_SHARE * time_budget)
     if route is not None:
         search_time = time.perf_counter() - began
@@ -263,9 +264,10 @@ def _planned(model, checks: _Checks, q_start, q_goal, planner: str, time_budget:
         return PlannedPath(shortcut, "roadmap", search_time, time.perf_counter() - began - search_time,
                            path_length(route), path_length(shortcut))
     budget_left = max(time_budget - (time.perf_counter() - began), 0.01)
-    if not (exits[0] and exits[1]):
+    outs, backs = exits()
+    if not (outs and backs):
         return _search(model, checks, q_start, q_goal, planner, budget_left, seed)
-    out, back = exits[0][-1], exits[1][-1]                        # the longest ways out of the fixtures
+    out, back = outs[-1], backs[-1]                               # the longest ways out of the fixtures
     found = _search(model, checks, out[-1], back[-1], planner, budget_left, seed)
     vertices = np.vstack([out[:-1], found.waypoints, back[::-1][1:]])
     return dataclasses.replace(found, waypoints=vertices, length_before=found.length_before + path_length(out)
@@ -280,17 +282,18 @@ def _detour_plan(detour: tuple, began: float) -> PlannedPath:
     return PlannedPath(vertices, "detour", time.perf_counter() - began, 0.0, length, length, smooth)
 
 
-def _roadmap_route(model, checks: _Checks, q_start, q_goal, exits: tuple, tilt, deadline: float) -> np.ndarray | None:
+def _roadmap_route(model, checks: _Checks, q_start, q_goal, exits, tilt, deadline: float) -> np.ndarray | None:
     """A route through the cell's roadmap (``pipeline.cell.roadmap``; none with a tilt limit): from the ends
-    themselves, else from their ``exits`` (``_exits`` of each: an end deep in a fixture has no roadmap node in
-    view), the shortest first, each end's longest where the other has longer ones."""
+    themselves, else from their exits (``exits()``: the ``_exits`` of each, made only when needed: an end deep in
+    a fixture has no roadmap node in view), the shortest first, each end's longest where the other has longer
+    ones."""
     roadmap = None if tilt is not None else roadmap_of(model, checks.valid)
     if roadmap is None:
         return None
     route = roadmap.path(q_start, q_goal, checks, deadline)
     if route is not None:
         return route
-    outs, backs = exits
+    outs, backs = exits()
     for k in range(max(len(outs), len(backs)) if outs and backs else 0):
         out, back = outs[min(k, len(outs) - 1)], backs[min(k, len(backs) - 1)]
         middle = roadmap.path(out[-1], back[-1], checks, deadline)
