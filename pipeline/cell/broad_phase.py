@@ -1,10 +1,11 @@
 """A compiled (Numba) broad phase for the planner's collision checks: conservative, Drake stays the judge.
 
 ``BroadPhase(model, checker)`` (made by ``CollisionModel.broad_phase(extra_m, self_m)``, for the checker of
-``padded_checker(extra_m, self_m)``, or the plain one) answers "certainly free" for many configurations per
-compiled call: True means every pair that checker checks has a distance whose lower bound exceeds the pair's
-padding plus DRAKE_TOLERANCE_M, so the checker finds the configuration free; False means "maybe colliding:
-ask Drake".
+``padded_checker(extra_m, self_m)``, or the plain one) gives a verdict on many configurations per compiled
+call: FREE means every pair that checker checks has a distance whose lower bound exceeds the pair's padding plus
+DRAKE_TOLERANCE_M, so the checker finds the configuration free; HIT means a pair whose shapes are exact here
+(link capsules, a tool sphere or capsule; box, sphere and capsule obstacles) is closer than its padding less
+DRAKE_TOLERANCE_M, so the checker finds it colliding; MAYBE: ask Drake.
 
 The geometry, all in the robot's base frame B (obstacles moved there once):
 
@@ -44,6 +45,8 @@ from ..model.chain.geometry import link_capsules
 #: capsule-cylinder distances with FCL's GJK (``distance_tolerance`` 1e-6), whose errors its own
 #: characterisation test bounds by 2e-5 m (geometry/proximity/test/distance_to_shape_characterize_test.cc).
 DRAKE_TOLERANCE_M = 1e-4
+#: A configuration's verdicts: certainly free, maybe colliding (ask Drake), certainly colliding.
+FREE, MAYBE, HIT = 1, 0, -1
 #: Obstacle kinds as the kernels take them.
 BOX, SPHERE, CAPSULE, CYLINDER = 0, 1, 2, 3
 _KINDS = {"box": BOX, "sphere": SPHERE, "capsule": CAPSULE, "cylinder": CYLINDER}
@@ -328,12 +331,14 @@ def _self_clear(seg, prims, i, j, padding, moved, local, breaks):
 
 
 @inner()
-def _config_free(model, q, work):
-    """True when q is certainly free: every robot-obstacle and link-link pair beyond its padding (with the
-    tolerance: ``padding``). ``model``: BroadPhase._model; ``work``: _scratch's."""
+def _config_verdict(model, q, work, settle):
+    """FREE when q is certainly free (every robot-obstacle and link-link pair beyond its padding, with the
+    tolerance: ``padding``), HIT when a pair of exact shapes certainly collides (``_hit``), else MAYBE; with
+    ``settle`` False, MAYBE at the first pair not clear. ``model``: BroadPhase._model; ``work``: _scratch's."""
     seg, moved = work[0], work[1]
     _segments(model[0], model[1], model[2], model[3], q, seg, moved)
     rows, spheres = model[7], model[8]
+    verdict = FREE
     for k in range(rows.shape[0]):                     # bounding spheres apart: most pairs stop here
         a, b = rows[k, 0], rows[k, 1]
         if b < 0:
@@ -341,8 +346,12 @@ def _config_free(model, q, work):
         else:
             gx, gy, gz = seg[a, 6] - seg[b, 6], seg[a, 7] - seg[b, 7], seg[a, 8] - seg[b, 8]
         if gx * gx + gy * gy + gz * gz <= spheres[k, 3] and not _clear(model, k, work):
-            return False
-    return True
+            if not settle:
+                return MAYBE
+            if _hit(model, k, work):
+                return HIT
+            verdict = MAYBE
+    return verdict
 
 
 @inner(inline="always")
@@ -355,6 +364,26 @@ def _clear(model, k, work):
     return _self_clear(seg, prims, pairs[k, 1], pairs[k, 2], padding[k], moved, local, breaks)
 
 
+@inner()
+def _hit(model, k, work):
+    """Pair k (not clear) certainly collides for Drake's checker: both shapes are exact here (a link capsule, a
+    tool sphere or capsule; a box, sphere or capsule obstacle: not a tool box or cylinder, nor a cylinder
+    obstacle, which are only bounded) and their distance is at most the pair's padding less the tolerance
+    (``padding`` holds padding + tolerance)."""
+    prims, obstacles, pairs, padding = model[1], model[4], model[5], model[6]
+    seg, moved, local, breaks = work
+    i, j = pairs[k, 1], pairs[k, 2]
+    within = padding[k] - 2.0 * DRAKE_TOLERANCE_M
+    if prims[i, ALTERNATIVES] != 1.0:
+        return False
+    if pairs[k, 0] == ENV:
+        threshold = prims[i, RADIUS] + within
+        return obstacles[j, 0] != CYLINDER and threshold > 0.0 and \
+            not _pair_clear(seg, i, obstacles, j, threshold, local, breaks)
+    threshold = prims[i, RADIUS] + prims[j, RADIUS] + within
+    return prims[j, ALTERNATIVES] == 1.0 and threshold > 0.0 and _segment_segment_sq(seg, i, seg, j) <= threshold * threshold
+
+
 @njit(cache=True)
 def _scratch(model):
     """Work arrays of the kernels: segments, moved tool boxes, local rows, breaks."""
@@ -363,11 +392,12 @@ def _scratch(model):
 
 
 @njit(cache=True)
-def free_into(model, Q, out):
-    """out[k] = configuration Q[k] is certainly free (see BroadPhase.free)."""
+def verdicts_into(model, Q, out):
+    """out[k] = FREE, MAYBE or HIT: configuration Q[k] certainly free, maybe colliding, certainly colliding (see
+    BroadPhase.verdicts)."""
     work = _scratch(model)
     for k in range(Q.shape[0]):
-        out[k] = _config_free(model, Q[k], work)
+        out[k] = _config_verdict(model, Q[k], work, True)
 
 
 @njit(cache=True)
@@ -399,7 +429,7 @@ def edges_free_into(model, A, B, step, out):
     q = np.empty(A.shape[1])
     for k in range(A.shape[0]):
         a, b = A[k], B[k]
-        free = _config_free(model, b, work)
+        free = _config_verdict(model, b, work, False) == FREE
         if free:
             squares = 0.0
             for j in range(q.shape[0]):
@@ -409,7 +439,7 @@ def edges_free_into(model, A, B, step, out):
                 ratio = s / n
                 for j in range(q.shape[0]):
                     q[j] = a[j] * (1.0 - ratio) + b[j] * ratio
-                if not _config_free(model, q, work):
+                if _config_verdict(model, q, work, False) != FREE:
                     free = False
                     break
         out[k] = free
@@ -577,13 +607,18 @@ class BroadPhase:
             raise ValueError(f"configurations must be finite, shape (k, {self.dof}), got shape {Q.shape}")
         return Q
 
-    def free(self, Q) -> np.ndarray:
-        """Per configuration of Q (k, dof) [rad]: True only when Drake's checker with the same paddings
-        certainly finds it free (bool (k,)); False: maybe colliding, ask Drake."""
+    def verdicts(self, Q) -> np.ndarray:
+        """Per configuration of Q (k, dof) [rad] (int8 (k,)): FREE only when Drake's checker with the same
+        paddings certainly finds it free, HIT only when it certainly finds it colliding (a pair of exact shapes
+        closer than its padding less DRAKE_TOLERANCE_M), MAYBE otherwise (ask Drake)."""
         Q = self._batch(Q)
-        out = np.empty(len(Q), dtype=np.bool_)
-        free_into(self._model, Q, out)
+        out = np.empty(len(Q), dtype=np.int8)
+        verdicts_into(self._model, Q, out)
         return out
+
+    def free(self, Q) -> np.ndarray:
+        """Per configuration of Q (k, dof) [rad]: certainly free (bool (k,); False: maybe colliding, ask Drake)."""
+        return self.verdicts(Q) == FREE
 
     def edges_free(self, A, B, step: float | None = None) -> np.ndarray:
         """Per edge A[k] -> B[k] ((k, dof) each [rad]): True only when every configuration Drake's

@@ -269,7 +269,7 @@ def _index(value):
 
 
 def compile_broad_phase() -> float:
-    """Compile the broad phase's kernels Python calls (``free``, ``edges_free``) into Numba's cache beside
+    """Compile the broad phase's kernels Python calls (``verdicts``, ``edges_free``) into Numba's cache beside
     ``pipeline/cell/broad_phase.py``, for the GP7 alone (the types are the same in any cell), so that no first
     plan compiles them; the seconds taken."""
     import time

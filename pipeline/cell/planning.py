@@ -40,8 +40,10 @@ import numpy as np
 
 from ..errors import CollisionError, ConfigurationError, PlanningError
 from ..files.choices import DEFAULT_PLANNER, PLAN_TIME_BUDGET_S, PLANNERS
-from ..model.ik import solve_analytic_unchecked
+from ..model.ik.analytic import nearest_analytic
+from ..model.ik.jacobian import nudged_position
 from ..timing.joint_path import PathError, make_path
+from .broad_phase import FREE, HIT, MAYBE
 from .roadmap import roadmap_of
 
 #: Extra distance to obstacles (beyond the clearance) and between links kept while planning [m]. Links: 4 mm,
@@ -147,10 +149,12 @@ class _Checks:
 
     @staticmethod
     def _free(broad, checker, Q: np.ndarray) -> bool:
-        """Every configuration of Q (k, dof) free for ``checker``: the broad phase's, then Drake's checks of
-        those it cannot clear (in order; the first that collides ends it)."""
-        maybe = Q[~broad.free(Q)]
-        return all(checker.CheckConfigCollisionFree(q) for q in maybe)
+        """Every configuration of Q (k, dof) free for ``checker``: the broad phase's verdicts (none a certain
+        hit), then Drake's checks of those it cannot settle (in order; the first that collides ends it)."""
+        verdicts = broad.verdicts(Q)
+        if (verdicts == HIT).any():
+            return False
+        return all(checker.CheckConfigCollisionFree(q) for q in Q[verdicts == MAYBE])
 
     def _checkers(self, q_a: np.ndarray, q_b: np.ndarray):
         """(broad phase, Drake checker) of an edge: the plain ones from or to a tight end, else the padded."""
@@ -168,8 +172,9 @@ class _Checks:
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
         """Per configuration of Q (k, dof), whether it keeps the planning margins (bool (k,))."""
-        free = self.broad.free(Q)
-        free[~free] = [bool(self.padded.CheckConfigCollisionFree(q)) for q in Q[~free]]
+        verdicts = self.broad.verdicts(Q)
+        free, maybe = verdicts == FREE, verdicts == MAYBE
+        free[maybe] = [bool(self.padded.CheckConfigCollisionFree(q)) for q in Q[maybe]]
         return free
 
     def _edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
@@ -574,23 +579,16 @@ def _nudged(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
     """Joint values near ``seed`` whose flange is at X's position, its orientation free (damped least
     squares on the position alone, NUDGE_ITERATIONS steps; None when it does not get within
     NUDGE_TOLERANCE_M or leaves the limits): a via that keeps the wrist as it is between the ends."""
-    q, target, limits = seed.copy(), X[:3, 3], robot.limits
-    for _ in range(NUDGE_ITERATIONS):
-        X_q, J = robot.fk_and_jacobian(q)
-        error = target - X_q[:3, 3]
-        if np.linalg.norm(error) < NUDGE_TOLERANCE_M:
-            return q if np.all((q >= limits.q_min) & (q <= limits.q_max)) else None
-        J = J[:3]
-        q = q + J.T @ np.linalg.solve(J @ J.T + NUDGE_DAMPING**2 * np.eye(3), error)
-    return None
+    return nudged_position(robot, X[:3, 3], seed, NUDGE_ITERATIONS, NUDGE_TOLERANCE_M, NUDGE_DAMPING)
 
 
 def _via(robot, X: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
     """The IK solution of X nearest ``seed`` (None: out of reach): the closed form alone where the arm
-    has one (an unreachable via costs it 50 us, the numeric fallback 5 ms), else the numeric methods."""
-    result = solve_analytic_unchecked(robot, X, seed)
-    if result is None:
-        result = robot.ik(X, q_seed=seed)
+    has one (an unreachable via costs it 20 us, the numeric fallback 5 ms), else the numeric methods."""
+    fits, q = nearest_analytic(robot, X, seed)
+    if fits:
+        return q
+    result = robot.ik(X, q_seed=seed)
     if not result.success:
         return None
     if not result.solutions:

@@ -1,5 +1,5 @@
 """The compiled broad phase: its link capsules are Drake's, its distances lower bounds, and it never calls free
-a configuration or an edge Drake's checker (with the same paddings) finds colliding."""
+a configuration or an edge Drake's checker (with the same paddings) finds colliding, nor a hit one it finds free."""
 
 from __future__ import annotations
 
@@ -46,14 +46,18 @@ def _drake_free(checker, Q) -> np.ndarray:
     return np.array([checker.CheckConfigCollisionFree(q) for q in Q])
 
 
-def _compare(model, count: int, seed: int) -> dict[str, tuple[int, float]]:
-    """Per checker of the benchmark: (false frees, fraction of Drake's free configurations called free)."""
+def _compare(model, count: int, seed: int) -> dict[str, tuple[int, float, int, float]]:
+    """Per checker of the benchmark: (false frees, fraction of Drake's free configurations called free, false
+    hits, fraction of Drake's colliding configurations called a hit)."""
     Q = model.robot.random_configurations(np.random.default_rng(seed), count)
     out = {}
     for name, (extra_m, self_m) in CHECKERS.items():
         broad = model.broad_phase(extra_m, self_m)
-        ours, drake = broad.free(Q), _drake_free(broad.checker, Q)
-        out[name] = (int((ours & ~drake).sum()), float((ours & drake).sum() / max(drake.sum(), 1)))
+        verdicts, drake = broad.verdicts(Q), _drake_free(broad.checker, Q)
+        ours, hit = verdicts == bp.FREE, verdicts == bp.HIT
+        out[name] = (int((ours & ~drake).sum()), float((ours & drake).sum() / max(drake.sum(), 1)),
+                     int((hit & drake).sum()), float((hit & ~drake).sum() / max((~drake).sum(), 1)))
+        assert np.array_equal(broad.free(Q), ours)
     return out
 
 
@@ -111,10 +115,12 @@ def test_the_distances_are_exact_within_sampling():
         assert ours[k, 1] <= to_box + 1e-12 and ours[k, 1] >= to_box - 0.01
 
 
-def test_never_free_where_drake_collides(shelf, irb):
+def test_never_free_where_drake_collides_nor_a_hit_where_it_is_free(shelf, irb):
     shelf_result, irb_result = _compare(shelf, 2000, 3), _compare(irb, 2000, 4)
-    assert all(false == 0 for false, _ in [*shelf_result.values(), *irb_result.values()])
+    results = [*shelf_result.values(), *irb_result.values()]
+    assert all(false_free == 0 and false_hit == 0 for false_free, _, false_hit, _ in results)
     assert shelf_result["plain"][1] > 0.9 and shelf_result["planner"][1] > 0.9 and irb_result["plain"][1] > 0.9
+    assert all(hits > 0.3 for _, _, _, hits in results)
 
 
 def test_the_irb1600_wrist_keeps_more_than_the_planner_self_margin_from_the_gripper(irb):
@@ -152,8 +158,8 @@ def test_every_obstacle_kind_and_a_tool_box(tmp_path):
     broad = model.broad_phase()
     assert broad.names.count("camera") == len(bp.TOOL_SHORTENING) and len(broad._boxes) == 2
     result = _compare(model, 2000, 7)
-    assert all(false == 0 for false, _ in result.values())
-    assert all(found > 0.8 for _, found in result.values())
+    assert all(false_free == 0 and false_hit == 0 for false_free, _, false_hit, _ in result.values())
+    assert all(found > 0.8 and hits > 0.3 for _, found, _, hits in result.values())
 
 
 def test_bad_configurations_are_refused(shelf):
@@ -171,7 +177,7 @@ def test_bad_configurations_are_refused(shelf):
 @pytest.mark.parametrize("name", cell_names())
 def test_never_free_where_drake_collides_in_every_demo_cell(name):
     result = _compare(cell_model(name), 20_000, 8)
-    assert all(false == 0 for false, _ in result.values()), result
+    assert all(false_free == 0 and false_hit == 0 for false_free, _, false_hit, _ in result.values()), result
     assert result["plain"][1] > 0.9, result
 
 

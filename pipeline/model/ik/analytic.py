@@ -186,6 +186,26 @@ def solve_analytic_unchecked(robot, X_target, q_seed) -> IkResult | None:
         return None
 
 
+def nearest_analytic(robot, X_target, q_seed) -> tuple[bool, np.ndarray | None]:
+    """(whether the closed form fits the arm, the in-limit solution of the full pose X_target (4, 4) [m] nearest
+    q_seed (6,) [rad] or None when none is): ``solve_analytic_unchecked``'s first solution without building its
+    IkResult (a planner's many single poses: a fifth of the call). A pose or seed the kernel refuses counts as
+    not fitting (the caller's slower path then checks them)."""
+    solver = analytic_solver_for(robot)
+    if not solver.applicable:
+        return False, None
+    out = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS))
+    try:
+        numbers = python_entry(solver.kernels.solve_one)(solver.geometry, robot._chain, robot._limit_rows, X_target,
+                                                         q_seed, out)
+    except (TypeError, ValueError):
+        return False, None
+    count = numbers[closed_form.COUNT]
+    if count > SINGLE_CAPACITY:                        # unsorted beyond the buffer: the full call sorts them
+        return True, _solve_one(robot, solver, X_target, q_seed).q
+    return True, (out[0, :6].copy() if count > 0 else None)
+
+
 def _solve_one(robot, solver: AnalyticSolver, X: np.ndarray, seed: np.ndarray) -> IkResult:
     out = np.empty((SINGLE_CAPACITY, closed_form.SOLUTION_COLUMNS))
     solve_one = python_entry(solver.kernels.solve_one)

@@ -250,3 +250,26 @@ def descend(chain, q_min, q_max, X_target, kind, q, max_iterations):
     for j in range(dof):
         strict &= q_min[j] <= q[j] <= q_max[j]
     return q, iterations, position_error, rotation_error, strict
+
+
+@kernel(f"boolean({MATRIX}, float64[::1], float64[::1], {ANY_VECTOR}, float64[::1], int64, float64, float64)")
+def nudge_position(chain, q_min, q_max, target, q, iterations, tolerance, damping):
+    """Damped least squares on the end's position alone, from q (dof,) in place: up to ``iterations`` steps
+    q += (J^T J + damping^2 I)^-1 J^T e (J the position rows of the Jacobian, e the error to ``target`` (3,) [m];
+    no clamping, the orientation left free). True when the error gets below ``tolerance`` [m] with every joint in
+    its limits (q is then the answer)."""
+    dof = q.shape[0]
+    J, L, step, e = np.empty((6, dof)), np.empty((dof, dof)), np.empty(dof), np.empty(3)
+    for _ in range(iterations):
+        x = pose_and_jacobian(chain, q, J)
+        e[0], e[1], e[2] = target[0] - x[3], target[1] - x[7], target[2] - x[11]
+        if math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) < tolerance:
+            for j in range(dof):
+                if not q_min[j] <= q[j] <= q_max[j]:
+                    return False
+            return True
+        _factor(J, 3, damping * damping, L)
+        _solve(L, J, e, 3, step)
+        for j in range(dof):
+            q[j] += step[j]
+    return False

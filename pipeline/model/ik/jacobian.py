@@ -30,6 +30,17 @@ def _descend(robot, target: IkTarget, q: np.ndarray, max_iterations: int):
                                          KIND_CODES[target.kind], q, max_iterations)
 
 
+def nudged_position(robot, position: np.ndarray, q_seed: np.ndarray, iterations: int, tolerance: float,
+                    damping: float) -> np.ndarray | None:
+    """Joint values near ``q_seed`` whose end is at ``position`` (3,) [m], its orientation free: damped least
+    squares on the position alone (``descent.nudge_position``: ``iterations`` steps of fixed ``damping`` [m], no
+    restarts); None when it does not get within ``tolerance`` [m] or leaves the limits."""
+    limits, q = robot.limits, np.array(q_seed, dtype=float)
+    reached = descent.nudge_position(robot._chain, limits.q_min, limits.q_max, position, q, iterations, tolerance,
+                                     damping)
+    return q if reached else None
+
+
 def _nearest_the_seed(robot, q: np.ndarray, q_seed: np.ndarray) -> np.ndarray:
     """q with each revolute joint shifted by 2 pi to the in-limit representative nearest the seed."""
     revolute = np.array([joint.is_revolute for joint in robot.spec.joints])
