@@ -24,7 +24,7 @@ The geometry, all in the robot's base frame B (obstacles moved there once):
 Per configuration: the chain, then one pass over every pair's bounding spheres (most pairs stop there), the
 others tested exactly, in the order of how often each pair was not clear at ORDER_SAMPLES seeded random
 configurations (a colliding configuration stops early). Edges: the configurations Drake's
-``CheckEdgeCollisionFree`` checks (``edges_free_into``).
+``CheckEdgeCollisionFree`` checks (``edge_maybes_into``).
 
 The link frames come from the chain of ``pipeline.model.chain.compiled`` (``moved_pose``): after joint i
 the chain is at ``x_i = K_0 M_1 K_1 ... M_i K_i``, a constant transform from link i's body frame (DH frame
@@ -421,28 +421,32 @@ def segments_into(model, Q, out):
 
 
 @njit(cache=True)
-def edges_free_into(model, A, B, step, out):
-    """out[k] = every configuration Drake's CheckEdgeCollisionFree checks on the edge A[k] -> B[k] at edge
-    step ``step`` is certainly free: B[k], then A[k] (1 - s/n) + B[k] s/n for s = 0..n-1, n = max(1,
-    ceil(|B[k] - A[k]| / step)) (Drake's LinearDistanceAndInterpolationProvider, weights 1)."""
+def edge_maybes_into(model, a, b, step, stride, out):
+    """The configurations Drake's CheckEdgeCollisionFree checks on the edge a -> b at edge step ``step`` (b, then
+    a (1 - s/n) + b s/n for s = 0..n-1, n = max(1, ceil(|b - a| / step)): Drake's
+    LinearDistanceAndInterpolationProvider, weights 1), every ``stride``-th of them first (a blocked edge shows
+    there): -1 when one certainly collides (HIT), else how many are MAYBE, written in that order into out."""
     work = _scratch(model)
-    q = np.empty(A.shape[1])
-    for k in range(A.shape[0]):
-        a, b = A[k], B[k]
-        free = _config_verdict(model, b, work, False) == FREE
-        if free:
-            squares = 0.0
+    q = np.empty(a.shape[0])
+    squares = 0.0
+    for j in range(q.shape[0]):
+        squares += (b[j] - a[j]) ** 2
+    n = int(max(1.0, math.ceil(math.sqrt(squares) / step)))
+    count = 0
+    for coarse in (True, False):
+        for i in range(n + 1):
+            if (i % stride == 0) != coarse:
+                continue
+            ratio = (i - 1) / n
             for j in range(q.shape[0]):
-                squares += (b[j] - a[j]) ** 2
-            n = int(max(1.0, math.ceil(math.sqrt(squares) / step)))
-            for s in range(n):
-                ratio = s / n
-                for j in range(q.shape[0]):
-                    q[j] = a[j] * (1.0 - ratio) + b[j] * ratio
-                if _config_verdict(model, q, work, False) != FREE:
-                    free = False
-                    break
-        out[k] = free
+                q[j] = b[j] if i == 0 else a[j] * (1.0 - ratio) + b[j] * ratio
+            verdict = _config_verdict(model, q, work, True)
+            if verdict == HIT:
+                return -1
+            if verdict == MAYBE:
+                out[count] = q
+                count += 1
+    return count
 
 
 # -- the model in arrays --------------------------------------------------------------------------
@@ -620,24 +624,33 @@ class BroadPhase:
         """Per configuration of Q (k, dof) [rad]: certainly free (bool (k,); False: maybe colliding, ask Drake)."""
         return self.verdicts(Q) == FREE
 
-    def edges_free(self, A, B, step: float | None = None) -> np.ndarray:
-        """Per edge A[k] -> B[k] ((k, dof) each [rad]): True only when every configuration Drake's
-        CheckEdgeCollisionFree checks on it at edge step ``step`` [rad] (default: the checker's) is
-        certainly free (bool (k,))."""
-        A, B = self._batch(A), self._batch(B)
-        if A.shape != B.shape:
-            raise ValueError(f"edge ends of shapes {A.shape} and {B.shape}")
+    def edge_maybes(self, q_a, q_b, step: float | None = None, stride: int = 1) -> np.ndarray | None:
+        """The edge q_a -> q_b ((dof,) each [rad]) at edge step ``step`` [rad] (default: the checker's), every
+        ``stride``-th configuration first: None when a configuration Drake's CheckEdgeCollisionFree checks on it
+        certainly collides, else those it may find colliding (k, dof), in that order (none: certainly free)."""
+        (q_a,), (q_b,) = self._batch(np.asarray(q_a)[None]), self._batch(np.asarray(q_b)[None])
         step = self.step if step is None else float(step)
         if not step > 0.0:
             raise ValueError(f"edge step must be positive, got {step!r}")
-        out = np.empty(len(A), dtype=np.bool_)
-        edges_free_into(self._model, A, B, step, out)
-        return out
+        rows = int(np.ceil(float(np.linalg.norm(q_b - q_a)) / step)) + 3     # n + 1 and Eigen's rounding
+        out = np.empty((rows, self.dof))
+        count = edge_maybes_into(self._model, q_a, q_b, step, int(stride), out)
+        return None if count < 0 else out[:count]
+
+    def edges_free(self, A, B, step: float | None = None) -> np.ndarray:
+        """Per edge A[k] -> B[k] ((k, dof) each [rad]): True only when every configuration Drake's
+        CheckEdgeCollisionFree checks on it at edge step ``step`` [rad] (default: the checker's) is certainly
+        free (bool (k,))."""
+        A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+        if A.shape != B.shape:
+            raise ValueError(f"edge ends of shapes {A.shape} and {B.shape}")
+        maybes = [self.edge_maybes(a, b, step) for a, b in zip(A, B)]
+        return np.array([m is not None and len(m) == 0 for m in maybes], dtype=bool)
 
     def edge_free(self, q_a, q_b, step: float | None = None) -> bool:
         """One edge q_a -> q_b (see ``edges_free``)."""
-        return bool(self.edges_free(np.asarray(q_a, dtype=float)[None], np.asarray(q_b, dtype=float)[None],
-                                    step)[0])
+        maybes = self.edge_maybes(q_a, q_b, step)
+        return maybes is not None and len(maybes) == 0
 
     def segments(self, Q) -> np.ndarray:
         """The primitives' core segments (k, P, 2, 3) in the robot base frame B [m] at configurations Q."""

@@ -178,14 +178,17 @@ class _Checks:
         return free
 
     def _edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
-        """The configurations Drake's edge check visits free (``edge_configurations``, every EDGE_STRIDE-th
-        first: a blocked edge shows there) and the tool level at TILT_STEP_RAD steps."""
+        """The configurations Drake's edge check visits free (the broad phase's verdicts, every EDGE_STRIDE-th
+        first: a blocked edge shows there; Drake's checks of those it cannot settle) and the tool level at
+        TILT_STEP_RAD steps."""
         broad, checker = self._checkers(q_a, q_b)
-        Q = edge_configurations(q_a, q_b, broad.step)
-        coarse = np.arange(len(Q)) % EDGE_STRIDE == 0
-        free = self._free(broad, checker, Q[coarse]) and self._free(broad, checker, Q[~coarse])
+        maybe = broad.edge_maybes(q_a, q_b, stride=EDGE_STRIDE)
+        if maybe is None or not all(checker.CheckConfigCollisionFree(q) for q in maybe):
+            return False
+        if self.tilt is None:
+            return True
         steps = np.linspace(0.0, 1.0, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / TILT_STEP_RAD)) + 1)
-        return free and self._level(q_a + steps[:, None] * (q_b - q_a))
+        return self._level(q_a + steps[:, None] * (q_b - q_a))
 
     def edge(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
         """The straight edge free (remembered)."""
@@ -200,20 +203,15 @@ class _Checks:
         return all(self.edge(a, b) for a, b in edges)
 
     def judge(self, vertices: np.ndarray) -> None:
-        """Drake's own edge check (``CheckEdgeCollisionFree`` with the cell's clearance, no broad phase) of every
-        edge of a returned path; PlanningError naming the edge if one fails (the broad phase would have passed
-        a collision)."""
-        for k, (q_a, q_b) in enumerate(zip(vertices[:-1], vertices[1:])):
-            if not self.model.checker.CheckEdgeCollisionFree(q_a, q_b):
+        """Drake's own edge checks (``CheckEdgesCollisionFree`` with the cell's clearance, the edges in parallel,
+        no broad phase) of every edge of a returned path; PlanningError naming the first edge that fails (the
+        broad phase would have passed a collision)."""
+        edges = list(zip(vertices[:-1], vertices[1:]))
+        for k, free in enumerate(self.model.checker.CheckEdgesCollisionFree(edges)):
+            if not free:
+                q_a, q_b = edges[k]
                 raise PlanningError(f"Drake's checker refuses edge {k} of the planned path from {np.round(q_a, 4)} "
                                     f"to {np.round(q_b, 4)}, which the broad phase passed: please report it")
-
-
-def edge_configurations(q_a: np.ndarray, q_b: np.ndarray, step: float) -> np.ndarray:
-    """The configurations Drake's ``CheckEdgeCollisionFree`` visits at edge step ``step`` [rad] (k, dof): q_b, then
-    q_a + (s / n) (q_b - q_a) for s = 0 .. n - 1, n = max(1, ceil(|q_b - q_a| / step))."""
-    n = max(1, int(np.ceil(float(np.linalg.norm(q_b - q_a)) / step)))
-    return np.vstack([q_b, q_a + (np.arange(n) / n)[:, None] * (q_b - q_a)])
 
 
 def _check_endpoint(model, q: np.ndarray, which: str) -> None:

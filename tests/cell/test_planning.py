@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from pipeline.bench.plan_sets import problem_set, set_model
 from pipeline.cell import planning, roadmap
+from pipeline.errors import PlanningError
 
 #: Queries of the IRB 1600 bookshelf set whose detours fail (the roadmap plans them; OMPL finds them in < 1 s).
 HARD = 8, 9
@@ -126,3 +127,18 @@ def test_a_planned_cubby_to_cubby_move_retreats_along_the_tool_and_goes_in_along
     into = P[-1] - P[len(P) - 1 - np.argmax(np.linalg.norm(P - P[-1], axis=1)[::-1] > 0.05)]
     assert -out @ X[0, :3, 2] > 0.9 * np.linalg.norm(out)
     assert into @ X[-1, :3, 2] > 0.9 * np.linalg.norm(into)
+
+
+def test_drakes_judgement_catches_a_broad_phase_that_calls_a_blocked_edge_free(monkeypatch):
+    """A broad phase that calls every configuration and edge free plans the straight edge through the cubbies' board:
+    Drake's checker, judging the returned path alone, refuses it and names the edge."""
+    from pipeline.cell.broad_phase import BroadPhase, FREE
+
+    model = set_model("cubbies")
+    query = next(q for q in problem_set("cubbies", model).queries
+                 if q.start_region == "cubby_0" and q.goal_region == "cubby_5")
+    assert not model.edge_is_free(query.start, query.goal)
+    monkeypatch.setattr(BroadPhase, "verdicts", lambda self, Q: np.full(len(Q), FREE, dtype=np.int8))
+    monkeypatch.setattr(BroadPhase, "edge_maybes", lambda self, q_a, q_b, step=None, stride=1: np.empty((0, 6)))
+    with pytest.raises(PlanningError, match="refuses edge 0 of the planned path"):
+        planning.plan_joint_path(model, query.start, query.goal, seed=1)
