@@ -142,3 +142,45 @@ def test_drakes_judgement_catches_a_broad_phase_that_calls_a_blocked_edge_free(m
     monkeypatch.setattr(BroadPhase, "edge_maybes", lambda self, q_a, q_b, step=None, stride=1: np.empty((0, 6)))
     with pytest.raises(PlanningError, match="refuses edge 0 of the planned path"):
         planning.plan_joint_path(model, query.start, query.goal, seed=1)
+
+
+def test_spline_time_is_near_toppras_duration_and_refuses_a_spline_out_of_the_limits():
+    from pipeline.model.robot import load_robot
+    from pipeline.timing import time_path
+    from pipeline.timing.joint_path import make_path
+
+    robot = load_robot("gp7")
+    limits, rng = robot.limits, np.random.default_rng(4)
+    for count in (3, 4, 7):
+        middle = (limits.q_min + limits.q_max) / 2.0
+        vertices = middle + rng.uniform(-0.8, 0.8, (count, 6))
+        toppra = time_path(robot, make_path(vertices, limits.q_min, limits.q_max, "spline")).duration
+        assert 0.85 * toppra < planning.spline_time(limits, vertices) < 1.1 * toppra
+    edge = np.tile(middle, (4, 1))                          # axis 1 turns back 3 mm from its limit: the spline dips past it
+    edge[:, 0] = limits.q_min[0] + np.array([0.5, 0.003, 0.004, 0.5])
+    assert planning.spline_time(limits, edge) == np.inf
+
+
+def test_a_thinned_spline_drops_the_vertices_that_bend_it_and_keeps_the_ends():
+    from pipeline.model.robot import load_robot
+
+    class Free:                                              # every configuration keeps the margins
+        def states(self, Q):
+            return True
+
+    robot = load_robot("gp7")
+    corner = np.array([0.0, 0.3, 0.0, 0.0, 0.4, 0.0])
+    out = np.linspace(np.zeros(6), corner, 6)                # a straight retreat in 5 short steps, then across
+    across = corner + np.array([1.2, 0.0, 0.2, 0.0, 0.0, 0.5])
+    vertices = np.vstack([out, across])
+    thinned = planning.thinned_spline(robot, Free(), vertices)
+    assert len(thinned) < len(vertices)
+    assert np.array_equal(thinned[0], vertices[0]) and np.array_equal(thinned[-1], vertices[-1])
+    assert planning.spline_time(robot.limits, thinned) < planning.spline_time(robot.limits, vertices) - 0.01
+    assert np.array_equal(planning.thinned_spline(robot, Free(), vertices[:2]), vertices[:2])
+
+    class Blocked(Free):                                     # a spline other than the one through all is blocked
+        def states(self, Q):
+            return False
+
+    np.testing.assert_array_equal(planning.thinned_spline(robot, Blocked(), vertices), vertices)
