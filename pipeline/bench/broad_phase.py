@@ -5,16 +5,18 @@ links apart; ``planner``: the planner's padded checker, PLANNING_MARGIN_M beyond
 SELF_PLANNING_MARGIN_M between links), ``count`` random configurations in the joint limits
 (``random_configurations``, seeded with ``seed`` and the cell's place in the list) are checked by both:
 
-* ours: ``BroadPhase.free`` on chunks of CHUNK configurations (one compiled call each);
+* ours: ``BroadPhase.verdicts`` on chunks of CHUNK configurations (one compiled call each: certainly free, certainly
+  colliding or maybe);
 * Drake: ``CheckConfigCollisionFree`` on each configuration of the same chunk, in a Python loop;
 
 timed with ``time.perf_counter`` (wall clock), chunk by chunk in turns (drift of the machine hits both alike),
 after one warm-up chunk of both. Reported: configurations per second of each, their ratio, the configurations
-Drake finds free, the false frees (ours free where Drake's checker is not: must be 0) and the fraction of
-Drake's free configurations ours calls free (the rest go to Drake in the planner).
+Drake finds free, the false frees (ours free where Drake's checker is not: must be 0), the false hits (ours
+certainly colliding where Drake's checker finds it free: must be 0), the fraction of Drake's free configurations
+ours calls free and of its colliding ones ours calls a hit (the rest go to Drake in the planner).
 
-Goals: no false free; ours >= RATE_GOAL x Drake's rate; >= FREE_FRACTION_GOAL of Drake's free configurations
-called free, per cell and checker.
+Goals: no false free, no false hit; ours >= RATE_GOAL x Drake's rate; >= FREE_FRACTION_GOAL of Drake's free
+configurations called free, per cell and checker.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..cell.broad_phase import FREE, HIT
 from ..cell.cell_file import cell_names
 from ..cell.collision import SELF_CLEARANCE_M
 from ..cell.planning import PLANNING_MARGIN_M, SELF_PLANNING_MARGIN_M
@@ -41,8 +44,8 @@ FREE_FRACTION_GOAL = 0.9
 
 @dataclass(frozen=True)
 class BroadPhaseRow:
-    """One cell and checker: rates [configurations/s], their ratio, Drake's free fraction, ours' false frees
-    and the fraction of Drake's free configurations ours calls free."""
+    """One cell and checker: rates [configurations/s], their ratio, Drake's free fraction, ours' false frees and
+    false hits, the fraction of Drake's free configurations ours calls free and of its colliding ones a hit."""
 
     cell: str
     checker: str
@@ -53,6 +56,8 @@ class BroadPhaseRow:
     drake_free: float
     false_free: int
     free_found: float
+    false_hit: int
+    hits_found: float
 
 
 def measure_broad_phase(name: str, count: int, seed: int = 0, stream: int = 0) -> list[BroadPhaseRow]:
@@ -64,23 +69,25 @@ def measure_broad_phase(name: str, count: int, seed: int = 0, stream: int = 0) -
     for checker_name, (extra_m, self_m) in CHECKERS.items():
         broad = model.broad_phase(extra_m, self_m)
         drake = broad.checker
-        broad.free(Q[:CHUNK])                                  # warm-up: the kernels load, the caches fill
+        broad.verdicts(Q[:CHUNK])                              # warm-up: the kernels load, the caches fill
         for q in Q[:min(CHUNK, 200)]:
             drake.CheckConfigCollisionFree(q)
         ours_s = drake_s = 0.0
-        ours, theirs = np.empty(count, dtype=bool), np.empty(count, dtype=bool)
+        ours, theirs = np.empty(count, dtype=np.int8), np.empty(count, dtype=bool)
         for start in range(0, count, CHUNK):
             chunk = Q[start:start + CHUNK]
             began = time.perf_counter()
-            ours[start:start + len(chunk)] = broad.free(chunk)
+            ours[start:start + len(chunk)] = broad.verdicts(chunk)
             ours_s += time.perf_counter() - began
             began = time.perf_counter()
             theirs[start:start + len(chunk)] = [drake.CheckConfigCollisionFree(q) for q in chunk]
             drake_s += time.perf_counter() - began
-        free = int(theirs.sum())
+        free, hit = ours == FREE, ours == HIT
+        frees, collisions = int(theirs.sum()), int((~theirs).sum())
         rows.append(BroadPhaseRow(name, checker_name, count, count / ours_s, count / drake_s,
-                                  drake_s / ours_s, free / count, int((ours & ~theirs).sum()),
-                                  float((ours & theirs).sum() / free) if free else 1.0))
+                                  drake_s / ours_s, frees / count, int((free & ~theirs).sum()),
+                                  float((free & theirs).sum() / frees) if frees else 1.0, int((hit & theirs).sum()),
+                                  float((hit & ~theirs).sum() / collisions) if collisions else 1.0))
     return rows
 
 
@@ -94,11 +101,12 @@ class BroadPhaseBenchReport(GoalReport):
 
     def format_table(self) -> str:
         lines = [f"Broad-phase benchmark: {self.count:,} random configurations per cell (seed {self.seed}), "
-                 "ours (BroadPhase.free, compiled, batched) beside Drake's CheckConfigCollisionFree loop",
+                 "ours (BroadPhase.verdicts, compiled, batched) beside Drake's CheckConfigCollisionFree loop",
                  f"{'cell':24s} {'checker':8s} {'ours [1/s]':>12s} {'Drake [1/s]':>12s} {'ratio':>7s} "
-                 f"{'Drake free':>10s} {'false free':>10s} {'found free':>10s}"]
+                 f"{'Drake free':>10s} {'false free':>10s} {'found free':>10s} {'false hit':>9s} {'found hit':>9s}"]
         lines += [f"{r.cell:24s} {r.checker:8s} {r.ours_rate:12,.0f} {r.drake_rate:12,.0f} {r.ratio:6.1f}x "
-                  f"{100 * r.drake_free:9.1f}% {r.false_free:10d} {100 * r.free_found:9.2f}%" for r in self.rows]
+                  f"{100 * r.drake_free:9.1f}% {r.false_free:10d} {100 * r.free_found:9.2f}% {r.false_hit:9d} "
+                  f"{100 * r.hits_found:8.2f}%" for r in self.rows]
         lines += goal_lines("Goals:", self.goals, self.versions)
         return "\n".join(lines)
 
@@ -108,10 +116,11 @@ def run_broad_phase_benchmark(cells: tuple[str, ...] | None = None, count: int =
     """The benchmark (see the module docstring) on ``cells`` (None: every demo cell)."""
     names = tuple(cell_names()) if cells is None else tuple(cells)
     rows = [row for k, name in enumerate(names) for row in measure_broad_phase(name, count, seed, k)]
-    false_free = sum(r.false_free for r in rows)
+    false_free, false_hit = sum(r.false_free for r in rows), sum(r.false_hit for r in rows)
     slowest = min(rows, key=lambda r: r.ratio)
     least = min(rows, key=lambda r: r.free_found)
     goals = [Goal("false frees over all cells and checkers", false_free, "= 0", false_free == 0),
+             Goal("false hits over all cells and checkers", false_hit, "= 0", false_hit == 0),
              Goal(f"rate ratio ours / Drake, the lowest ({slowest.cell}, {slowest.checker}) [x]", slowest.ratio,
                   f">= {RATE_GOAL:g}", slowest.ratio >= RATE_GOAL),
              Goal(f"Drake-free configurations ours calls free, the lowest ({least.cell}, {least.checker})",

@@ -331,14 +331,14 @@ def _self_clear(seg, prims, i, j, padding, moved, local, breaks):
 
 
 @inner()
-def _config_verdict(model, q, work, settle):
+def _config_verdict(model, q, work):
     """FREE when q is certainly free (every robot-obstacle and link-link pair beyond its padding, with the
-    tolerance: ``padding``), HIT when a pair of exact shapes certainly collides (``_hit``), else MAYBE; with
-    ``settle`` False, MAYBE at the first pair not clear. ``model``: BroadPhase._model; ``work``: _scratch's."""
+    tolerance: ``padding``); else decided at the first pair not clear (the pairs most often not clear come
+    first): HIT when that pair's shapes certainly collide (``_hit``), MAYBE otherwise. ``model``:
+    BroadPhase._model; ``work``: _scratch's."""
     seg, moved = work[0], work[1]
     _segments(model[0], model[1], model[2], model[3], q, seg, moved)
     rows, spheres = model[7], model[8]
-    verdict = FREE
     for k in range(rows.shape[0]):                     # bounding spheres apart: most pairs stop here
         a, b = rows[k, 0], rows[k, 1]
         if b < 0:
@@ -346,12 +346,8 @@ def _config_verdict(model, q, work, settle):
         else:
             gx, gy, gz = seg[a, 6] - seg[b, 6], seg[a, 7] - seg[b, 7], seg[a, 8] - seg[b, 8]
         if gx * gx + gy * gy + gz * gz <= spheres[k, 3] and not _clear(model, k, work):
-            if not settle:
-                return MAYBE
-            if _hit(model, k, work):
-                return HIT
-            verdict = MAYBE
-    return verdict
+            return HIT if _hit(model, k, work) else MAYBE
+    return FREE
 
 
 @inner(inline="always")
@@ -397,7 +393,7 @@ def verdicts_into(model, Q, out):
     BroadPhase.verdicts)."""
     work = _scratch(model)
     for k in range(Q.shape[0]):
-        out[k] = _config_verdict(model, Q[k], work, True)
+        out[k] = _config_verdict(model, Q[k], work)
 
 
 @njit(cache=True)
@@ -440,7 +436,7 @@ def edge_maybes_into(model, a, b, step, stride, out):
             ratio = (i - 1) / n
             for j in range(q.shape[0]):
                 q[j] = b[j] if i == 0 else a[j] * (1.0 - ratio) + b[j] * ratio
-            verdict = _config_verdict(model, q, work, True)
+            verdict = _config_verdict(model, q, work)
             if verdict == HIT:
                 return -1
             if verdict == MAYBE:

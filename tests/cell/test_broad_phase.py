@@ -120,7 +120,7 @@ def test_never_free_where_drake_collides_nor_a_hit_where_it_is_free(shelf, irb):
     results = [*shelf_result.values(), *irb_result.values()]
     assert all(false_free == 0 and false_hit == 0 for false_free, _, false_hit, _ in results)
     assert shelf_result["plain"][1] > 0.9 and shelf_result["planner"][1] > 0.9 and irb_result["plain"][1] > 0.9
-    assert all(hits > 0.3 for _, _, _, hits in results)
+    assert all(hits > 0.2 for _, _, _, hits in results)
 
 
 def test_the_irb1600_wrist_keeps_more_than_the_planner_self_margin_from_the_gripper(irb):
@@ -159,7 +159,7 @@ def test_every_obstacle_kind_and_a_tool_box(tmp_path):
     assert broad.names.count("camera") == len(bp.TOOL_SHORTENING) and len(broad._boxes) == 2
     result = _compare(model, 2000, 7)
     assert all(false_free == 0 and false_hit == 0 for false_free, _, false_hit, _ in result.values())
-    assert all(found > 0.8 and hits > 0.3 for _, found, _, hits in result.values())
+    assert all(found > 0.8 and hits > 0.2 for _, found, _, hits in result.values())
 
 
 def test_bad_configurations_are_refused(shelf):
