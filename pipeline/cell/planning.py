@@ -16,13 +16,18 @@
    ``PathSimplifier`` (vertex reduction, then rope shortcutting at ROPE_STEP) and ``smoothed_path``, its
    generator seeded per plan (``seeded``).
 
+A path found by 2-4 carries the vertices of the C2 spline a program times through it (``smooth_waypoints``): a
+detour's brought in (``Detour.lowered``), then any path's thinned where the spline gets quicker
+(``thinned_spline``, by ``spline_time``), the spline keeping the planning margins.
+
 Every state and every edge is checked with obstacles kept PLANNING_MARGIN_M farther than the clearance and
 links SELF_PLANNING_MARGIN_M apart (the edges from a start or goal closer than that keep the clearance
 alone), at the configurations Drake's padded checker visits on an edge (steps fine enough that no point dips
 by the margin between them, so the smooth path the timing draws through the vertices keeps the clearance
 the certificate then proves): by the compiled broad phase first (``pipeline.cell.broad_phase``, conservative:
-it clears only what Drake's checker clears), by Drake's checker for the configurations it cannot clear;
-the path returned is then judged by Drake's checker alone, edge by edge. With a tilt limit
+it clears only what Drake's checker clears and calls colliding only what it finds colliding), by Drake's
+checker for the configurations it cannot settle; the path returned is then judged by Drake's checker alone,
+edge by edge. With a tilt limit
 (``pipeline.cell.tilt``) every state and edge step keeps the tool level too (the roadmap is then skipped: its
 verdicts hold for the unconstrained robot). Steps 1-3 are deterministic; the search is too when it ends
 within its budget.
@@ -130,10 +135,11 @@ class _Checks:
     step. An end (start or goal) that keeps the clearance but not the margins is still a valid state, and
     the edges from it are checked against the clearance alone: the rest of the path keeps the margins.
 
-    Each configuration goes to the compiled broad phase first (``CollisionModel.broad_phase``: certainly free
-    or not), and only those it cannot clear to Drake's checker, so every verdict is Drake's checker's at the
-    configurations it would check itself (an edge's: those of its ``CheckEdgeCollisionFree``). Edge verdicts
-    are remembered (a detour's offsets share edges). ``judge`` checks a returned path with Drake alone."""
+    Each configuration goes to the compiled broad phase first (``CollisionModel.broad_phase``: certainly free,
+    certainly colliding, or maybe), and only those it cannot settle to Drake's checker, so every verdict is the
+    one Drake's checker gives at the configurations it would check itself (an edge's: those of its
+    ``CheckEdgeCollisionFree``). Edge verdicts are remembered (a detour's offsets share edges). ``judge`` checks
+    a returned path with Drake alone."""
 
     def __init__(self, model, ends: tuple[np.ndarray, ...], tilt=None):
         self.model, self.tilt = model, tilt
