@@ -367,7 +367,7 @@ def _hit(model, k, work):
     obstacle, which are only bounded) and their distance is at most the pair's padding less the tolerance
     (``padding`` holds padding + tolerance)."""
     prims, obstacles, pairs, padding = model[1], model[4], model[5], model[6]
-    seg, moved, local, breaks = work
+    seg, _, local, breaks = work
     i, j = pairs[k, 1], pairs[k, 2]
     within = padding[k] - 2.0 * DRAKE_TOLERANCE_M
     if prims[i, ALTERNATIVES] != 1.0:
@@ -377,7 +377,8 @@ def _hit(model, k, work):
         return obstacles[j, 0] != CYLINDER and threshold > 0.0 and \
             not _pair_clear(seg, i, obstacles, j, threshold, local, breaks)
     threshold = prims[i, RADIUS] + prims[j, RADIUS] + within
-    return prims[j, ALTERNATIVES] == 1.0 and threshold > 0.0 and _segment_segment_sq(seg, i, seg, j) <= threshold * threshold
+    return prims[j, ALTERNATIVES] == 1.0 and threshold > 0.0 and \
+        _segment_segment_sq(seg, i, seg, j) <= threshold * threshold
 
 
 @njit(cache=True)

@@ -132,7 +132,7 @@ def test_a_planned_cubby_to_cubby_move_retreats_along_the_tool_and_goes_in_along
 def test_drakes_judgement_catches_a_broad_phase_that_calls_a_blocked_edge_free(monkeypatch):
     """A broad phase that calls every configuration and edge free plans the straight edge through the cubbies' board:
     Drake's checker, judging the returned path alone, refuses it and names the edge."""
-    from pipeline.cell.broad_phase import BroadPhase, FREE
+    from pipeline.cell.broad_phase import FREE, BroadPhase
 
     model = set_model("cubbies")
     query = next(q for q in problem_set("cubbies", model).queries
@@ -151,12 +151,12 @@ def test_spline_time_is_near_toppras_duration_and_refuses_a_spline_out_of_the_li
 
     robot = load_robot("gp7")
     limits, rng = robot.limits, np.random.default_rng(4)
+    middle = (limits.q_min + limits.q_max) / 2.0
     for count in (3, 4, 7):
-        middle = (limits.q_min + limits.q_max) / 2.0
         vertices = middle + rng.uniform(-0.8, 0.8, (count, 6))
         toppra = time_path(robot, make_path(vertices, limits.q_min, limits.q_max, "spline")).duration
         assert 0.85 * toppra < planning.spline_time(limits, vertices) < 1.1 * toppra
-    edge = np.tile(middle, (4, 1))                          # axis 1 turns back 3 mm from its limit: the spline dips past it
+    edge = np.tile(middle, (4, 1))                  # axis 1 turns back 3 mrad from its limit: the spline dips past
     edge[:, 0] = limits.q_min[0] + np.array([0.5, 0.003, 0.004, 0.5])
     assert planning.spline_time(limits, edge) == np.inf
 
