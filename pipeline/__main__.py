@@ -513,14 +513,18 @@ def _robot_or_cell(name_or_path: str):
 
 
 def cmd_build_kernels(args) -> int:
-    """Build the IK kernels ahead of time (``make`` does it at install) and compile the planner's broad phase into
-    Numba's cache; exit 1 with the reason when the IK kernels cannot be built."""
+    """Build the IK kernels ahead of time (``make`` does it at install) and compile the planner's broad phase and
+    the kernels a planned and timed move uses into Numba's cache; exit 1 with the reason when the IK kernels cannot
+    be built."""
+    from .cell.clear_motion import compile_motion_kernels
     from .cell.collision import compile_broad_phase
     from .model.ik.prebuilt import main as build_prebuilt
 
     status = build_prebuilt()
     seconds = compile_broad_phase()
     print(f"broad phase kernels compiled into Numba's cache in {seconds:.0f} s")
+    seconds = compile_motion_kernels()
+    print(f"kinematics and timing kernels compiled into Numba's cache in {seconds:.0f} s")
     return status
 
 

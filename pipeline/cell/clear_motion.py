@@ -104,3 +104,27 @@ def check_samples(model, Q: np.ndarray) -> int | None:
             return k
     return None
 
+
+
+def compile_motion_kernels() -> float:
+    """Compile into Numba's cache the kernels a planned and timed move compiles on its first call and the prebuilt IK
+    kernels do not hold (the chain's FK and Jacobian, the closed form's derivation, the planner's position nudge,
+    toppra's reachability passes, the certificate's spline peaks), for the GP7 (the kernels' types are the same for
+    any arm), so that no first job pays for them (10-15 s on a fresh install of this machine kind); the seconds
+    taken."""
+    import time
+
+    from ..model.ik.analytic import nearest_analytic
+    from ..model.ik.jacobian import nudged_position
+    from ..model.robot import load_robot
+    from ..timing import retime
+
+    began = time.perf_counter()
+    robot = load_robot("gp7")
+    q = (robot.limits.q_min + robot.limits.q_max) / 2.0
+    X = robot.fk(q)
+    robot.fk_and_jacobian(q)
+    nearest_analytic(robot, X, q)
+    nudged_position(robot, X[:3, 3] + 0.01, q, 30, 1e-4, 0.01)
+    retime(robot, np.array([q, q + 0.1]))
+    return time.perf_counter() - began
