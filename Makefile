@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml
 # The same step compiles the planner's broad phase (pipeline/cell/broad_phase.py) and the kinematics and timing
 # kernels a planned move uses (pipeline/cell/clear_motion.py: compile_motion_kernels) into Numba's cache.
 $(PREBUILT): $(STAMP) $(wildcard pipeline/model/chain/*.py pipeline/model/ik/*.py pipeline/files/*.py) pipeline/cell/broad_phase.py \
-		pipeline/timing/reachability.py pipeline/timing/hermite.py
+		pipeline/timing/reachability.py pipeline/timing/hermite.py pipeline/timing/compiled_spline.py
 	$(PY) -m pipeline build-kernels || true
 
 # Demo: check every preset robot (Drake vs NumPy vs finite differences), print every demo cell

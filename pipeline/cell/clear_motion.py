@@ -108,9 +108,9 @@ def check_samples(model, Q: np.ndarray) -> int | None:
 
 def compile_motion_kernels() -> float:
     """Compile into Numba's cache the kernels a planned and timed move compiles on its first call and the prebuilt IK
-    kernels do not hold (the chain's FK and Jacobian, the closed form's derivation, the planner's position nudge,
-    toppra's reachability passes, the certificate's spline peaks), for the GP7 (the kernels' types are the same for
-    any arm), so that no first job pays for them (10-15 s on a fresh install of this machine kind); the seconds
+    kernels do not hold (the chain's FK and Jacobian, the closed form's derivation, the planner's position nudge and
+    trial splines, toppra's reachability passes, the certificate's spline peaks), for the GP7 (the kernels' types are
+    the same for any arm), so that no first job pays for them (10-15 s on a fresh install of this machine kind); the seconds
     taken."""
     import time
 
@@ -118,6 +118,8 @@ def compile_motion_kernels() -> float:
     from ..model.ik.jacobian import nudged_position
     from ..model.robot import load_robot
     from ..timing import retime
+    from ..timing.compiled_spline import trial_spline
+    from .planning import NUDGE_DAMPING, NUDGE_ITERATIONS, NUDGE_TOLERANCE_M, SPLINE_TIME_SAMPLES
 
     began = time.perf_counter()
     robot = load_robot("gp7")
@@ -125,6 +127,10 @@ def compile_motion_kernels() -> float:
     X = robot.fk(q)
     robot.fk_and_jacobian(q)
     nearest_analytic(robot, X, q)
-    nudged_position(robot, X[:3, 3] + 0.01, q, 30, 1e-4, 0.01)
+    nudged_position(robot, X[:3, 3] + 0.01, q, NUDGE_ITERATIONS, NUDGE_TOLERANCE_M, NUDGE_DAMPING)
+    spline = trial_spline(np.array([q, q + 0.1, q + np.array([0.2, 0.1, 0.0, 0.0, 0.0, 0.0]), q + 0.3]),
+                          robot.limits.q_min, robot.limits.q_max)
+    spline(np.linspace(0.0, 1.0, 5))
+    spline.time(robot.limits, SPLINE_TIME_SAMPLES)
     retime(robot, np.array([q, q + 0.1]))
     return time.perf_counter() - began

@@ -47,7 +47,7 @@ from ..errors import CollisionError, ConfigurationError, PlanningError
 from ..files.choices import DEFAULT_PLANNER, PLAN_TIME_BUDGET_S, PLANNERS
 from ..model.ik.analytic import nearest_analytic
 from ..model.ik.jacobian import nudged_position
-from ..timing.joint_path import PathError, make_path
+from ..timing.compiled_spline import trial_spline
 from .broad_phase import FREE, HIT, MAYBE
 from .roadmap import roadmap_of
 
@@ -540,44 +540,25 @@ def polyline_time(limits, vertices: np.ndarray) -> float:
 
 def spline_time(limits, vertices: np.ndarray) -> float:
     """An estimate of the time-optimal duration of the C2 spline through ``vertices`` (k, dof) from rest to rest
-    (the path a program times through a planned move's vertices) [s]; inf when the spline leaves the limits. On
-    SPLINE_TIME_SAMPLES points of the spline: the path speed each joint's speed limit allows and, with
-    acceleration limits, the speed its curvature allows (|q''| sd^2 <= qdd_max), then a forward and a backward
-    pass of the tangential acceleration (|q'| sdd <= qdd_max): within -7 % / +4 % of toppra's duration on the same
-    limits (5th-95th percentile, 55 splines of the GP7 bookshelf's planned paths; toppra takes 10 ms, this
-    0.5 ms)."""
-    try:
-        curve = make_path(vertices, limits.q_min, limits.q_max, "spline")
-    except PathError:
-        return np.inf
-    s = np.linspace(0.0, 1.0, SPLINE_TIME_SAMPLES)
-    slope, bend = np.abs(curve(s, 1)), np.abs(curve(s, 2))
-    with np.errstate(divide="ignore"):
-        top = (limits.qd_max / slope).min(axis=1) ** 2                          # the path speed squared
-        if limits.qdd_max is not None:
-            top = np.minimum(top, (limits.qdd_max / bend).min(axis=1))
-            push = 2.0 * (limits.qdd_max / slope).min(axis=1) / (SPLINE_TIME_SAMPLES - 1)
-    top[0] = top[-1] = 0.0
-    if limits.qdd_max is not None:
-        top = top.tolist()
-        for k in range(1, len(top)):
-            top[k] = min(top[k], top[k - 1] + push[k - 1])
-        for k in range(len(top) - 2, -1, -1):
-            top[k] = min(top[k], top[k + 1] + push[k + 1])
-    speed = np.sqrt(top)
-    return float((2.0 / (SPLINE_TIME_SAMPLES - 1) / np.maximum(speed[:-1] + speed[1:], 1e-12)).sum())
+    (the path a program times through a planned move's vertices) [s]; inf when the spline leaves the limits:
+    ``TrialSpline.time`` on SPLINE_TIME_SAMPLES points, within -7 % / +4 % of toppra's duration on the same
+    limits (5th-95th percentile, 55 splines of the GP7 bookshelf's planned paths)."""
+    spline = trial_spline(vertices, limits.q_min, limits.q_max)
+    return np.inf if spline is None else spline.time(limits, SPLINE_TIME_SAMPLES)
 
 
 def thinned_spline(robot, checks, vertices: np.ndarray) -> np.ndarray:
     """``vertices`` (k, dof) with each inner vertex dropped, in one pass from the start, when the spline through
-    the rest is quicker (``spline_time``, by at least SMOOTH_GAIN_S) and keeps the margins (``_curve_is_free``):
+    the rest is quicker (``spline_time``, by at least SMOOTH_GAIN_S) and keeps the margins (``_spline_is_free``):
     a detour's or a route's vertices close together at a corner (a straight retreat, then across) bend the
     spline sharply there; fewer of them swing it through in one curve."""
-    best, k = spline_time(robot.limits, vertices), 1
+    limits = robot.limits
+    best, k = spline_time(limits, vertices), 1
     while k < len(vertices) - 1:
         candidate = np.delete(vertices, k, axis=0)
-        quicker = spline_time(robot.limits, candidate)
-        if quicker < best - SMOOTH_GAIN_S and _curve_is_free(robot, checks, candidate):
+        spline = trial_spline(candidate, limits.q_min, limits.q_max)
+        quicker = np.inf if spline is None else spline.time(limits, SPLINE_TIME_SAMPLES)
+        if quicker < best - SMOOTH_GAIN_S and _spline_is_free(checks, spline):
             vertices, best = candidate, quicker
         else:
             k += 1
@@ -586,14 +567,15 @@ def thinned_spline(robot, checks, vertices: np.ndarray) -> np.ndarray:
 
 def _curve_is_free(robot, checks, vertices: np.ndarray) -> bool:
     """The C2 spline through ``vertices`` (what a program times through a planned move's vertices,
-    ``pipeline.program.stretch``) stays inside the limits and keeps the planning margins at
-    configurations CURVE_STEP_RAD apart."""
-    try:
-        curve = make_path(vertices, robot.limits.q_min, robot.limits.q_max, "spline")
-    except PathError:
-        return False
-    s = np.linspace(0.0, 1.0, max(3, int(np.ceil(curve.length / CURVE_STEP_RAD)) + 1))
-    return checks.states(curve(s))
+    ``pipeline.program.stretch``) stays inside the limits and keeps the planning margins (``_spline_is_free``)."""
+    spline = trial_spline(vertices, robot.limits.q_min, robot.limits.q_max)
+    return spline is not None and _spline_is_free(checks, spline)
+
+
+def _spline_is_free(checks, spline) -> bool:
+    """The planning margins kept at the spline's (``TrialSpline``) configurations CURVE_STEP_RAD apart."""
+    s = np.linspace(0.0, 1.0, max(3, int(np.ceil(spline.length / CURVE_STEP_RAD)) + 1))
+    return checks.states(spline(s))
 
 
 def _branch_changes(robot, X: np.ndarray, q_a: np.ndarray, q_b: np.ndarray) -> bool:
