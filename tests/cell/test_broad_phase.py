@@ -150,6 +150,62 @@ def test_an_edge_called_free_is_free_for_drake(shelf):
     assert broad.edges_free(A[:20], B[:20], step=0.5).sum() >= ours[:20].sum()   # fewer steps: never stricter
 
 
+def _edge_configurations(broad, a, b, stride):
+    """The configurations Drake's CheckEdgeCollisionFree checks on a -> b at the broad phase's step, every
+    ``stride``-th first (as ``edge_maybes_into`` visits them)."""
+    n = int(max(1.0, np.ceil(np.linalg.norm(b - a) / broad.step)))
+    order = [i for i in range(n + 1) if i % stride == 0] + [i for i in range(n + 1) if i % stride]
+    return np.array([b if i == 0 else a * (1.0 - (i - 1) / n) + b * ((i - 1) / n) for i in order])
+
+
+@pytest.mark.parametrize("which", ["shelf", "irb"])
+def test_an_edges_verdicts_are_those_of_its_configurations_one_by_one(which, request):
+    """The edge kernel tests a pair only where its slack elsewhere on the edge, less its drift, does not clear it:
+    its answer is still the per-configuration verdicts (None at a hit, else the maybes in order)."""
+    model = request.getfixturevalue(which)
+    rng = np.random.default_rng(11)
+    for broad in (model.broad_phase(*CHECKERS["planner"]), model.broad_phase()):
+        Q = model.robot.random_configurations(rng, 400)
+        free = Q[broad.verdicts(Q) == bp.FREE]
+        near = np.clip(free[:40] + rng.normal(scale=0.3, size=free[:40].shape), model.robot.limits.q_min,
+                       model.robot.limits.q_max)
+        outcomes = set()
+        for a, b in [*zip(free[40:80], free[80:120]), *zip(free[:40], near)]:
+            for stride in (1, 8):
+                configurations = _edge_configurations(broad, a, b, stride)
+                verdicts = broad.verdicts(configurations)
+                ours = broad.edge_maybes(a, b, stride=stride)
+                if (verdicts == bp.HIT).any():
+                    assert ours is None
+                    outcomes.add("hit")
+                else:
+                    np.testing.assert_array_equal(ours, configurations[verdicts == bp.MAYBE])
+                    outcomes.add("maybe" if len(ours) else "free")
+        assert outcomes >= {"hit", "free"} and (which == "irb" or "maybe" in outcomes)   # the box has few maybes
+
+
+def test_the_drift_rates_bound_how_fast_each_pairs_distances_change(irb):
+    """``_rates`` bound how far a pair's primitives move relative to each other per unit of each joint: the core
+    segments' ends of an obstacle pair move no farther, a link pair's ends change their distances no more."""
+    broad = irb.broad_phase(*CHECKERS["planner"])
+    rng = np.random.default_rng(12)
+    A = irb.robot.random_configurations(rng, 300)
+    B = A + rng.normal(scale=0.5, size=A.shape)
+    ends_a, ends_b = broad.segments(A), broad.segments(B)
+    tightest = np.inf
+    for k, (kind, i, j) in enumerate(broad._pairs):
+        allowed = np.abs(B - A) @ broad._rates[k] + 1e-12
+        if kind == bp.ENV:
+            moved = np.linalg.norm(ends_b[:, i] - ends_a[:, i], axis=2).max(axis=1)
+        else:
+            gaps_a = np.linalg.norm(ends_a[:, i, :, None] - ends_a[:, j, None], axis=3)
+            gaps_b = np.linalg.norm(ends_b[:, i, :, None] - ends_b[:, j, None], axis=3)
+            moved = np.abs(gaps_b - gaps_a).reshape(len(A), -1).max(axis=1)
+        assert (moved <= allowed).all(), (kind, i, j)
+        tightest = min(tightest, float(np.median(allowed / np.maximum(moved, 1e-9))))
+    assert tightest < 3.0                                  # and not loose beyond use for every pair
+
+
 def test_every_obstacle_kind_and_a_tool_box(tmp_path):
     path = tmp_path / "all_kinds.yaml"
     path.write_text(ALL_KINDS_CELL)
