@@ -36,7 +36,8 @@ TOPICS = ("cells_and_planning", "reachability_irb1600")
 #: Notebooks whose run takes long enough (a Dask map, 15 s; seed 003's three timings of its paths, 7 s)
 #: to run in the slow suite only.
 SLOW_NOTEBOOKS = ("reachability_irb1600", "seed003_irb1600_ik_velocity_trajectories", "cells_and_planning",
-                  "seed004_arm6_standard_vs_modified", "seed000_gp7_jacobian_and_ik", "seed002_arm5_jacobian")
+                  "seed004_arm6_standard_vs_modified", "seed000_gp7_jacobian_and_ik", "seed002_arm5_jacobian",
+                  "seed001_gp7_dh_to_drake")
 KEY_TAG = "key-numbers"
 #: Per cell; the slowest cell (three timings of one path) takes a few seconds [s].
 CELL_TIMEOUT_S = 300

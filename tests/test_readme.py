@@ -26,6 +26,7 @@ def python_blocks() -> list[str]:
     return re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
 
 
+@pytest.mark.slow
 def test_the_quick_start_comes_first_and_runs_as_pasted(tmp_path):
     text, section = README.read_text(), quick_start()
     assert re.findall(r"^## .*", text, re.M)[0] == "## Quick start"           # the first section of all

@@ -250,6 +250,7 @@ def test_torque_limited_robot_writes_torques(tmp_path):
     assert "tau" in outcome.summary()
 
 
+@pytest.mark.slow
 def test_the_report_says_what_timed_the_path_and_certifies_once(tmp_path, monkeypatch):
     """ruckig times waypoint to waypoint (no path shape); the program is certified once, by time_program."""
     import pipeline.program.timing

@@ -95,6 +95,7 @@ def test_goals_verdicts():
     assert (jacobian.value, jacobian.passed) == (1.2, False)
 
 
+@pytest.mark.slow
 def test_first_calls_share_one_new_cache_directory_and_remove_it(monkeypatch, tmp_path):
     """The cold run finds the cache empty, the warm one finds what the cold one left; then it is gone."""
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))

@@ -9,6 +9,7 @@ from pipeline.bench.written import ROUND_TRIP_GOAL, WrittenBenchReport, WrittenR
 from pipeline.program.job import load_job
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("languages", [("jbi",), pytest.param(("rapid", "krl", "ls"), marks=pytest.mark.slow)])
 def test_the_gp7_pick_and_place_comes_back_with_its_stops_in_every_language(languages):
     """Its retreat runs into the arc through a 60 mm zone: Yaskawa writes it as the arc's first MOVC point (reached on

@@ -123,6 +123,7 @@ def test_max_joint_step_must_be_a_positive_number(bad):
         robot.ik_path(robot.fk(np.zeros(6))[None], np.zeros(6), max_joint_step=bad)
 
 
+@pytest.mark.slow
 def test_five_axis_arm_with_position_and_axis_targets(tmp_path):
     outcome = run_job_file(ROOT / "trajectories" / "jobs" / "arm5_position_axis.yaml", tmp_path / "out")
     report = json.loads((tmp_path / "out" / "report.json").read_text())

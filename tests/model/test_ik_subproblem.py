@@ -116,6 +116,7 @@ def test_three_parallel_axes_every_branch_verified_and_labelled(path):
     print(f"\n{robot.name}: targets by branch count {dict(sorted(Counter(branches).items()))}")
 
 
+@pytest.mark.slow
 def test_the_branches_eaik_leaves_out_are_out_of_reach():
     """Damped least squares from random seeds finds no branch EAIK did not (UR5 targets with fewer
     than 8 branches)."""

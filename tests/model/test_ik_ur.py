@@ -100,7 +100,8 @@ def test_the_variants_of_a_branch_are_enumerated_on_demand():
     assert verified(robot, candidates[0][valid[0]], robot.fk(q))
 
 
-@pytest.mark.parametrize("path, limit_deg", [(UR5, 180.0), (UR5, 360.0), (UR10, 360.0)],
+@pytest.mark.parametrize("path, limit_deg", [(UR5, 180.0), pytest.param(UR5, 360.0, marks=pytest.mark.slow),
+                                              pytest.param(UR10, 360.0, marks=pytest.mark.slow)],
                          ids=["ur5-180", "ur5-360", "ur10-360"])
 def test_the_solution_set_is_eaiks(path, limit_deg):
     """EAIK's exact answers (an independent solver), modulo 2 pi, are ours and carry our labels (its

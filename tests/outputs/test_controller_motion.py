@@ -212,6 +212,7 @@ def test_a_joint_corner_is_a_convex_combination_inside_the_hull():
     assert np.all(np.diff(smoothstep(tau)) > 0.0)
 
 
+@pytest.mark.slow
 def test_tool_moves_joined_by_zones_are_rounded_on_the_tool_path_as_certified():
     """gp7_pick_place (lines and an arc joined by 60 mm zones, no planned moves): written with its zones, the
     modelled path rounds the corners between tool moves on the tool path, as the certified profile does, and its

@@ -56,6 +56,7 @@ def file_names(folder: Path) -> set[str]:
     return {p.name for p in folder.iterdir()}
 
 
+@pytest.mark.slow
 def test_a_second_job_replaces_the_first_jobs_outputs(tmp_path):
     out = tmp_path / "out"
     first = run_job_file(GP7_JOB, out)
@@ -138,6 +139,7 @@ def test_the_output_folder_is_checked_before_any_work(tmp_path, monkeypatch):
         run_job(load_job(GP7_JOB), tmp_path / "afile")
 
 
+@pytest.mark.slow
 def test_an_oversized_profile_is_refused_at_once_and_nothing_is_written(tmp_path):
     slow = job_file(tmp_path, GP7_JOB, "slow", speed_scale=0.001, dt=0.0001)
     result = run_cli("run", str(slow), "--out", str(tmp_path / "out"), cwd=tmp_path)

@@ -17,7 +17,7 @@ JOB = Path(__file__).resolve().parents[1] / "data" / "gp7_payload_pick_place.yam
 PROGRAM_FILES = {"rapid": "gp7_payload_pick_place.mod", "ls": "GP7_PAYL.ls", "krl": "gp7_payload_pick_place.src"}
 
 
-@pytest.mark.parametrize("language", list(PROGRAM_FILES))
+@pytest.mark.parametrize("language", ["ls", *(pytest.param(language, marks=pytest.mark.slow) for language in ("rapid", "krl"))])
 def test_the_job_read_back_from_the_program_carries_the_same_loads(tmp_path, language):
     assert main(["program", str(JOB), "--lang", language, "--out", str(tmp_path)]) == 0
     read = tmp_path / "read.yaml"

@@ -61,6 +61,7 @@ def test_a_jerk_limited_scaled_job_comes_back_as_written(name, languages):
         assert record.ratio == pytest.approx(1.0, abs=1e-3), record
 
 
+@pytest.mark.slow
 def test_a_short_topp3_job_at_half_speed_comes_back_from_ls_as_written(tmp_path):
     """The same in make test, on a short job: three GP7 joint waypoints, topp3 at speed scale 0.5, FANUC LS (whose
     comments wrap the mark over lines)."""

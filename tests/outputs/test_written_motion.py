@@ -141,6 +141,7 @@ def test_program_prints_both_cycle_times(language, tmp_path, capsys):
     assert "certificate PASSED" in text and f"cycle time as written {written.timing.duration_s:.3f} s" in text
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("language", EACH)
 def test_program_read_program_run_in_the_cell_without_planning(language, tmp_path, capsys):
     """The issue's round trip: ``program`` -> ``read-program`` (the planned moves come back as the joint targets they
@@ -243,6 +244,7 @@ def test_urscript_writes_blend_radii_where_the_motion_flows(tmp_path):
     assert "blend radii r are the written zones exactly" in flat and "certificate PASSED" in flat
 
 
+@pytest.mark.slow
 def test_run_writes_the_written_program_certificate_into_report_json(tmp_path, capsys):
     """``run`` of a job listing controller outputs: report.json carries the written program's certificate per
     language (verdict, smallest clearance in a cell, largest deviation, duration as written beside the certified

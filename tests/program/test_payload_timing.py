@@ -76,6 +76,7 @@ def torque_ratios(program, profile, k: int) -> np.ndarray:
     return np.abs(profile.tau[stretch_samples(profile, k)]).max(axis=0) / program.limits.tau_max
 
 
+@pytest.mark.slow
 def test_every_samples_torque_is_drakes_on_urs_urdf_with_the_load_carried_there(with_part):
     program, profile = with_part
     assert [piece["load"] for piece in profile.details.loads_s] == ["tool", "tool + part", "tool + part",

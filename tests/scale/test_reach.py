@@ -177,6 +177,7 @@ def test_a_five_axis_arm_is_mapped_by_its_tool_axis_with_numeric_ik_the_same_wha
     assert first.volume_m3() > 0 and first.branches.max() == 1      # one numeric answer per target
 
 
+@pytest.mark.slow
 def test_save_writes_the_arrays_with_units_the_figures_and_the_summary(tmp_path, irb_map):
     out = tmp_path / "map"
     paths = irb_map.save(out)

@@ -285,6 +285,7 @@ def sine_on_j1(count: int) -> np.ndarray:
     return waypoints
 
 
+@pytest.mark.slow
 def test_a_long_joint_path_is_certified_like_a_short_one():
     """4,000 waypoints of a sine on J1, linear path (issue 39): at a crest the steps are 1e-6 rad and the
     corner blends' ends 5e-8 apart in s. The grid dropped such breakpoints (closer than MIN_GRID_GAP to the

@@ -96,6 +96,7 @@ def test_not_much_slower_than_toppra():
     assert 1.0 <= min(ratios) and max(ratios) <= MAX_DURATION_RATIO, ratios
 
 
+@pytest.mark.slow
 def test_six_waypoint_paths_at_most_the_goal_over_toppra_at_the_median():
     """Issue 39: on these twelve random 6-waypoint GP7 paths topp3 took 1.158x toppra's duration at the median
     (1.230x at most); with the first solve linearised below the TOPP2's speed (LINEARIZATION_SHARE) and less
@@ -147,6 +148,7 @@ def a_long_move_then_waypoints_a_hair_apart(count: int) -> tuple:
     return robot, np.vstack([start, start + steps])
 
 
+@pytest.mark.slow
 def test_waypoints_a_hair_apart_after_a_long_move_are_refused_with_what_to_change():
     """Found by fuzzing: topp3 certified a profile whose qdd jumped 1.97x (and up to 14.3x) what
     qddd_max x dt allows between two samples while its qddd column stayed within the limit. Its columns
