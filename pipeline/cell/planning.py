@@ -330,7 +330,8 @@ def _exits(robot, checks: _Checks, q: np.ndarray) -> list[np.ndarray]:
     """The ways out of a fixture from q, shortest first: the flange straight back along the tool by each of
     EXIT_OFFSETS_M while the path is free, through poses STRAIGHT_STEP_M apart (k, dof), q first, its
     orientation kept (``_via``) or, where the arm cannot keep it (a joint at its limit), let free
-    (``_nudged``)."""
+    (``_nudged``); each ends where the planning margins hold (the edge from a tight q keeps the clearance alone:
+    a search or a roadmap edge cannot start where they do not)."""
     X, exits = robot.fk(q), []
     for offset in EXIT_OFFSETS_M:
         count = int(np.ceil(offset / STRAIGHT_STEP_M))
@@ -340,7 +341,8 @@ def _exits(robot, checks: _Checks, q: np.ndarray) -> list[np.ndarray]:
                     if chain is not None and checks.polyline(np.array([q, *chain]))), None)
         if way is None:
             break
-        exits.append(way)
+        if checks.state(way[-1]):
+            exits.append(way)
     return exits
 
 

@@ -186,3 +186,19 @@ def test_a_thinned_spline_drops_the_vertices_that_bend_it_and_keeps_the_ends():
             return False
 
     np.testing.assert_array_equal(planning.thinned_spline(robot, Blocked(), vertices), vertices)
+
+
+def test_a_search_from_the_exits_starts_where_the_margins_hold(monkeypatch):
+    """A rack slot's 0.1 m exit often ends within the planning margins (its one edge, from the tight end, keeps
+    the clearance alone): the search must not start there (OMPL refused such a start and the plan failed). With
+    the detours and the roadmap off, every query of the rack is planned by the search from valid exits."""
+    model = set_model("gp7_rack")
+    queries = problem_set("gp7_rack", model, count=12, seed=0).queries[2:6]
+    monkeypatch.setattr(planning, "MAX_DETOUR_CHECKS", 0)
+    monkeypatch.setattr(planning, "roadmap_of", lambda model, valid: None)
+    for query in queries:
+        checks = planning._Checks(model, (query.start, query.goal))
+        for end in (query.start, query.goal):
+            assert all(checks.state(way[-1]) for way in planning._exits(model.robot, checks, end))
+        plan = planning.plan_joint_path(model, query.start, query.goal, time_budget=20.0, seed=1)
+        assert plan.planner == "RRTConnect"
