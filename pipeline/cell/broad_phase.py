@@ -65,9 +65,11 @@ OBSTACLE_COLUMNS = 17
 #: number of rows from this one that contain the same shape (1 for a capsule; a tool shape's first row has
 #: one per TOOL_SHORTENING, the rows after it 0): a pair is clear when one of them is.
 #: Then the row of its shape in the tool shapes (a tool box or cylinder as an obstacle row; -1: none), which
-#: bounds its distance to link capsules too.
-PRIMITIVE_COLUMNS = 11
-RADIUS, HALF, ALTERNATIVES, TOOL_BOX = 7, 8, 9, 10
+#: bounds its distance to link capsules too; and the row of a capsule inside its shape (a link capsule's, a tool
+#: sphere's or capsule's: itself; a tool box's or cylinder's: a row of its own, ``inscribed_capsule``; -1: none),
+#: by which a hit is certain.
+PRIMITIVE_COLUMNS = 12
+RADIUS, HALF, ALTERNATIVES, TOOL_BOX, INSCRIBED = 7, 8, 9, 10, 11
 #: A tool cylinder's or box's containing capsules: its axis (the box's longest) shortened at each end by
 #: these fractions of its half width w (never past its middle), radius sqrt(w^2 + shortening^2).
 TOOL_SHORTENING = (0.0, 0.5, 1.0)
@@ -376,23 +378,24 @@ def _slack(model, k, work):
 
 @inner()
 def _hit(model, k, work):
-    """Pair k (not clear) certainly collides for Drake's checker: both shapes are exact here (a link capsule, a
-    tool sphere or capsule; a box, sphere or capsule obstacle: not a tool box or cylinder, nor a cylinder
-    obstacle, which are only bounded) and they overlap by more than HIT_DEPTH_M, whatever the padding (Drake's
-    distance between separate shapes is GJK's, which may exceed the exact one: by 0.48 mm at one configuration
-    in 3 x 10^7, a capsule 20 mm from a thin box; an overlap it finds with GJK's intersection test)."""
+    """Pair k (not clear) certainly collides for Drake's checker: a capsule inside each of its shapes (a link
+    capsule, a tool sphere or capsule: itself; a tool box or cylinder: its ``inscribed_capsule``) and an exact
+    obstacle (a box, sphere or capsule: not a cylinder, which is only bounded) overlap by more than HIT_DEPTH_M,
+    whatever the padding (Drake's distance between separate shapes is GJK's, which may exceed the exact one: by
+    0.48 mm at one configuration in 3 x 10^7, a capsule 20 mm from a thin box; an overlap it finds with GJK's
+    intersection test)."""
     prims, obstacles, pairs = model[1], model[4], model[5]
     seg, _, local, breaks = work
-    i, j = pairs[k, 1], pairs[k, 2]
-    if prims[i, ALTERNATIVES] != 1.0:
+    a, j = int(prims[pairs[k, 1], INSCRIBED]), pairs[k, 2]
+    if a < 0:
         return False
     if pairs[k, 0] == ENV:
-        threshold = prims[i, RADIUS] - HIT_DEPTH_M
+        threshold = prims[a, RADIUS] - HIT_DEPTH_M
         return obstacles[j, 0] != CYLINDER and threshold > 0.0 and \
-            _pair_slack(seg, i, obstacles, j, threshold, local, breaks) <= 0.0
-    threshold = prims[i, RADIUS] + prims[j, RADIUS] - HIT_DEPTH_M
-    return prims[j, ALTERNATIVES] == 1.0 and threshold > 0.0 and \
-        _segment_segment_sq(seg, i, seg, j) <= threshold * threshold
+            _pair_slack(seg, a, obstacles, j, threshold, local, breaks) <= 0.0
+    b = int(prims[j, INSCRIBED])
+    threshold = prims[a, RADIUS] + prims[b, RADIUS] - HIT_DEPTH_M
+    return b >= 0 and threshold > 0.0 and _segment_segment_sq(seg, a, seg, b) <= threshold * threshold
 
 
 @njit(cache=True)
@@ -545,6 +548,22 @@ def tool_capsules(shape) -> list[tuple[np.ndarray, np.ndarray, float]]:
     return out
 
 
+def inscribed_capsule(shape) -> tuple[np.ndarray, np.ndarray, float]:
+    """A capsule inside a tool box or cylinder: its segment (p, r) in the shape's parent frame [m] and radius [m]
+    (along the box's longest side or the cylinder's axis, as wide as the box's narrower other side or the
+    cylinder, its ends' half spheres within the shape's ends)."""
+    R, centre = shape.X[:3, :3], shape.X[:3, 3]
+    if shape.kind == "box":
+        sides = np.asarray(shape.size, dtype=float)
+        axis = int(np.argmax(sides))
+        half, radius = sides[axis] / 2.0, float(np.delete(sides, axis).min()) / 2.0
+    else:
+        axis, radius, half = 2, shape.size[0], shape.size[1] / 2.0
+    radius = min(radius, half)
+    core = R[:, axis] * (half - radius)
+    return centre - core, centre + core, radius
+
+
 def _obstacle_row(shape, X_BW: np.ndarray) -> np.ndarray:
     """One obstacle as a kernel row (see OBSTACLE_COLUMNS), its pose moved into B."""
     X = X_BW @ shape.X
@@ -563,8 +582,9 @@ def _obstacle_row(shape, X_BW: np.ndarray) -> np.ndarray:
 
 def _primitive_rows(model) -> tuple[list[tuple], list[np.ndarray]]:
     """The robot's primitives, sorted by frame (0: B, i: after joint i, dof: the end frame), each (frame, p, r
-    in that frame, radius, alternatives, Drake body index, Drake geometry name, tool box row or -1), and the
-    tool boxes' obstacle rows in the end frame."""
+    in that frame, radius, alternatives, Drake body index, Drake geometry name (an inscribed capsule's: its
+    shape's, marked), tool box row or -1, inscribed row or -1), and the tool boxes' obstacle rows in the end
+    frame."""
     robot = model.robot
     after = [robot._K[0]]                              # x_i(0) = K_0 K_1 ... K_i in B (M_i(0) = I)
     for K in robot._K[1:]:
@@ -576,19 +596,24 @@ def _primitive_rows(model) -> tuple[list[tuple], list[np.ndarray]]:
         if c.body > 0:
             C = np.linalg.inv(after[c.body]) @ X_BD[c.body]              # DH frame i in x_i: constant
             p, r = C[:3, :3] @ p + C[:3, 3], C[:3, :3] @ r + C[:3, 3]
-        rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}", -1))
+        rows.append((c.body, p, r, c.radius, 1, int(model.bodies[c.body].index()), f"capsule{k}", -1, k, k))
     if model.tool_shapes:
         tool = int(model.plant.GetBodyByName("tool").index())
         for shape in model.tool_shapes:
             capsules = tool_capsules(shape)
-            box = -1
+            box, first = -1, len(rows)
             if shape.kind in ("box", "cylinder"):
                 box = len(boxes)
                 boxes.append(_obstacle_row(shape, np.eye(4)))
-            rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box)
-                     for n, (p, r, radius) in enumerate(capsules)]
+            inside = first if len(capsules) == 1 else first + len(capsules)
+            rows += [(robot.dof, p, r, radius, len(capsules) if n == 0 else 0, tool, shape.name, box, first + n,
+                      inside if n == 0 else -1) for n, (p, r, radius) in enumerate(capsules)]
+            if inside != first:
+                p, r, radius = inscribed_capsule(shape)
+                rows.append((robot.dof, p, r, radius, 0, tool, f"{shape.name} (inscribed)", -1, inside, -1))
     rows.sort(key=lambda row: row[0])                  # stable: the capsules keep their order
-    return rows, boxes
+    position = {row[8]: n for n, row in enumerate(rows)}
+    return [(*row[:8], position.get(row[9], -1)) for row in rows], boxes
 
 
 def _axis_reach(robot, prims: np.ndarray) -> np.ndarray:
@@ -631,8 +656,8 @@ class BroadPhase:
         self.dof = robot.dof
         self._chain = robot._chain
         rows, boxes = _primitive_rows(model)
-        self._prims = np.array([[f, *p, *r, radius, np.linalg.norm(r - p) / 2.0, alternatives, box]
-                                for f, p, r, radius, alternatives, _, _, box in rows], dtype=float)
+        self._prims = np.array([[f, *p, *r, radius, np.linalg.norm(r - p) / 2.0, alternatives, box, inside]
+                                for f, p, r, radius, alternatives, _, _, box, inside in rows], dtype=float)
         self._boxes = np.array(boxes, dtype=float).reshape(-1, OBSTACLE_COLUMNS)
         #: Each primitive's Drake geometry name (``capsule<k>`` or the tool shape's), in kernel order.
         self.names = [row[6] for row in rows]

@@ -218,6 +218,32 @@ def test_every_obstacle_kind_and_a_tool_box(tmp_path):
     assert all(found > 0.8 and hits > 0.2 for _, found, _, hits in result.values())
 
 
+def test_the_capsule_inside_a_tool_box_or_cylinder_is_inside_it(tmp_path):
+    """Points all over the inscribed capsule (core and radius) lie in the shape: an overlap of it is one of the
+    shape's, and the broad phase calls such a configuration a hit (the tool's hits: most of the planner's
+    blocked edges end there rather than with Drake)."""
+    path = tmp_path / "all_kinds.yaml"
+    path.write_text(ALL_KINDS_CELL)
+    cell = load_cell(path)
+    model = CollisionModel(cell.load_robot(), cell)
+    rng = np.random.default_rng(13)
+    for shape in model.tool_shapes:
+        p, r, radius = bp.inscribed_capsule(shape)
+        points = p + rng.uniform(size=(5000, 1)) * (r - p)
+        direction = rng.normal(size=(5000, 3))
+        points += direction / np.linalg.norm(direction, axis=1, keepdims=True) * radius * rng.uniform(size=(5000, 1))
+        local = (points - shape.X[:3, 3]) @ shape.X[:3, :3]
+        if shape.kind == "box":
+            assert (np.abs(local) <= np.asarray(shape.size) / 2.0 + 1e-12).all()
+        else:
+            assert (np.hypot(local[:, 0], local[:, 1]) <= shape.size[0] + 1e-12).all()
+            assert (np.abs(local[:, 2]) <= shape.size[1] / 2.0 + 1e-12).all()
+        assert radius > 0.0
+    broad = model.broad_phase()
+    inscribed = broad._prims[broad._prims[:, bp.ALTERNATIVES] > 1, bp.INSCRIBED].astype(int)
+    assert [broad.names[k] for k in inscribed] == ["gripper (inscribed)", "camera (inscribed)"]
+
+
 def test_bad_configurations_are_refused(shelf):
     broad = shelf.broad_phase()
     with pytest.raises(ValueError):
