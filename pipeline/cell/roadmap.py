@@ -80,7 +80,7 @@ class Roadmap:
         ``pipeline.cell.planning._Checks`` (its remembered edge checks). Whether a free route exists
         within the limit does not depend on what earlier queries found out: the answer is the same in any
         process, unless the deadline cuts it short."""
-        from scipy.sparse import coo_matrix
+        from scipy.sparse import csr_matrix
         from scipy.sparse.csgraph import dijkstra
 
         n = len(self.Q)
@@ -94,11 +94,15 @@ class Roadmap:
                               for k, (a, b) in enumerate(pairs[len(self.pairs):])}
         Q = np.vstack([self.Q, ends])
         longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
+        order = np.argsort(pairs[:, 0], kind="stable")               # the graph made once: a blocked edge's
+        position = np.empty(len(order), dtype=np.int64)              # weight is made inf (Dijkstra never takes it)
+        position[order] = np.arange(len(order))
+        graph = csr_matrix((np.where(verdicts < 0, np.inf, weights)[order], pairs[order, 1],
+                            np.searchsorted(pairs[order, 0], np.arange(n + 3))), shape=(n + 2, n + 2))
         try:
             while time.perf_counter() < deadline:
-                open_ = verdicts >= 0
-                graph = coo_matrix((weights[open_], (pairs[open_, 0], pairs[open_, 1])), shape=(n + 2, n + 2))
-                distance, previous = dijkstra(graph.tocsr(), directed=False, indices=n, return_predecessors=True)
+                distance, previous = dijkstra(graph, directed=False, indices=n, return_predecessors=True,
+                                              limit=longest)
                 if not distance[n + 1] <= longest:
                     return None
                 route = [n + 1]
@@ -109,6 +113,7 @@ class Roadmap:
                 unknown = [k for k in edges if verdicts[k] == 0]
                 if _checked(Q, pairs, verdicts, unknown, checks):
                     return Q[route]
+                graph.data[position[[k for k in unknown if verdicts[k] < 0]]] = np.inf
             return None
         finally:
             self.verdicts = verdicts[:len(self.verdicts)]
