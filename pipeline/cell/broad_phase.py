@@ -457,7 +457,8 @@ def edge_maybes_into(model, a, b, step, stride, out):
     for k in range(count_pairs):
         for j in range(dof):
             drift[k] += rates[k, j] * abs(b[j] - a[j]) / n
-    known = np.empty((n // stride + 1, count_pairs))  # slack bounds at coarse configuration c (t: ``_coarse_t``)
+    # slack bounds at each coarse configuration c (t: ``_coarse_t``), for the fine ones between them (stride > 1)
+    known = np.empty((n // stride + 1 if stride > 1 else 0, count_pairs))
     last, last_t = np.full(count_pairs, -np.inf), np.zeros(count_pairs)
     count = 0
     for coarse in (True, False):
@@ -491,7 +492,7 @@ def edge_maybes_into(model, a, b, step, stride, out):
                         return -1
                     else:
                         verdict = MAYBE
-                if coarse:
+                if coarse and stride > 1:
                     known[i // stride, k] = bound
                 elif verdict != FREE:
                     break
