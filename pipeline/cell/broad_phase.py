@@ -702,8 +702,8 @@ class BroadPhase:
 
     def _spheres_of_pairs(self) -> None:
         """Per pair, its bounding-sphere test: the rows (primitive, primitive or -1) whose midpoints it takes,
-        a fixed centre (an obstacle's), the squared distance the midpoints must exceed and that distance. A tool shape takes
-        the containing capsule of the smallest radius plus half length (any of them clear clears the pair)."""
+        a fixed centre (an obstacle's), the squared distance the midpoints must exceed and that distance. A tool shape
+        takes the containing capsule of the smallest radius plus half length (any of them clear clears the pair)."""
         prims = self._prims
 
         def tightest(i):

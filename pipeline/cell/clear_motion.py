@@ -110,8 +110,8 @@ def compile_motion_kernels() -> float:
     """Compile into Numba's cache the kernels a planned and timed move compiles on its first call and the prebuilt IK
     kernels do not hold (the chain's FK and Jacobian, the closed form's derivation, the planner's position nudge and
     trial splines, toppra's reachability passes, the certificate's spline peaks), for the GP7 (the kernels' types are
-    the same for any arm), so that no first job pays for them (10-15 s on a fresh install of this machine kind); the seconds
-    taken."""
+    the same for any arm), so that no first job pays for them (10-15 s on a fresh install of this machine kind); the
+    seconds taken."""
     import time
 
     from ..model.ik.analytic import nearest_analytic

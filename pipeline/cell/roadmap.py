@@ -94,8 +94,10 @@ class Roadmap:
                               for k, (a, b) in enumerate(pairs[len(self.pairs):])}
         Q = np.vstack([self.Q, ends])
         longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
-        order = np.argsort(pairs[:, 0], kind="stable")               # the graph made once: a blocked edge's
-        position = np.empty(len(order), dtype=np.int64)              # weight is made inf (Dijkstra never takes it)
+        # the graph made once, in canonical order (rows, then columns): a blocked edge's weight is made inf (Dijkstra
+        # never takes it) at ``position``
+        order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+        position = np.empty(len(order), dtype=np.int64)
         position[order] = np.arange(len(order))
         graph = csr_matrix((np.where(verdicts < 0, np.inf, weights)[order], pairs[order, 1],
                             np.searchsorted(pairs[order, 0], np.arange(n + 3))), shape=(n + 2, n + 2))
