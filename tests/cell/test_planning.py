@@ -188,6 +188,7 @@ def test_a_thinned_spline_drops_the_vertices_that_bend_it_and_keeps_the_ends():
     np.testing.assert_array_equal(planning.thinned_spline(robot, Blocked(), vertices), vertices)
 
 
+@pytest.mark.slow
 def test_a_search_from_the_exits_starts_where_the_margins_hold(monkeypatch):
     """A rack slot's 0.1 m exit often ends within the planning margins (its one edge, from the tight end, keeps
     the clearance alone): the search must not start there (OMPL refused such a start and the plan failed). With

@@ -103,6 +103,7 @@ def test_exact_stops_everywhere_run_stop_and_go_through_every_target():
     assert timing.move_durations_s.sum() == pytest.approx(timing.duration_s)
 
 
+@pytest.mark.slow
 def test_zones_make_it_shorter_and_a_corner_stays_in_its_zone():
     program, profile, scene = cell_job()
     stop_and_go = written_program_certificate(program, written_moves(program, exact_stops=True), profile, scene)[1]

@@ -76,6 +76,7 @@ def test_a_signal_rapid_cannot_name_is_refused(gripper, name):
     assert name in str(error.value)
 
 
+@pytest.mark.slow
 def test_rapidchecker_accepts_the_module_with_actions(gripper, tmp_path):
     if importlib.util.find_spec("rapidchecker") is None:
         pytest.skip("rapidchecker (pip install rapidchecker) is not installed")

@@ -67,6 +67,7 @@ def _stopped_at(profile, t: float) -> bool:
     return float(np.abs(profile.qd[i]).max()) <= 1e-6
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("language", EACH)
 def test_exact_stops_only_where_the_certified_profile_stops(language):
     _, program, profile, _, written = cell()
@@ -128,6 +129,7 @@ def test_the_written_program_certificate_passes():
     assert written.changes == ()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("language", EACH)
 def test_program_prints_both_cycle_times(language, tmp_path, capsys):
     assert main(["program", str(JOB), "--lang", language, "--out", str(tmp_path)]) == 0

@@ -344,6 +344,7 @@ def test_cli_export_then_import_round_trip(tmp_path):
     assert np.abs(robot.fk(q) - preset.fk(q)).max() < FK_TOLERANCE
 
 
+@pytest.mark.slow
 def test_cli_import_of_a_fork_fails_in_one_line_and_writes_nothing(tmp_path):
     path = write(tmp_path, two_finger_urdf())
     result = run_cli("import-urdf", str(path), "--out", str(tmp_path / "out.yaml"), cwd=tmp_path)
