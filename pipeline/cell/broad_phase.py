@@ -26,7 +26,7 @@ others tested exactly, in the order of how often each pair was not clear at ORDE
 configurations (a colliding configuration stops early). Edges: the configurations Drake's
 ``CheckEdgeCollisionFree`` checks (``edge_maybes_into``), each pair tested only where the slack it kept at another
 of them, less how far its distance can change in between (``_axis_reach``: per joint, how far a primitive's points
-can be from the joint's axis), does not clear it: the same verdicts, 1.8-2.4x quicker an edge.
+can be from the joint's axis), does not clear it: the same verdicts, 1.8-2.2x quicker an edge.
 
 The link frames come from the chain of ``pipeline.model.chain.compiled`` (``moved_pose``): after joint i
 the chain is at ``x_i = K_0 M_1 K_1 ... M_i K_i``, a constant transform from link i's body frame (DH frame
