@@ -21,10 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .joint_path import DUPLICATE_DISTANCE, merge_duplicates
-
-#: A spline's values may exceed a joint limit by this much, as in ``make_path``'s check [rad or m].
-LIMIT_SLACK = 1e-12
+from .joint_path import DUPLICATE_DISTANCE, LIMIT_SLACK, chord_knots, chords_of, merge_duplicates
 
 
 @njit(cache=True)
@@ -180,15 +177,13 @@ def trial_spline(waypoints: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) ->
     """The spline ``make_path(waypoints, q_min, q_max, "spline")`` would time, or None where it would refuse
     it (it leaves the limits, or there is no motion)."""
     waypoints = np.asarray(waypoints, dtype=float)
-    chords = np.sqrt(((waypoints[1:] - waypoints[:-1]) ** 2).sum(axis=1))
+    chords = chords_of(waypoints)
     if (chords <= DUPLICATE_DISTANCE).any():
         waypoints = merge_duplicates(waypoints)
         if len(waypoints) < 2:
             return None
-        chords = np.sqrt(((waypoints[1:] - waypoints[:-1]) ** 2).sum(axis=1))
-    length = float(chords.sum())
-    knots = np.concatenate([[0.0], np.cumsum(chords) / length])
-    knots[-1] = 1.0
+        chords = chords_of(waypoints)
+    knots, length = chord_knots(chords)
     coefficients = spline_coefficients(knots, waypoints)
     if not spline_within(coefficients, knots, q_min, q_max):
         return None

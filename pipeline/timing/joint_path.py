@@ -41,6 +41,8 @@ DEFAULT_BLEND = 0.2
 #: Each shape's smoothness: the highest derivative of q(s) that is continuous (``samples``: the C2 spline
 #: through dense IK samples of a tool move, ``path_through_samples``).
 CONTINUITY = {"monotone": 3, "spline": 2, "linear": 1, "samples": 2}
+#: How far a spline may pass a joint limit (round-off) before it is refused [rad or m].
+LIMIT_SLACK = 1e-12
 #: Samples per segment when checking that a spline stays inside the joint limits, and segments checked at once.
 LIMIT_CHECK_SAMPLES = 200
 LIMIT_CHECK_SEGMENTS = 500
@@ -293,10 +295,7 @@ def make_path(waypoints, q_min: np.ndarray, q_max: np.ndarray, shape: str = DEFA
     if len(waypoints) < 2:
         raise PathError(f"all waypoints are the same configuration (within {NO_MOTION_DISTANCE:g}): there is no "
                         "motion to time")
-    chords = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
-    length = float(chords.sum())
-    s_knots = np.concatenate([[0.0], np.cumsum(chords) / length])
-    s_knots[-1] = 1.0
+    s_knots, length = chord_knots(chords_of(waypoints))
     if shape == "linear":
         pieces = _blend_pieces(s_knots, waypoints, blend)
         half = blend * np.minimum(np.diff(s_knots)[:-1], np.diff(s_knots)[1:])
@@ -308,6 +307,20 @@ def make_path(waypoints, q_min: np.ndarray, q_max: np.ndarray, shape: str = DEFA
     if shape == "spline":
         _check_spline_limits(path, q_min, q_max)
     return path
+
+
+def chords_of(waypoints: np.ndarray) -> np.ndarray:
+    """(K - 1,) the joint-space lengths of the segments between consecutive waypoints (K, dof) [rad or m]."""
+    return np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
+
+
+def chord_knots(chords: np.ndarray) -> tuple[np.ndarray, float]:
+    """The path parameters (K,) of waypoints ``chords`` apart (K - 1,), from 0 to 1 by cumulative chord length, and
+    that length [rad or m] (> 0)."""
+    length = float(chords.sum())
+    s_knots = np.concatenate([[0.0], np.cumsum(chords) / length])
+    s_knots[-1] = 1.0
+    return s_knots, length
 
 
 def path_through_samples(s_knots: np.ndarray, samples: np.ndarray) -> JointPath:
@@ -329,7 +342,7 @@ def _check_spline_limits(path: JointPath, q_min: np.ndarray, q_max: np.ndarray) 
         last = min(first + LIMIT_CHECK_SEGMENTS, len(knots) - 1)
         start, end = knots[first: last], knots[first + 1: last + 1]
         q = path((start[:, None] + (end - start)[:, None] * fractions).ravel())
-        outside = (q < q_min - 1e-12) | (q > q_max + 1e-12)
+        outside = (q < q_min - LIMIT_SLACK) | (q > q_max + LIMIT_SLACK)
         if outside.any():
             row, joint = np.argwhere(outside)[0]
             k = first + row // LIMIT_CHECK_SAMPLES
