@@ -42,13 +42,18 @@ def irb():
     return cell_model("irb1600_box")
 
 
+def _all_kinds(folder, robot: str = "gp7") -> CollisionModel:
+    """``robot`` in the cell of every obstacle kind (ALL_KINDS_CELL, written into ``folder``)."""
+    path = folder / "all_kinds.yaml"
+    path.write_text(ALL_KINDS_CELL.replace("robot: gp7", f"robot: {robot}"))
+    cell = load_cell(path)
+    return CollisionModel(cell.load_robot(), cell)
+
+
 @pytest.fixture(scope="module")
 def arm5(tmp_path_factory):
     """The five-axis arm in the cell of every obstacle kind, with a tool box and cylinder."""
-    path = tmp_path_factory.mktemp("arm5") / "all_kinds.yaml"
-    path.write_text(ALL_KINDS_CELL.replace("robot: gp7", "robot: arm5"))
-    cell = load_cell(path)
-    return CollisionModel(cell.load_robot(), cell)
+    return _all_kinds(tmp_path_factory.mktemp("arm5"), "arm5")
 
 
 def _drake_free(checker, Q) -> np.ndarray:
@@ -216,10 +221,7 @@ def test_the_drift_rates_bound_how_fast_each_pairs_distances_change(irb):
 
 
 def test_every_obstacle_kind_and_a_tool_box(tmp_path):
-    path = tmp_path / "all_kinds.yaml"
-    path.write_text(ALL_KINDS_CELL)
-    cell = load_cell(path)
-    model = CollisionModel(cell.load_robot(), cell)
+    model = _all_kinds(tmp_path)
     broad = model.broad_phase()
     assert broad.names.count("camera") == len(bp.TOOL_SHORTENING) and len(broad._boxes) == 2
     result = _compare(model, 2000, 7)
@@ -231,10 +233,7 @@ def test_the_capsule_inside_a_tool_box_or_cylinder_is_inside_it(tmp_path):
     """Points all over the inscribed capsule (core and radius) lie in the shape: an overlap of it is one of the
     shape's, and the broad phase calls such a configuration a hit (the tool's hits: most of the planner's
     blocked edges end there rather than with Drake)."""
-    path = tmp_path / "all_kinds.yaml"
-    path.write_text(ALL_KINDS_CELL)
-    cell = load_cell(path)
-    model = CollisionModel(cell.load_robot(), cell)
+    model = _all_kinds(tmp_path)
     rng = np.random.default_rng(13)
     for shape in model.tool_shapes:
         p, r, radius = bp.inscribed_capsule(shape)
