@@ -4,8 +4,8 @@
 ``padded_checker(extra_m, self_m)``, or the plain one) gives a verdict on many configurations per compiled
 call: FREE means every pair that checker checks has a distance whose lower bound exceeds the pair's padding plus
 DRAKE_TOLERANCE_M, so the checker finds the configuration free; HIT means a pair whose shapes are exact here
-(link capsules, a tool sphere or capsule; box, sphere and capsule obstacles) overlaps by more than HIT_DEPTH_M,
-so the checker finds it colliding; MAYBE: ask Drake.
+(link capsules, a tool sphere or capsule; box, sphere and capsule obstacles) comes PADDED_HIT_DEPTH_M inside its
+padding (or overlaps by HIT_DEPTH_M), so the checker finds it colliding; MAYBE: ask Drake.
 
 The geometry, all in the robot's base frame B (obstacles moved there once):
 
@@ -51,6 +51,10 @@ DRAKE_TOLERANCE_M = 1e-4
 FREE, MAYBE, HIT = 1, 0, -1
 #: How far two exact shapes must overlap for a certain hit [m] (ten times DRAKE_TOLERANCE_M).
 HIT_DEPTH_M = 1e-3
+#: Or, where the pair's padding is larger, how far within it they must be [m]: Drake's verdict there is its
+#: distance between separate shapes (GJK's, which may exceed the exact one: by 0.48 mm at one configuration in
+#: 3 x 10^7, a capsule 20 mm from a thin box), so six times that.
+PADDED_HIT_DEPTH_M = 3e-3
 #: An axis reach (``_axis_reach``) that would be infinite (a prismatic joint without limits) [m].
 MAX_REACH_M = 1e9
 #: A pair's slack (how far it keeps beyond its padding) where it is not certainly clear.
@@ -380,21 +384,22 @@ def _slack(model, k, work):
 def _hit(model, k, work):
     """Pair k (not clear) certainly collides for Drake's checker: a capsule inside each of its shapes (a link
     capsule, a tool sphere or capsule: itself; a tool box or cylinder: its ``inscribed_capsule``) and an exact
-    obstacle (a box, sphere or capsule: not a cylinder, which is only bounded) overlap by more than HIT_DEPTH_M,
-    whatever the padding (Drake's distance between separate shapes is GJK's, which may exceed the exact one: by
-    0.48 mm at one configuration in 3 x 10^7, a capsule 20 mm from a thin box; an overlap it finds with GJK's
-    intersection test)."""
+    obstacle (a box, sphere or capsule: not a cylinder, which is only bounded) come within their padding less
+    PADDED_HIT_DEPTH_M (Drake's distance between separate shapes is GJK's, which may exceed the exact one), or
+    overlap by more than HIT_DEPTH_M where the padding is smaller (an overlap Drake finds with GJK's intersection
+    test)."""
     prims, obstacles, pairs = model[1], model[4], model[5]
     seg, _, local, breaks = work
     a, j = int(prims[pairs[k, 1], INSCRIBED]), pairs[k, 2]
     if a < 0:
         return False
+    within = max(model[6][k] - PADDED_HIT_DEPTH_M, -HIT_DEPTH_M)        # [m]: a distance below it is a hit
     if pairs[k, 0] == ENV:
-        threshold = prims[a, RADIUS] - HIT_DEPTH_M
+        threshold = prims[a, RADIUS] + within
         return obstacles[j, 0] != CYLINDER and threshold > 0.0 and \
             _pair_slack(seg, a, obstacles, j, threshold, local, breaks) <= 0.0
     b = int(prims[j, INSCRIBED])
-    threshold = prims[a, RADIUS] + prims[b, RADIUS] - HIT_DEPTH_M
+    threshold = prims[a, RADIUS] + prims[b, RADIUS] + within
     return b >= 0 and threshold > 0.0 and _segment_segment_sq(seg, a, seg, b) <= threshold * threshold
 
 
@@ -761,7 +766,7 @@ class BroadPhase:
     def verdicts(self, Q) -> np.ndarray:
         """Per configuration of Q (k, dof) [rad] (int8 (k,)): FREE only when Drake's checker with the same
         paddings certainly finds it free, HIT only when it certainly finds it colliding (a pair of exact shapes
-        overlapping by more than HIT_DEPTH_M), MAYBE otherwise (ask Drake)."""
+        PADDED_HIT_DEPTH_M within its padding, ``_hit``), MAYBE otherwise (ask Drake)."""
         Q = self._batch(Q)
         out = np.empty(len(Q), dtype=np.int8)
         verdicts_into(self._model, Q, out)

@@ -94,16 +94,18 @@ class Roadmap:
                               for k, (a, b) in enumerate(pairs[len(self.pairs):])}
         Q = np.vstack([self.Q, ends])
         longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
-        # the graph made once, in canonical order (rows, then columns): a blocked edge's weight is made inf (Dijkstra
-        # never takes it) at ``position``
-        order = np.lexsort((pairs[:, 1], pairs[:, 0]))
-        position = np.empty(len(order), dtype=np.int64)
-        position[order] = np.arange(len(order))
-        graph = csr_matrix((np.where(verdicts < 0, np.inf, weights)[order], pairs[order, 1],
-                            np.searchsorted(pairs[order, 0], np.arange(n + 3))), shape=(n + 2, n + 2))
+        # the graph made once with each edge both ways, in canonical order (rows, then columns): a blocked edge's
+        # weight is made inf (Dijkstra never takes it) at its two ``positions``
+        rows, columns = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])
+        order = np.lexsort((columns, rows))
+        positions = np.empty(len(order), dtype=np.int64)
+        positions[order] = np.arange(len(order))
+        positions = positions.reshape(2, -1)
+        graph = csr_matrix((np.tile(np.where(verdicts < 0, np.inf, weights), 2)[order], columns[order],
+                            np.searchsorted(rows[order], np.arange(n + 3))), shape=(n + 2, n + 2))
         try:
             while time.perf_counter() < deadline:
-                distance, previous = dijkstra(graph, directed=False, indices=n, return_predecessors=True,
+                distance, previous = dijkstra(graph, directed=True, indices=n, return_predecessors=True,
                                               limit=longest)
                 if not distance[n + 1] <= longest:
                     return None
@@ -115,7 +117,7 @@ class Roadmap:
                 unknown = [k for k in edges if verdicts[k] == 0]
                 if _checked(Q, pairs, verdicts, unknown, checks):
                     return Q[route]
-                graph.data[position[[k for k in unknown if verdicts[k] < 0]]] = np.inf
+                graph.data[positions[:, [k for k in unknown if verdicts[k] < 0]].ravel()] = np.inf
             return None
         finally:
             self.verdicts = verdicts[:len(self.verdicts)]

@@ -220,6 +220,31 @@ def test_the_drift_rates_bound_how_fast_each_pairs_distances_change(irb):
     assert tightest < 3.0                                  # and not loose beyond use for every pair
 
 
+def _band_configurations(model, inner, outer, count: int, seed: int) -> np.ndarray:
+    """Configurations on random edges where Drake's checker with the paddings ``outer`` (extra, self [m])
+    collides and the one with ``inner`` does not."""
+    rng = np.random.default_rng(seed)
+    tight, wide = (model.broad_phase(*margins).checker for margins in (inner, outer))
+    A, B = (model.robot.random_configurations(rng, count) for _ in range(2))
+    Q = (A[:, None] + np.linspace(0.0, 1.0, 60)[None, :, None] * (B - A)[:, None]).reshape(-1, A.shape[1])
+    return np.array([q for q in Q if tight.CheckConfigCollisionFree(q) and not wide.CheckConfigCollisionFree(q)])
+
+
+@pytest.mark.parametrize("which, least_hits", [("shelf", 0.2), ("arm5", 0.2), ("irb", 0.0)])
+def test_a_hit_within_the_padding_is_drakes_too(which, least_hits, request):
+    """Within the planner's padding (its checker collides, the plain one is free) the broad phase calls hits
+    (PADDED_HIT_DEPTH_M inside the padding; the IRB 1600's band is mostly its wrist by the gripper, whose
+    cylinder is only bounded), and none in the 10 mm beyond it (where the planner's checker is free)."""
+    model = request.getfixturevalue(which)
+    planner = CHECKERS["planner"]
+    broad = model.broad_phase(*planner)
+    within = _band_configurations(model, CHECKERS["plain"], planner, 40, 14)
+    beyond = _band_configurations(model, planner, (2.0 * planner[0], 2.0 * planner[1]), 40, 15)
+    assert len(within) > 20 and len(beyond) > 20
+    assert (broad.verdicts(beyond) != bp.HIT).all()
+    assert (broad.verdicts(within) == bp.HIT).mean() >= least_hits
+
+
 def test_every_obstacle_kind_and_a_tool_box(tmp_path):
     model = _all_kinds(tmp_path)
     broad = model.broad_phase()
