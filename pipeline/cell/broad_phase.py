@@ -57,6 +57,9 @@ HIT_DEPTH_M = 1e-3
 PADDED_HIT_DEPTH_M = 3e-3
 #: An axis reach (``_axis_reach``) that would be infinite (a prismatic joint without limits) [m].
 MAX_REACH_M = 1e9
+#: How far a bound on a pair's slack between two coarse configurations of an edge must clear it for the pair to
+#: be passed over there (``_due_pairs``) [m]: far above the round-off of each configuration's own bound.
+DUE_MARGIN_M = 1e-9
 #: A pair's slack (how far it keeps beyond its padding) where it is not certainly clear.
 NOT_CLEAR = -1.0
 #: Obstacle kinds as the kernels take them.
@@ -449,7 +452,8 @@ def edge_maybes_into(model, a, b, step, stride, out):
     Each verdict is ``_config_verdict``'s, but a pair is only tested where its slack (how far it keeps beyond its
     padding) found at another configuration of the edge, less the most its distance can change between the two
     (``drift`` per step: the pair's ``rates`` times each joint's step), does not clear it: the last configuration
-    it was tested at and, between the coarse configurations, the two around it (their slacks kept in ``known``)."""
+    it was tested at and, between the coarse configurations, the two around it (their slacks kept in ``known``;
+    between two coarse configurations only the pairs they do not clear all the way are looked at, ``_due_pairs``)."""
     work = _scratch(model)
     pairs, rows, spheres, rates = model[5], model[7], model[8], model[9]
     dof, count_pairs = a.shape[0], pairs.shape[0]
@@ -465,6 +469,7 @@ def edge_maybes_into(model, a, b, step, stride, out):
     # slack bounds at each coarse configuration c (t: ``_coarse_t``), for the fine ones between them (stride > 1)
     known = np.empty((n // stride + 1 if stride > 1 else 0, count_pairs))
     last, last_t = np.full(count_pairs, -np.inf), np.zeros(count_pairs)
+    due, count_due, interval = np.arange(count_pairs), count_pairs, -1     # the pairs to look at: all, at first
     count = 0
     for coarse in (True, False):
         for i in range(n + 1):
@@ -477,8 +482,12 @@ def edge_maybes_into(model, a, b, step, stride, out):
             below, above = i // stride, i // stride + 1   # the coarse configurations around a fine one
             if above * stride > n:
                 above = 0
+            if not coarse and below != interval:
+                interval = below
+                count_due = _due_pairs(known, below, above, stride, n, drift, due)
             verdict, placed = FREE, False
-            for k in range(count_pairs):
+            for m in range(count_due):
+                k = due[m]
                 bound = last[k] - abs(t - last_t[k]) * drift[k]
                 if not coarse:
                     if below > 0:
@@ -504,6 +513,25 @@ def edge_maybes_into(model, a, b, step, stride, out):
             if verdict == MAYBE:
                 out[count] = q
                 count += 1
+    return count
+
+
+@inner()
+def _due_pairs(known, below, above, stride, n, drift, due):
+    """The pairs that the slacks ``known`` at coarse configurations ``below`` and ``above`` (less their drift) do
+    not clear at every fine configuration between the two, into ``due`` (in order); how many. Where both bound a
+    pair, the larger of the two is at least their mean, the same all the way; from ``a`` (below = 0), only the
+    one above does, least at ``a``."""
+    t_below, t_above = _coarse_t(below, stride, n), _coarse_t(above, stride, n)
+    count = 0
+    for k in range(known.shape[1]):
+        if below > 0:
+            least = 0.5 * (known[below, k] + known[above, k] - (t_above - t_below) * drift[k])
+        else:
+            least = known[above, k] - t_above * drift[k]
+        if not least > DUE_MARGIN_M:
+            due[count] = k
+            count += 1
     return count
 
 
