@@ -4,16 +4,18 @@
 ``padded_checker(extra_m, self_m)``, or the plain one) gives a verdict on many configurations per compiled
 call: FREE means every pair that checker checks has a distance whose lower bound exceeds the pair's padding plus
 DRAKE_TOLERANCE_M, so the checker finds the configuration free; HIT means a pair whose shapes are exact here
-(link capsules, a tool sphere or capsule; box, sphere and capsule obstacles) comes PADDED_HIT_DEPTH_M inside its
-padding (or overlaps by HIT_DEPTH_M), so the checker finds it colliding; MAYBE: ask Drake.
+(link capsules, a tool sphere or capsule, a capsule inside a tool box or cylinder, and a link capsule by the tool
+box or cylinder itself; box, sphere and capsule obstacles) comes PADDED_HIT_DEPTH_M inside its padding (or
+overlaps by HIT_DEPTH_M), so the checker finds it colliding; MAYBE: ask Drake.
 
 The geometry, all in the robot's base frame B (obstacles moved there once):
 
 * robot primitives: the link capsules (``link_capsules``), exact; each tool shape on the last link by the
   capsules containing it (a sphere or capsule: itself; a cylinder or box: one per TOOL_SHORTENING along its
   axis, the box's longest; a pair is clear when one of them is) and, against link capsules, also by itself
-  (a box or a cylinder, as an obstacle below: exact at the flat ends, where a capsule bulges). Each
-  primitive is a core segment (p, r) fixed in a frame of the chain and a radius.
+  (a box or a cylinder, as an obstacle below: exact at the flat ends, where a capsule bulges), against
+  obstacles by the gaps of their projections on the two shapes' axes (``_separation``: exact where a flat end
+  faces a box). Each primitive is a core segment (p, r) fixed in a frame of the chain and a radius.
 * obstacles: box (exact segment-to-box distance: the squared distance is a convex piecewise quadratic in the
   segment parameter, minimised piece by piece), sphere and capsule (exact), cylinder (its containing capsule,
   then its containing box, then the distance to the cylinder itself, convex in the segment parameter:
@@ -195,8 +197,17 @@ def _point_cylinder(c, d, t, radius, half):
 @inner()
 def _segment_cylinder_lower(c, d, radius, half):
     """A lower bound of the distance from the segment c + t d, t in [0, 1] (c, d (3,) in the cylinder frame) to
-    the cylinder: the distance is convex in t, GOLDEN_STEPS of golden-section search bracket its minimum, and
-    |d| (its Lipschitz constant) times the bracket's width bounds what the bracket hides."""
+    the cylinder (``_segment_cylinder``)."""
+    best, hidden = _segment_cylinder(c, d, radius, half)
+    return best - hidden
+
+
+@inner()
+def _segment_cylinder(c, d, radius, half):
+    """The distance from the segment c + t d, t in [0, 1] (c, d (3,) in the cylinder frame) to the cylinder, to
+    within what the search can hide: (the least found, at a point of the segment: an upper bound; how much less it
+    may be) [m]. The distance is convex in t, GOLDEN_STEPS of golden-section search bracket its minimum, and |d|
+    (its Lipschitz constant) times the bracket's width bounds what the bracket hides."""
     a, b = 0.0, 1.0
     x1, x2 = b - GOLDEN * (b - a), a + GOLDEN * (b - a)
     f1, f2 = _point_cylinder(c, d, x1, radius, half), _point_cylinder(c, d, x2, radius, half)
@@ -209,7 +220,22 @@ def _segment_cylinder_lower(c, d, radius, half):
             a, x1, f1 = x1, x2, f2
             x2 = a + GOLDEN * (b - a)
             f2 = _point_cylinder(c, d, x2, radius, half)
-    return min(f1, f2) - math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * (b - a)
+    return min(f1, f2), math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * (b - a)
+
+
+@inner()
+def _segment_shape_upper(seg, i, ob, o, local, breaks):
+    """An upper bound of the distance from primitive i's core segment (row of ``seg``, in B) to the box or cylinder
+    of obstacle row o [m]: exact for a box, the least a cylinder's search found (``_segment_cylinder``)."""
+    p = _to_obstacle(ob, o, seg[i, 0], seg[i, 1], seg[i, 2])
+    r = _to_obstacle(ob, o, seg[i, 3], seg[i, 4], seg[i, 5])
+    local[3, 0], local[3, 1], local[3, 2] = p
+    local[4, 0], local[4, 1], local[4, 2] = r[0] - p[0], r[1] - p[1], r[2] - p[2]
+    if ob[o, 0] == BOX:
+        local[2, 0], local[2, 1], local[2, 2] = ob[o, 13], ob[o, 14], ob[o, 15]
+        return math.sqrt(_segment_box_sq(local[3], local[4], local[2], breaks))
+    best, _ = _segment_cylinder(local[3], local[4], ob[o, 13], ob[o, 14])
+    return best
 
 
 @inner()
@@ -309,9 +335,10 @@ def _near_slack(seg, i, half, ob, o, threshold):
 
 
 @inner(inline="always")
-def _env_slack(seg, prims, i, ob, o, padding, local, breaks):
+def _env_slack(seg, prims, i, ob, o, padding, moved, local, breaks):
     """How far one of primitive i's containing rows keeps beyond its radius plus ``padding`` from obstacle o [m]
-    (their quick tests tried for all of them first: most pairs stop there; NOT_CLEAR: none does)."""
+    (their quick tests tried for all of them first: most pairs stop there), or a tool shape's own separation
+    (``_separation``: flat ends where its capsules bulge; NOT_CLEAR: none does)."""
     alternatives = int(prims[i, ALTERNATIVES])
     for a in range(i, i + alternatives):
         slack = _near_slack(seg, a, prims[a, HALF], ob, o, prims[a, RADIUS] + padding)
@@ -321,7 +348,64 @@ def _env_slack(seg, prims, i, ob, o, padding, local, breaks):
         slack = _pair_slack(seg, a, ob, o, prims[a, RADIUS] + padding, local, breaks)
         if slack > 0.0:
             return slack
+    shape = int(prims[i, TOOL_BOX])
+    if shape >= 0:
+        slack = _separation(moved, shape, ob, o) - padding
+        if slack > 0.0:
+            return slack
     return NOT_CLEAR
+
+
+@inner(inline="always")
+def _axis(ob, o, c):
+    """Column c of obstacle row o's rotation: its local axis c in B."""
+    return ob[o, 4 + c], ob[o, 7 + c], ob[o, 10 + c]
+
+
+@inner()
+def _extent(ob, o, ux, uy, uz):
+    """Half the width of obstacle row o's shape along the unit vector u [m]: a box's half sides, a capsule's or a
+    cylinder's half length along its axis (z) and radius across it."""
+    kind = ob[o, 0]
+    if kind == SPHERE:
+        return ob[o, 13]
+    if kind == BOX:
+        width = 0.0
+        for c in range(3):
+            ax, ay, az = _axis(ob, o, c)
+            width += ob[o, 13 + c] * abs(ax * ux + ay * uy + az * uz)
+        return width
+    ax, ay, az = _axis(ob, o, 2)
+    along = min(abs(ax * ux + ay * uy + az * uz), 1.0)
+    if kind == CAPSULE:
+        return ob[o, 13] + ob[o, 14] * along
+    return ob[o, 14] * along + ob[o, 13] * math.sqrt(1.0 - along * along)
+
+
+@inner()
+def _gap(a, i, b, j, ux, uy, uz):
+    """How far apart the shapes of rows a[i] and b[j] project onto the unit vector u: a lower bound of their
+    distance [m] (negative where the projections overlap)."""
+    centres = (b[j, 1] - a[i, 1]) * ux + (b[j, 2] - a[i, 2]) * uy + (b[j, 3] - a[i, 3]) * uz
+    return abs(centres) - _extent(a, i, ux, uy, uz) - _extent(b, j, ux, uy, uz)
+
+
+@inner()
+def _separation(a, i, b, j):
+    """A lower bound of the distance between the shapes of obstacle rows a[i] and b[j] [m]: the widest gap between
+    their projections onto their own axes (a box's three, a capsule's or a cylinder's) and the line through their
+    centres (separating axes; exact where a face or a cylinder's flat end faces the other)."""
+    gx, gy, gz = b[j, 1] - a[i, 1], b[j, 2] - a[i, 2], b[j, 3] - a[i, 3]
+    norm = math.sqrt(gx * gx + gy * gy + gz * gz)
+    best = _gap(a, i, b, j, gx / norm, gy / norm, gz / norm) if norm > 0.0 else NOT_CLEAR
+    for row, o in ((a, i), (b, j)):
+        kind = row[o, 0]
+        if kind == SPHERE:
+            continue
+        for c in range(3 if kind == BOX else 1):
+            ax, ay, az = _axis(row, o, c if kind == BOX else 2)
+            best = max(best, _gap(a, i, b, j, ax, ay, az))
+    return best
 
 
 @inner(inline="always")
@@ -379,7 +463,7 @@ def _slack(model, k, work):
     prims, obstacles, pairs, padding = model[1], model[4], model[5], model[6]
     seg, moved, local, breaks = work
     if pairs[k, 0] == ENV:
-        return _env_slack(seg, prims, pairs[k, 1], obstacles, pairs[k, 2], padding[k], local, breaks)
+        return _env_slack(seg, prims, pairs[k, 1], obstacles, pairs[k, 2], padding[k], moved, local, breaks)
     return _self_slack(seg, prims, pairs[k, 1], pairs[k, 2], padding[k], moved, local, breaks)
 
 
@@ -392,7 +476,7 @@ def _hit(model, k, work):
     overlap by more than HIT_DEPTH_M where the padding is smaller (an overlap Drake finds with GJK's intersection
     test)."""
     prims, obstacles, pairs = model[1], model[4], model[5]
-    seg, _, local, breaks = work
+    seg, moved, local, breaks = work
     a, j = int(prims[pairs[k, 1], INSCRIBED]), pairs[k, 2]
     if a < 0:
         return False
@@ -403,7 +487,14 @@ def _hit(model, k, work):
             _pair_slack(seg, a, obstacles, j, threshold, local, breaks) <= 0.0
     b = int(prims[j, INSCRIBED])
     threshold = prims[a, RADIUS] + prims[b, RADIUS] + within
-    return b >= 0 and threshold > 0.0 and _segment_segment_sq(seg, a, seg, b) <= threshold * threshold
+    if b >= 0 and threshold > 0.0 and _segment_segment_sq(seg, a, seg, b) <= threshold * threshold:
+        return True
+    for capsule, tool in ((pairs[k, 1], j), (j, pairs[k, 1])):       # a link capsule by a tool box or cylinder
+        shape = int(prims[tool, TOOL_BOX])
+        if shape >= 0 and prims[capsule, TOOL_BOX] < 0.0 and \
+                _segment_shape_upper(seg, capsule, moved, shape, local, breaks) <= prims[capsule, RADIUS] + within:
+            return True
+    return False
 
 
 @njit(cache=True)
