@@ -94,6 +94,10 @@ class Roadmap:
                               for k, (a, b) in enumerate(pairs[len(self.pairs):])}
         Q = np.vstack([self.Q, ends])
         longest = ROUTE_FACTOR * float(self._weights(ends[:1], ends[1:])[0]) + ROUTE_SLACK_S
+        for end in (n, n + 1):             # an end whose every edge into the roadmap is blocked (deep in a fixture)
+            own = len(self.pairs) + np.nonzero(pairs[len(self.pairs):, 0] == end)[0]
+            if not any(_checked(Q, pairs, verdicts, [k], checks) for k in own[np.argsort(weights[own])]):
+                return None
         # the graph made once with each edge both ways, in canonical order (rows, then columns): a blocked edge's
         # weight is made inf (Dijkstra never takes it) at its two ``positions``
         rows, columns = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])

@@ -67,6 +67,55 @@ def test_the_roadmap_answers_alike_cold_and_warm(shelf):
     assert np.array_equal(routes[0].waypoints, routes[1].waypoints)
 
 
+class _Plane:
+    """Edge checks in the unit square: blocked across the wall x = 0.5 below y = 0.8, and out of or into a pen of
+    radius PEN around PEN_CENTRE (counted in ``checked``)."""
+
+    PEN, PEN_CENTRE = 0.005, np.array([0.9, 0.1])
+
+    def __init__(self):
+        self.checked = 0
+
+    def edge(self, a: np.ndarray, b: np.ndarray) -> bool:
+        self.checked += 1
+        if (a[0] - 0.5) * (b[0] - 0.5) < 0.0 and a[1] + (0.5 - a[0]) / (b[0] - a[0]) * (b[1] - a[1]) < 0.8:
+            return False
+        return (np.linalg.norm(a - self.PEN_CENTRE) < self.PEN) == (np.linalg.norm(b - self.PEN_CENTRE) < self.PEN)
+
+
+def _shortest_free(plane: _Plane, rm: roadmap.Roadmap, start: np.ndarray, goal: np.ndarray) -> float:
+    """The time of the shortest free path through ``rm`` with every edge checked (Dijkstra on the free ones)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    n = len(rm.Q)
+    _, near = rm.tree.query(np.array([start, goal]) / rm.qd_max, roadmap.END_NEIGHBOURS, p=np.inf)
+    Q = np.vstack([rm.Q, start, goal])
+    pairs = np.vstack([rm.pairs, np.stack([np.repeat([n, n + 1], roadmap.END_NEIGHBOURS), near.ravel()], axis=1)])
+    free = [k for k, (a, b) in enumerate(pairs) if plane.edge(Q[a], Q[b])]
+    weights = rm._weights(Q[pairs[free, 0]], Q[pairs[free, 1]])
+    graph = coo_matrix((weights, (pairs[free, 0], pairs[free, 1])), shape=(n + 2, n + 2)).tocsr()
+    return float(dijkstra(graph, directed=False, indices=n)[n + 1])
+
+
+def test_the_roadmap_takes_the_shortest_free_route_and_gives_up_at_a_closed_end():
+    """A roadmap in the plane: its route is the shortest of those whose every edge is free (what Dijkstra finds
+    with every edge checked), whatever earlier queries checked; an end whose every edge into it is blocked gives
+    None after its own edges alone."""
+    rng = np.random.default_rng(18)
+    rm = roadmap.Roadmap(rng.uniform(size=(400, 2)), np.ones(2))
+    for k in range(12):
+        plane = _Plane()
+        start, goal = np.array([rng.uniform(0.05, 0.45), rng.uniform()]), np.array([rng.uniform(0.55, 0.95), rng.uniform()])
+        route = rm.path(start, goal, plane, deadline=np.inf)
+        assert route is not None and all(_Plane().edge(a, b) for a, b in zip(route[:-1], route[1:]))
+        time_along = float(rm._weights(route[:-1], route[1:]).sum())
+        assert time_along == pytest.approx(_shortest_free(_Plane(), rm, start, goal), rel=1e-12)
+    plane = _Plane()
+    assert rm.path(_Plane.PEN_CENTRE, np.array([0.1, 0.9]), plane, deadline=np.inf) is None
+    assert plane.checked <= roadmap.END_NEIGHBOURS
+
+
 def test_interpolated_poses_turn_as_slerp_does():
     rng = np.random.default_rng(0)
     for k in range(20):
