@@ -5,8 +5,9 @@
 call: FREE means every pair that checker checks has a distance whose lower bound exceeds the pair's padding plus
 DRAKE_TOLERANCE_M, so the checker finds the configuration free; HIT means a pair whose shapes are exact here
 (link capsules, a tool sphere or capsule, a capsule inside a tool box or cylinder, and a link capsule by the tool
-box or cylinder itself; box, sphere and capsule obstacles) comes PADDED_HIT_DEPTH_M inside its padding (or
-overlaps by HIT_DEPTH_M), so the checker finds it colliding; MAYBE: ask Drake.
+box or cylinder itself; box, sphere and capsule obstacles; a tool box's corners or a cylinder's rim by a box)
+comes PADDED_HIT_DEPTH_M inside its padding (or overlaps by HIT_DEPTH_M), so the checker finds it colliding;
+MAYBE: ask Drake.
 
 The geometry, all in the robot's base frame B (obstacles moved there once):
 
@@ -391,6 +392,48 @@ def _gap(a, i, b, j, ux, uy, uz):
 
 
 @inner()
+def _point_box(ob, o, x, y, z):
+    """The distance from the point (x, y, z) in B to the box of obstacle row o [m]."""
+    m = _to_obstacle(ob, o, x, y, z)
+    return math.sqrt(_box_excess_sq(m[0], m[1], m[2], ob[o, 13], ob[o, 14], ob[o, 15]))
+
+
+@inner()
+def _shape_box_upper(t, i, ob, o):
+    """An upper bound of the distance from the tool box or cylinder of row t[i] to the box of obstacle row o [m]:
+    the least distance from points of the shape, a box's corners; a cylinder's rim at each flat end, on the side
+    of the box's point nearest the end's centre (where its capsules bulge out of it and the capsule inside misses)."""
+    best = np.inf
+    if t[i, 0] == BOX:
+        for corner in range(8):
+            x, y, z = t[i, 1], t[i, 2], t[i, 3]
+            for c in range(3):
+                ax, ay, az = _axis(t, i, c)
+                h = t[i, 13 + c] if (corner >> c) & 1 else -t[i, 13 + c]
+                x, y, z = x + h * ax, y + h * ay, z + h * az
+            best = min(best, _point_box(ob, o, x, y, z))
+        return best
+    ax, ay, az = _axis(t, i, 2)
+    for side in (-1.0, 1.0):
+        ex, ey, ez = t[i, 1] + side * t[i, 14] * ax, t[i, 2] + side * t[i, 14] * ay, t[i, 3] + side * t[i, 14] * az
+        m = _to_obstacle(ob, o, ex, ey, ez)
+        cx = min(max(m[0], -ob[o, 13]), ob[o, 13])         # the box's point nearest the end's centre, in B
+        cy = min(max(m[1], -ob[o, 14]), ob[o, 14])
+        cz = min(max(m[2], -ob[o, 15]), ob[o, 15])
+        wx = ob[o, 1] + ob[o, 4] * cx + ob[o, 5] * cy + ob[o, 6] * cz - ex
+        wy = ob[o, 2] + ob[o, 7] * cx + ob[o, 8] * cy + ob[o, 9] * cz - ey
+        wz = ob[o, 3] + ob[o, 10] * cx + ob[o, 11] * cy + ob[o, 12] * cz - ez
+        along = wx * ax + wy * ay + wz * az
+        wx, wy, wz = wx - along * ax, wy - along * ay, wz - along * az       # across the axis
+        norm = math.sqrt(wx * wx + wy * wy + wz * wz)
+        if norm > 0.0:
+            scale = t[i, 13] / norm
+            ex, ey, ez = ex + scale * wx, ey + scale * wy, ez + scale * wz
+        best = min(best, _point_box(ob, o, ex, ey, ez))
+    return best
+
+
+@inner()
 def _separation(a, i, b, j):
     """A lower bound of the distance between the shapes of obstacle rows a[i] and b[j] [m]: the widest gap between
     their projections onto their own axes (a box's three, a capsule's or a cylinder's) and the line through their
@@ -471,10 +514,11 @@ def _slack(model, k, work):
 def _hit(model, k, work):
     """Pair k (not clear) certainly collides for Drake's checker: a capsule inside each of its shapes (a link
     capsule, a tool sphere or capsule: itself; a tool box or cylinder: its ``inscribed_capsule``) and an exact
-    obstacle (a box, sphere or capsule: not a cylinder, which is only bounded) come within their padding less
-    PADDED_HIT_DEPTH_M (Drake's distance between separate shapes is GJK's, which may exceed the exact one), or
-    overlap by more than HIT_DEPTH_M where the padding is smaller (an overlap Drake finds with GJK's intersection
-    test)."""
+    obstacle (a box, sphere or capsule: not a cylinder, which is only bounded), a link capsule and the tool box or
+    cylinder itself (``_segment_shape_upper``), or points of the tool box or cylinder and a box obstacle
+    (``_shape_box_upper``) come within their padding less PADDED_HIT_DEPTH_M (Drake's distance between separate
+    shapes is GJK's, which may exceed the exact one), or overlap by more than HIT_DEPTH_M where the padding is
+    smaller (an overlap Drake finds with GJK's intersection test)."""
     prims, obstacles, pairs = model[1], model[4], model[5]
     seg, moved, local, breaks = work
     a, j = int(prims[pairs[k, 1], INSCRIBED]), pairs[k, 2]
@@ -483,8 +527,11 @@ def _hit(model, k, work):
     within = max(model[6][k] - PADDED_HIT_DEPTH_M, -HIT_DEPTH_M)        # [m]: a distance below it is a hit
     if pairs[k, 0] == ENV:
         threshold = prims[a, RADIUS] + within
-        return obstacles[j, 0] != CYLINDER and threshold > 0.0 and \
-            _pair_slack(seg, a, obstacles, j, threshold, local, breaks) <= 0.0
+        if obstacles[j, 0] != CYLINDER and threshold > 0.0 and \
+                _pair_slack(seg, a, obstacles, j, threshold, local, breaks) <= 0.0:
+            return True
+        shape = int(prims[pairs[k, 1], TOOL_BOX])
+        return shape >= 0 and obstacles[j, 0] == BOX and _shape_box_upper(moved, shape, obstacles, j) <= within
     b = int(prims[j, INSCRIBED])
     threshold = prims[a, RADIUS] + prims[b, RADIUS] + within
     if b >= 0 and threshold > 0.0 and _segment_segment_sq(seg, a, seg, b) <= threshold * threshold:
