@@ -176,7 +176,9 @@ class _Checks:
 
     def states(self, Q: np.ndarray) -> bool:
         """Every configuration of Q (k, dof) valid (an end of the query may be tight)."""
-        tight = np.array([self._is_tight(q) for q in Q], dtype=bool)
+        tight = np.zeros(len(Q), dtype=bool)
+        for end in self.tight:
+            tight |= (Q == end).all(axis=1)
         return self._level(Q) and self._free(self.broad, self.padded, Q[~tight])
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
