@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -58,6 +59,7 @@ class Roadmap:
         self.weights = self._weights(Q[self.pairs[:, 0]], Q[self.pairs[:, 1]])
         self.verdicts = np.zeros(len(self.pairs), dtype=np.int8)
         self.index = {(int(a), int(b)): k for k, (a, b) in enumerate(self.pairs)}
+        self.entries = _Entries.sorted(self.pairs, len(Q) + 2)
 
     @classmethod
     def made(cls, robot, valid) -> Roadmap | None:
@@ -100,13 +102,12 @@ class Roadmap:
                 return None
         # the graph made once with each edge both ways, in canonical order (rows, then columns): a blocked edge's
         # weight is made inf (Dijkstra never takes it) at its two ``positions``
-        rows, columns = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])
-        order = np.lexsort((columns, rows))
-        positions = np.empty(len(order), dtype=np.int64)
-        positions[order] = np.arange(len(order))
-        positions = positions.reshape(2, -1)
-        graph = csr_matrix((np.tile(np.where(verdicts < 0, np.inf, weights), 2)[order], columns[order],
-                            np.searchsorted(rows[order], np.arange(n + 3))), shape=(n + 2, n + 2))
+        entries = self.entries.with_edges(pairs[len(self.pairs):], len(self.pairs))
+        positions = np.empty(len(entries.ids), dtype=np.int64)
+        positions[entries.ids] = np.arange(len(entries.ids))
+        positions = positions.reshape(-1, 2).T
+        graph = csr_matrix((np.where(verdicts < 0, np.inf, weights)[entries.ids // 2], entries.columns,
+                            np.searchsorted(entries.rows, np.arange(n + 3))), shape=(n + 2, n + 2))
         try:
             while time.perf_counter() < deadline:
                 distance, previous = dijkstra(graph, directed=True, indices=n, return_predecessors=True,
@@ -125,6 +126,32 @@ class Roadmap:
             return None
         finally:
             self.verdicts = verdicts[:len(self.verdicts)]
+
+
+@dataclass(frozen=True)
+class _Entries:
+    """A graph's entries, each edge k of ``pairs`` both ways (id 2k: row pairs[k, 0], id 2k + 1: the other way), in
+    canonical order (by ``keys``: row, then column, of a matrix of ``size`` rows)."""
+
+    ids: np.ndarray
+    rows: np.ndarray
+    columns: np.ndarray
+    keys: np.ndarray
+    size: int
+
+    @classmethod
+    def sorted(cls, pairs: np.ndarray, size: int) -> _Entries:
+        rows, columns = pairs.ravel(), pairs[:, ::-1].ravel()
+        keys = rows * size + columns
+        order = np.argsort(keys)
+        return cls(order, rows[order], columns[order], keys[order], size)
+
+    def with_edges(self, pairs: np.ndarray, first: int) -> _Entries:
+        """These entries and those of ``pairs`` (edges ``first``, ``first`` + 1, ...), merged in canonical order."""
+        more = _Entries.sorted(pairs, self.size)
+        at = np.searchsorted(self.keys, more.keys)
+        return _Entries(np.insert(self.ids, at, more.ids + 2 * first), np.insert(self.rows, at, more.rows),
+                        np.insert(self.columns, at, more.columns), np.insert(self.keys, at, more.keys), self.size)
 
 
 def _checked(Q: np.ndarray, pairs: np.ndarray, verdicts: np.ndarray, unknown: list[int], checks) -> bool:
