@@ -174,13 +174,13 @@ def test_the_separating_axes_bound_the_distance_between_two_shapes():
     any kinds (sampled on their surfaces), and is the gap itself where a cylinder's flat end faces a box."""
     rng = np.random.default_rng(16)
     kinds = ("box", "sphere", "capsule", "cylinder")
-    shapes = [(_random_shape(rng, a), _random_shape(rng, b)) for a in kinds for b in kinds for _ in range(6)]
+    shapes = [(_random_shape(rng, a), _random_shape(rng, b)) for a in kinds for b in kinds for _ in range(4)]
     rows = [np.array([bp._obstacle_row(shape, np.eye(4)) for shape in column]) for column in zip(*shapes)]
     ours = _separations(*rows)
     for (a, b), bound in zip(shapes, ours):
-        sampled = np.linalg.norm(_points_in(a, rng, 1000)[:, None] - _points_in(b, rng, 1000)[None], axis=2).min()
+        sampled = np.linalg.norm(_points_in(a, rng, 700)[:, None] - _points_in(b, rng, 700)[None], axis=2).min()
         assert bound <= sampled + 1e-12
-    assert (ours > 0.0).sum() > 25                                         # not a bound that never clears
+    assert (ours > 0.0).sum() > 16                                         # not a bound that never clears
     cylinder, box = Shape("end", "cylinder", (0.04, 0.2), np.eye(4)), Shape("floor", "box", (1.0, 1.0, 0.1), np.eye(4))
     box.X[:3, 3] = [0.3, -0.2, -0.1 - 0.05 - 0.013]                       # 13 mm below the flat end, off its axis
     gap = _separations(*(np.array([bp._obstacle_row(shape, np.eye(4))]) for shape in (cylinder, box)))[0]
@@ -197,11 +197,11 @@ def test_a_tool_shape_is_no_farther_from_a_box_than_its_points_say():
     points of the shape: never below the separating axes' lower bound nor the sampled distance less the samples'
     spacing, and the distance itself where a tilted cylinder's rim comes nearest a face."""
     rng = np.random.default_rng(19)
-    pairs = [(_random_shape(rng, kind), _random_shape(rng, "box")) for kind in ("box", "cylinder") for _ in range(30)]
+    pairs = [(_random_shape(rng, kind), _random_shape(rng, "box")) for kind in ("box", "cylinder") for _ in range(16)]
     tools, boxes = (np.array([bp._obstacle_row(shape, np.eye(4)) for shape in column]) for column in zip(*pairs))
     ours, lower = _shape_upper_bounds(tools, boxes), _separations(tools, boxes)
     for (tool, box), upper, bound in zip(pairs, ours, lower):
-        sampled = np.linalg.norm(_points_in(tool, rng, 1500)[:, None] - _points_in(box, rng, 1500)[None], axis=2).min()
+        sampled = np.linalg.norm(_points_in(tool, rng, 800)[:, None] - _points_in(box, rng, 800)[None], axis=2).min()
         assert upper >= bound - 1e-12 and upper >= sampled - 0.03
     tilt = np.radians(20.0)
     cylinder = Shape("gripper", "cylinder", (0.035, 0.12), np.eye(4))
