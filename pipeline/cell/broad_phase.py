@@ -414,22 +414,21 @@ def _shape_box_upper(t, i, ob, o):
             best = min(best, _point_box(ob, o, x, y, z))
         return best
     ax, ay, az = _axis(t, i, 2)
-    for side in (-1.0, 1.0):
-        ex, ey, ez = t[i, 1] + side * t[i, 14] * ax, t[i, 2] + side * t[i, 14] * ay, t[i, 3] + side * t[i, 14] * az
-        m = _to_obstacle(ob, o, ex, ey, ez)
-        cx = min(max(m[0], -ob[o, 13]), ob[o, 13])         # the box's point nearest the end's centre, in B
-        cy = min(max(m[1], -ob[o, 14]), ob[o, 14])
-        cz = min(max(m[2], -ob[o, 15]), ob[o, 15])
-        wx = ob[o, 1] + ob[o, 4] * cx + ob[o, 5] * cy + ob[o, 6] * cz - ex
-        wy = ob[o, 2] + ob[o, 7] * cx + ob[o, 8] * cy + ob[o, 9] * cz - ey
-        wz = ob[o, 3] + ob[o, 10] * cx + ob[o, 11] * cy + ob[o, 12] * cz - ez
-        along = wx * ax + wy * ay + wz * az
-        wx, wy, wz = wx - along * ax, wy - along * ay, wz - along * az       # across the axis
+    half = t[i, 14]
+    low = _to_obstacle(ob, o, t[i, 1] - half * ax, t[i, 2] - half * ay, t[i, 3] - half * az)   # in the box's frame
+    high = _to_obstacle(ob, o, t[i, 1] + half * ax, t[i, 2] + half * ay, t[i, 3] + half * az)
+    dx, dy, dz = (high[0] - low[0]) / (2.0 * half), (high[1] - low[1]) / (2.0 * half), (high[2] - low[2]) / (2.0 * half)
+    for ex, ey, ez in (low, high):                          # the flat ends' centres
+        wx = min(max(ex, -ob[o, 13]), ob[o, 13]) - ex       # towards the box's point nearest the end's centre
+        wy = min(max(ey, -ob[o, 14]), ob[o, 14]) - ey
+        wz = min(max(ez, -ob[o, 15]), ob[o, 15]) - ez
+        along = wx * dx + wy * dy + wz * dz
+        wx, wy, wz = wx - along * dx, wy - along * dy, wz - along * dz       # across the axis
         norm = math.sqrt(wx * wx + wy * wy + wz * wz)
         if norm > 0.0:
             scale = t[i, 13] / norm
             ex, ey, ez = ex + scale * wx, ey + scale * wy, ez + scale * wz
-        best = min(best, _point_box(ob, o, ex, ey, ez))
+        best = min(best, math.sqrt(_box_excess_sq(ex, ey, ez, ob[o, 13], ob[o, 14], ob[o, 15])))
     return best
 
 

@@ -106,7 +106,8 @@ def test_the_roadmap_takes_the_shortest_free_route_and_gives_up_at_a_closed_end(
     rm = roadmap.Roadmap(rng.uniform(size=(400, 2)), np.ones(2))
     for k in range(12):
         plane = _Plane()
-        start, goal = np.array([rng.uniform(0.05, 0.45), rng.uniform()]), np.array([rng.uniform(0.55, 0.95), rng.uniform()])
+        start = np.array([rng.uniform(0.05, 0.45), rng.uniform()])          # either side of the wall
+        goal = np.array([rng.uniform(0.55, 0.95), rng.uniform()])
         route = rm.path(start, goal, plane, deadline=np.inf)
         assert route is not None and all(_Plane().edge(a, b) for a, b in zip(route[:-1], route[1:]))
         time_along = float(rm._weights(route[:-1], route[1:]).sum())
